@@ -1,0 +1,50 @@
+/* sonar-waveform.h: the emission waveforms of the MIMO sonar.
+ *
+ * One waveform per emitter, all emitted at the same instant. The default is
+ * the paper's: band-passed (20-80 kHz) pseudo-random white Gaussian noise,
+ * 4000 samples at 450 kHz, one independent seeded sequence per emitter, so
+ * the emissions are near-orthogonal. The hyperbolic FM chirp and the
+ * multisine are the alternatives the paper compares (its Fig. 1 and 2).
+ */
+#ifndef SONAR_WAVEFORM_H
+#define SONAR_WAVEFORM_H
+
+#include <glib.h>
+
+G_BEGIN_DECLS
+
+typedef enum
+{
+  SONAR_WAVEFORM_NOISE,             /* band-passed pseudo-random Gaussian noise (PR-AWGN) */
+  SONAR_WAVEFORM_HYPERBOLIC_CHIRP,  /* hyperbolic FM sweep across the band */
+  SONAR_WAVEFORM_MULTISINE,         /* sum of in-band sines, random phases */
+} SonarWaveformKind;
+
+typedef struct
+{
+  SonarWaveformKind kind;
+  guint n_emitters;             /* rows to generate, >= 1 */
+  guint length;                 /* samples per waveform, >= 16 */
+  double sample_rate;           /* Hz */
+  double band_low;              /* Hz, 0 < band_low < band_high <= sample_rate / 2 */
+  double band_high;             /* Hz */
+  guint64 seed;                 /* same seed, same waveforms, on every machine */
+} SonarWaveformParams;
+
+/* The paper's set-up: noise, 8 emitters, 4000 samples, 450 kHz, 20-80 kHz. */
+void sonar_waveform_params_init_default (SonarWaveformParams * params);
+
+/* Fills out[n_emitters * length] (row n is emitter n). Each row has unit
+ * peak amplitude and is tapered at both ends. Returns FALSE and sets
+ * @error (G_IO_ERROR_INVALID_ARGUMENT) when a parameter is out of range. */
+gboolean sonar_waveform_generate (const SonarWaveformParams * params,
+    float *out, GError ** error);
+
+/* "noise", "hyperbolic-chirp", "multisine"; NULL / FALSE when unknown. */
+const char *sonar_waveform_kind_to_string (SonarWaveformKind kind);
+gboolean sonar_waveform_kind_from_string (const char *name,
+    SonarWaveformKind * kind);
+
+G_END_DECLS
+
+#endif /* SONAR_WAVEFORM_H */

@@ -1,0 +1,173 @@
+/* sonar-test-util.c: see sonar-test-util.h. Uses double-precision FFTW so
+ * that the measurement is far more accurate than what it measures. */
+#include "sonar-test-util.h"
+
+#include <fftw3.h>
+#include <glib/gstdio.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static gsize
+next_fast_size (gsize n)
+{
+  gsize size = 1;
+  while (size < n)
+    size <<= 1;
+  return size;
+}
+
+double *
+sonar_test_xcorr (const float *x, gsize nx, const float *y, gsize ny)
+{
+  const gsize n_out = nx + ny - 1;
+  const gsize size = next_fast_size (n_out);
+  double *a = fftw_alloc_real (size), *b = fftw_alloc_real (size);
+  fftw_complex *fa = fftw_alloc_complex (size / 2 + 1);
+  fftw_complex *fb = fftw_alloc_complex (size / 2 + 1);
+  fftw_plan pa = fftw_plan_dft_r2c_1d (size, a, fa, FFTW_ESTIMATE);
+  fftw_plan pb = fftw_plan_dft_r2c_1d (size, b, fb, FFTW_ESTIMATE);
+  fftw_plan pinv = fftw_plan_dft_c2r_1d (size, fa, a, FFTW_ESTIMATE);
+  double *r = g_new (double, n_out);
+
+  memset (a, 0, size * sizeof (double));
+  memset (b, 0, size * sizeof (double));
+  for (gsize i = 0; i < nx; i++)
+    a[i] = x[i];
+  for (gsize i = 0; i < ny; i++)
+    b[i] = y[i];
+  fftw_execute (pa);
+  fftw_execute (pb);
+  for (gsize k = 0; k < size / 2 + 1; k++) {
+    const double re = fa[k][0] * fb[k][0] + fa[k][1] * fb[k][1];
+    const double im = fa[k][1] * fb[k][0] - fa[k][0] * fb[k][1];
+    fa[k][0] = re / size;
+    fa[k][1] = im / size;
+  }
+  fftw_execute (pinv);
+  /* a[lag mod size] holds lag; negative lags wrap to the end. */
+  for (gsize k = 0; k < n_out; k++) {
+    const gssize lag = (gssize) k - (gssize) (ny - 1);
+    r[k] = a[(lag + (gssize) size) % (gssize) size];
+  }
+  fftw_destroy_plan (pa);
+  fftw_destroy_plan (pb);
+  fftw_destroy_plan (pinv);
+  fftw_free (a);
+  fftw_free (b);
+  fftw_free (fa);
+  fftw_free (fb);
+  return r;
+}
+
+double
+sonar_test_delay (const float *x, gsize nx, const float *y, gsize ny,
+    double min_lag, double max_lag, double *peak)
+{
+  enum { UP = 32 };
+  const gsize size = next_fast_size (nx + ny);
+  const gsize up_size = size * UP;
+  double *a = fftw_alloc_real (size), *b = fftw_alloc_real (size);
+  double *r = fftw_alloc_real (up_size);
+  fftw_complex *fa = fftw_alloc_complex (size / 2 + 1);
+  fftw_complex *fb = fftw_alloc_complex (size / 2 + 1);
+  fftw_complex *fr = fftw_alloc_complex (up_size / 2 + 1);
+  fftw_plan pa = fftw_plan_dft_r2c_1d (size, a, fa, FFTW_ESTIMATE);
+  fftw_plan pb = fftw_plan_dft_r2c_1d (size, b, fb, FFTW_ESTIMATE);
+  fftw_plan pinv = fftw_plan_dft_c2r_1d (up_size, fr, r, FFTW_ESTIMATE);
+  double best = -INFINITY, best_lag = 0.0;
+  gssize best_k = 0;
+
+  memset (a, 0, size * sizeof (double));
+  memset (b, 0, size * sizeof (double));
+  for (gsize i = 0; i < nx; i++)
+    a[i] = x[i];
+  for (gsize i = 0; i < ny; i++)
+    b[i] = y[i];
+  fftw_execute (pa);
+  fftw_execute (pb);
+  memset (fr, 0, (up_size / 2 + 1) * sizeof (fftw_complex));
+  /* Zero-padding the cross spectrum upsamples the correlation by UP.
+   * The Nyquist bin is dropped: the sonar band is far below it. */
+  for (gsize k = 0; k < size / 2; k++) {
+    fr[k][0] = (fa[k][0] * fb[k][0] + fa[k][1] * fb[k][1]) / size;
+    fr[k][1] = (fa[k][1] * fb[k][0] - fa[k][0] * fb[k][1]) / size;
+  }
+  fftw_execute (pinv);
+
+  for (gssize k = (gssize) floor (min_lag * UP);
+      k <= (gssize) ceil (max_lag * UP); k++) {
+    const double v = r[(k + (gssize) up_size) % (gssize) up_size];
+    if (v > best) {
+      best = v;
+      best_k = k;
+    }
+  }
+  {
+    const double ym = r[(best_k - 1 + (gssize) up_size) % (gssize) up_size];
+    const double y0 = best;
+    const double yp = r[(best_k + 1 + (gssize) up_size) % (gssize) up_size];
+    const double denom = ym - 2.0 * y0 + yp;
+    const double offset = denom < 0.0 ? 0.5 * (ym - yp) / denom : 0.0;
+    best_lag = (best_k + offset) / UP;
+    if (peak)
+      *peak = y0 - 0.25 * (ym - yp) * offset;
+  }
+  fftw_destroy_plan (pa);
+  fftw_destroy_plan (pb);
+  fftw_destroy_plan (pinv);
+  fftw_free (a);
+  fftw_free (b);
+  fftw_free (r);
+  fftw_free (fa);
+  fftw_free (fb);
+  fftw_free (fr);
+  return best_lag;
+}
+
+double
+sonar_test_max_abs (const double *v, gsize n, gsize * index)
+{
+  double best = -1.0;
+  gsize best_i = 0;
+  for (gsize i = 0; i < n; i++) {
+    if (fabs (v[i]) > best) {
+      best = fabs (v[i]);
+      best_i = i;
+    }
+  }
+  if (index)
+    *index = best_i;
+  return best;
+}
+
+char *
+sonar_test_source_path (const char *relative)
+{
+  const char *root = g_getenv ("SONAR_SOURCE_DIR");
+  return g_build_filename (root ? root : ".", relative, NULL);
+}
+
+static GPtrArray *temp_files;
+
+static void
+remove_temp_files (void)
+{
+  for (guint i = 0; temp_files && i < temp_files->len; i++)
+    g_unlink (g_ptr_array_index (temp_files, i));
+}
+
+char *
+sonar_test_write_temp (const char *basename, const char *text)
+{
+  char *dir = g_dir_make_tmp ("sonar-test-XXXXXX", NULL);
+  char *path = g_build_filename (dir, basename, NULL);
+  g_assert_true (g_file_set_contents (path, text, -1, NULL));
+  if (!temp_files) {
+    temp_files = g_ptr_array_new_with_free_func (g_free);
+    atexit (remove_temp_files);
+  }
+  g_ptr_array_add (temp_files, g_strdup (path));
+  g_free (dir);
+  return path;
+}

@@ -1,0 +1,34 @@
+/* sonar-test-util.h: measuring helpers shared by the tests (double
+ * precision, independent of the code under test). */
+#ifndef SONAR_TEST_UTIL_H
+#define SONAR_TEST_UTIL_H
+
+#include <glib.h>
+
+G_BEGIN_DECLS
+
+/* Linear cross-correlation r[lag] = sum_i x[i + lag] * y[i] for every lag
+ * from -(ny - 1) to nx - 1; returns nx + ny - 1 values, r[0] being lag
+ * -(ny - 1). Free with g_free. */
+double *sonar_test_xcorr (const float *x, gsize nx, const float *y, gsize ny);
+
+/* Lag (in samples, sub-sample precision: the correlation is upsampled by
+ * 32 in the frequency domain and the peak refined by a parabola) at which
+ * x best matches y delayed: x[i] ~ y[i - lag]. @peak (may be NULL)
+ * receives the correlation value there. Searches lags in [min_lag, max_lag]. */
+double sonar_test_delay (const float *x, gsize nx, const float *y, gsize ny,
+    double min_lag, double max_lag, double *peak);
+
+/* Max |v| and index. */
+double sonar_test_max_abs (const double *v, gsize n, gsize * index);
+
+/* Path of a file in the source tree (SONAR_SOURCE_DIR). g_free it. */
+char *sonar_test_source_path (const char *relative);
+
+/* Writes @text to a new temporary file and returns its path (g_free it;
+ * the file is removed at exit of the test program). */
+char *sonar_test_write_temp (const char *basename, const char *text);
+
+G_END_DECLS
+
+#endif

@@ -32,3 +32,19 @@ char *sonar_test_write_temp (const char *basename, const char *text);
 G_END_DECLS
 
 #endif
+
+#include <gst/gst.h>
+
+G_BEGIN_DECLS
+
+/* Runs a gst-launch style pipeline to EOS (or the first error). Returns
+ * NULL on success, else the error message (and its debug text after a
+ * newline): g_free it. @pipeline_out, if not NULL, receives the pipeline
+ * (already set to NULL state; unref it) to inspect appsinks afterwards. */
+char *sonar_test_run_pipeline (const char *description,
+    GstElement ** pipeline_out);
+
+/* Initialises GStreamer for a test program, with the build tree's plugin. */
+void sonar_test_init_gst (int *argc, char ***argv);
+
+G_END_DECLS

@@ -1,0 +1,21 @@
+/* plugin.c: the "sonar" plugin, registering every element of the set. */
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+#include <gst/gst.h>
+
+#include "gstsonarsrc.h"
+
+static gboolean
+plugin_init (GstPlugin * plugin)
+{
+  gboolean ok = FALSE;
+
+  ok |= GST_ELEMENT_REGISTER (sonarsrc, plugin);
+  return ok;
+}
+
+GST_PLUGIN_DEFINE (GST_VERSION_MAJOR, GST_VERSION_MINOR, sonar,
+    "MIMO in-air sonar: simulation, Doppler matched-filter bank, imaging, "
+    "clustering and radial velocity estimation", plugin_init, VERSION,
+    "LGPL", PACKAGE, PACKAGE_ORIGIN)

@@ -1,0 +1,259 @@
+/* test-setup.c: the sensor description, its files and its event. */
+#include <gio/gio.h>
+#include <json-glib/json-glib.h>
+#include <string.h>
+
+#include "sonar-contracts.h"
+#include "sonar-setup.h"
+#include "sonar-test-util.h"
+
+/* The built-in microphone table is the published eRTIS layout. */
+static void
+test_default_geometry_is_ertis (void)
+{
+  g_autofree char *path = sonar_test_source_path
+      ("data/ertis-microphones.json");
+  g_autoptr (JsonParser) parser = json_parser_new ();
+  SonarGeometry geometry;
+  JsonArray *mics;
+
+  g_assert_true (json_parser_load_from_file (parser, path, NULL));
+  mics = json_object_get_array_member (json_node_get_object
+      (json_parser_get_root (parser)), "microphones");
+  sonar_geometry_init_default (&geometry);
+  g_assert_cmpuint (geometry.n_microphones, ==, 32);
+  g_assert_cmpuint (json_array_get_length (mics), ==, 32);
+  for (guint j = 0; j < 32; j++) {
+    JsonArray *p = json_array_get_array_element (mics, j);
+    g_assert_cmpfloat (geometry.microphones[j].x, ==,
+        json_array_get_double_element (p, 0));
+    g_assert_cmpfloat (geometry.microphones[j].y, ==,
+        json_array_get_double_element (p, 1));
+    g_assert_cmpfloat (geometry.microphones[j].z, ==,
+        json_array_get_double_element (p, 2));
+  }
+  g_assert_cmpuint (geometry.n_emitters, ==, 8);
+  /* Emitters sit around the microphones, outside their aperture. */
+  for (guint n = 0; n < 8; n++) {
+    double nearest = G_MAXDOUBLE;
+    for (guint j = 0; j < 32; j++)
+      nearest = MIN (nearest, sonar_vec3_norm (sonar_vec3_sub
+              (geometry.emitters[n], geometry.microphones[j])));
+    g_assert_cmpfloat (nearest, >, 0.005);
+    g_assert_cmpfloat (sonar_vec3_norm (geometry.emitters[n]), <, 0.06);
+  }
+  g_assert_no_error (NULL);
+  g_assert_true (sonar_geometry_validate (&geometry, NULL));
+  sonar_geometry_clear (&geometry);
+}
+
+static void
+test_geometry_file (void)
+{
+  g_autofree char *shared = sonar_test_source_path
+      ("data/ertis-microphones.json");
+  g_autofree char *with_emitters = sonar_test_write_temp ("array.json",
+      "{\"units\": \"m\", \"microphones\": [[0.01, 0, 0], [-0.01, 0, 0]],"
+      " \"emitters\": [[0, 0.02, 0]]}");
+  SonarGeometry g;
+  GError *error = NULL;
+
+  /* The published microphone file loads as is, keeping default emitters. */
+  g_assert_true (sonar_geometry_load_file (&g, shared, &error));
+  g_assert_no_error (error);
+  g_assert_cmpuint (g.n_microphones, ==, 32);
+  g_assert_cmpuint (g.n_emitters, ==, 8);
+  sonar_geometry_clear (&g);
+
+  g_assert_true (sonar_geometry_load_file (&g, with_emitters, &error));
+  g_assert_cmpuint (g.n_microphones, ==, 2);
+  g_assert_cmpuint (g.n_emitters, ==, 1);
+  g_assert_cmpfloat (g.emitters[0].y, ==, 0.02);
+  sonar_geometry_clear (&g);
+}
+
+typedef struct
+{
+  const char *json;
+  const char *expected;         /* part of the error message */
+} BadFile;
+
+static void
+test_geometry_file_errors (void)
+{
+  const BadFile cases[] = {
+    {"not json", "array.json: "},
+    {"[1, 2]", "the top level must be a JSON object"},
+    {"{\"emitters\": [[0, 0, 0]]}", "missing member \"microphones\""},
+    {"{\"microphones\": [[0, 0]]}", "\"microphones\"[0] must be an array of 3"},
+    {"{\"microphones\": [[0, 0, \"a\"]]}", "\"microphones\"[0] must be"},
+    {"{\"microphones\": []}", "\"microphones\" has 0 entries"},
+    {"{\"microphones\": [[0, 0, 0], [0, 0, 0]]}",
+        "microphones 0 and 1 are at the same position"},
+    {"{\"microphones\": [[5, 0, 0]]}", "is not within 1 m of the array"},
+    {"{\"microphones\": [[0, 0, 0]], \"units\": \"mm\"}",
+        "\"units\" must be \"m\""},
+    {"{\"microphones\": [[0, 0, 0]], \"emiters\": []}",
+        "unknown member \"emiters\""},
+  };
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
+    g_autofree char *path = sonar_test_write_temp ("array.json",
+        cases[i].json);
+    SonarGeometry g = { 0 };
+    GError *error = NULL;
+
+    g_assert_false (sonar_geometry_load_file (&g, path, &error));
+    g_assert_nonnull (error);
+    g_test_message ("%s -> %s", cases[i].json, error->message);
+    g_assert_nonnull (strstr (error->message, cases[i].expected));
+    /* Every message names the file. */
+    g_assert_nonnull (strstr (error->message, path));
+    g_assert_null (g.microphones);
+    g_error_free (error);
+  }
+  {
+    SonarGeometry g = { 0 };
+    GError *error = NULL;
+    g_assert_false (sonar_geometry_load_file (&g, "/nonexistent/a.json",
+            &error));
+    g_assert_error (error, G_IO_ERROR, G_IO_ERROR_NOT_FOUND);
+    g_assert_nonnull (strstr (error->message, "/nonexistent/a.json"));
+    g_error_free (error);
+  }
+}
+
+static void
+test_waveforms_file (void)
+{
+  g_autofree char *good = sonar_test_write_temp ("wf.json",
+      "{\"sample-rate\": 450000, \"waveforms\": [" "[0,1,0,-1,0,1,0,-1,0,1,0,-1,0,1,0,-1],"
+      "[1,0,-1,0,1,0,-1,0,1,0,-1,0,1,0,-1,0.5]]}");
+  const BadFile bad[] = {
+    {"{\"waveforms\": [[0]]}", "missing member \"sample-rate\""},
+    {"{\"sample-rate\": -1, \"waveforms\": [[0]]}", "must be positive"},
+    {"{\"sample-rate\": 450000, \"waveforms\": []}", "must be an array of 1"},
+    {"{\"sample-rate\": 450000, \"waveforms\": [[0, 1]]}",
+        "\"waveforms\"[0] must be an array of 16"},
+    {"{\"sample-rate\": 450000, \"waveforms\": [[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0],"
+          "[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0]]}", "as long as the first"},
+    {"{\"sample-rate\": 450000, \"waveforms\": [[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,\"x\"]]}",
+        "\"waveforms\"[0][15] must be a finite number"},
+  };
+  guint n, length;
+  double rate;
+  GError *error = NULL;
+  g_autofree float *w = sonar_waveforms_load_file (good, &n, &length, &rate,
+      &error);
+
+  g_assert_no_error (error);
+  g_assert_cmpuint (n, ==, 2);
+  g_assert_cmpuint (length, ==, 16);
+  g_assert_cmpfloat (rate, ==, 450000);
+  g_assert_cmpfloat (w[1], ==, 1.0f);
+  g_assert_cmpfloat (w[16 + 15], ==, 0.5f);
+  for (guint i = 0; i < G_N_ELEMENTS (bad); i++) {
+    g_autofree char *path = sonar_test_write_temp ("wf.json", bad[i].json);
+    float *none = sonar_waveforms_load_file (path, &n, &length, &rate,
+        &error);
+    g_assert_null (none);
+    g_test_message ("%s", error->message);
+    g_assert_nonnull (strstr (error->message, bad[i].expected));
+    g_clear_error (&error);
+  }
+}
+
+static SonarSetup *
+make_small_setup (guint ping_length, GError ** error)
+{
+  SonarGeometry g;
+  float waveforms[8 * 32];
+  SonarSetup *setup;
+
+  for (guint i = 0; i < G_N_ELEMENTS (waveforms); i++)
+    waveforms[i] = (float) sin (0.3 * i);
+  sonar_geometry_init_default (&g);
+  setup = sonar_setup_new (450000, 343, 20000, 80000, &g, 32, waveforms,
+      ping_length, error);
+  sonar_geometry_clear (&g);
+  return setup;
+}
+
+static void
+test_setup_validation (void)
+{
+  GError *error = NULL;
+  g_autoptr (SonarSetup) setup = make_small_setup (1000, &error);
+  SonarGeometry g;
+  float nan_wave[8 * 32] = { 0 };
+
+  g_assert_no_error (error);
+  g_assert_cmpuint (setup->geometry.n_microphones, ==, 32);
+  g_assert_cmpfloat (sonar_setup_waveform (setup, 1)[0], ==,
+      (float) sin (0.3 * 32));
+
+  g_assert_null (make_small_setup (10, &error));
+  g_assert_nonnull (strstr (error->message, "ping length 10 samples"));
+  g_clear_error (&error);
+
+  sonar_geometry_init_default (&g);
+  g_assert_null (sonar_setup_new (450000, 343, 90000, 80000, &g, 32,
+          nan_wave, 100, &error));
+  g_assert_nonnull (strstr (error->message, "band 90000 to 80000 Hz"));
+  g_clear_error (&error);
+  g_assert_null (sonar_setup_new (450000, 3430, 20000, 80000, &g, 32,
+          nan_wave, 100, &error));
+  g_assert_nonnull (strstr (error->message, "speed of sound 3430 m/s"));
+  g_clear_error (&error);
+  nan_wave[40] = NAN;
+  g_assert_null (sonar_setup_new (450000, 343, 20000, 80000, &g, 32,
+          nan_wave, 100, &error));
+  g_assert_nonnull (strstr (error->message,
+          "waveform of emitter 1 has a non-finite sample at 8"));
+  g_clear_error (&error);
+  sonar_geometry_clear (&g);
+}
+
+/* The event carries the whole set-up, bit for bit. */
+static void
+test_setup_event_round_trip (void)
+{
+  g_autoptr (SonarSetup) setup = make_small_setup (5000, NULL);
+  GstEvent *event = sonar_setup_event_new (setup);
+  GError *error = NULL;
+  g_autoptr (SonarSetup) copy = NULL;
+  GstStructure *broken;
+
+  g_assert_true (sonar_event_is_setup (event));
+  g_assert_true (GST_EVENT_IS_STICKY (event));
+  copy = sonar_setup_from_event (event, &error);
+  g_assert_no_error (error);
+  g_assert_true (sonar_setup_equal (setup, copy));
+  g_assert_cmpuint (copy->ping_length, ==, 5000);
+
+  broken = gst_structure_copy (gst_event_get_structure (event));
+  gst_structure_remove_field (broken, "emitters");
+  g_assert_null (sonar_setup_from_structure (broken, &error));
+  g_assert_nonnull (strstr (error->message, "missing field \"emitters\""));
+  g_clear_error (&error);
+  gst_structure_set (broken, "emitters", G_TYPE_BYTES,
+      g_bytes_new_static ("abc", 3), NULL);
+  g_assert_null (sonar_setup_from_structure (broken, &error));
+  g_assert_nonnull (strstr (error->message, "expected 8 positions"));
+  g_clear_error (&error);
+  gst_structure_free (broken);
+  gst_event_unref (event);
+}
+
+int
+main (int argc, char **argv)
+{
+  sonar_test_init_gst (&argc, &argv);
+  g_test_add_func ("/setup/default-geometry-is-ertis",
+      test_default_geometry_is_ertis);
+  g_test_add_func ("/setup/geometry-file", test_geometry_file);
+  g_test_add_func ("/setup/geometry-file-errors", test_geometry_file_errors);
+  g_test_add_func ("/setup/waveforms-file", test_waveforms_file);
+  g_test_add_func ("/setup/validation", test_setup_validation);
+  g_test_add_func ("/setup/event-round-trip", test_setup_event_round_trip);
+  return g_test_run ();
+}

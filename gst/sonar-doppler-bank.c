@@ -1,0 +1,159 @@
+/* sonar-doppler-bank.c: see sonar-doppler-bank.h. */
+#include "sonar-doppler-bank.h"
+#include "sonar-interp.h"
+
+#include <gio/gio.h>
+#include <math.h>
+
+struct _SonarDopplerBank
+{
+  gint ref_count;
+  SonarSetup *setup;
+  double v_min, v_step;
+  guint n_velocities;
+  guint max_length;
+  guint *lengths;               /* [i] */
+  float *templates;             /* [n][i][max_length] */
+};
+
+double
+sonar_doppler_scale (double speed_of_sound, double v)
+{
+  return (speed_of_sound - v) / (speed_of_sound + v);
+}
+
+SonarDopplerBank *
+sonar_doppler_bank_new (SonarSetup * setup, double v_min, double v_max,
+    double v_step, GError ** error)
+{
+  const double c = setup->speed_of_sound;
+  const guint n_emitters = setup->geometry.n_emitters;
+  const guint length = setup->waveform_length;
+  SonarDopplerBank *bank;
+  double count;
+
+  if (!(isfinite (v_min) && isfinite (v_max) && v_min <= v_max
+          && fabs (v_min) < c / 4.0 && fabs (v_max) < c / 4.0)) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "Doppler bank: velocities %g to %g m/s must satisfy min <= max and "
+        "|v| < c / 4 (%.1f m/s)", v_min, v_max, c / 4.0);
+    return NULL;
+  }
+  count = v_max > v_min ? floor ((v_max - v_min) / v_step + 1e-9) + 1.0 : 1.0;
+  if (!(v_step > 0.0) || count > SONAR_MAX_BANK_VELOCITIES) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "Doppler bank: step %g m/s must be positive and give at most %u "
+        "velocities between %g and %g m/s", v_step, SONAR_MAX_BANK_VELOCITIES,
+        v_min, v_max);
+    return NULL;
+  }
+
+  bank = g_new0 (SonarDopplerBank, 1);
+  bank->ref_count = 1;
+  bank->setup = sonar_setup_ref (setup);
+  bank->v_min = v_min;
+  bank->v_step = v_step;
+  bank->n_velocities = (guint) count;
+  bank->lengths = g_new (guint, bank->n_velocities);
+  for (guint i = 0; i < bank->n_velocities; i++) {
+    const double alpha = sonar_doppler_scale (c, sonar_doppler_bank_velocity
+        (bank, i));
+    /* The stretched emission ends where alpha t reaches its last sample. */
+    bank->lengths[i] = (guint) ceil ((length - 1) / alpha) + 1;
+    bank->max_length = MAX (bank->max_length, bank->lengths[i]);
+  }
+  bank->templates = g_new0 (float, (gsize) n_emitters * bank->n_velocities *
+      bank->max_length);
+
+  for (guint n = 0; n < n_emitters; n++) {
+    g_autoptr (SonarInterp) interp =
+        sonar_interp_new (sonar_setup_waveform (setup, n), length);
+    for (guint i = 0; i < bank->n_velocities; i++) {
+      const double alpha = sonar_doppler_scale (c,
+          sonar_doppler_bank_velocity (bank, i));
+      const float gain = (float) sqrt (alpha);
+      float *t = bank->templates + ((gsize) n * bank->n_velocities + i) *
+          bank->max_length;
+      for (guint k = 0; k < bank->lengths[i]; k++)
+        t[k] = gain * sonar_interp_at (interp, alpha * k);
+    }
+  }
+  return bank;
+}
+
+SonarDopplerBank *
+sonar_doppler_bank_ref (SonarDopplerBank * bank)
+{
+  g_atomic_int_inc (&bank->ref_count);
+  return bank;
+}
+
+void
+sonar_doppler_bank_unref (SonarDopplerBank * bank)
+{
+  if (bank && g_atomic_int_dec_and_test (&bank->ref_count)) {
+    sonar_setup_unref (bank->setup);
+    g_free (bank->lengths);
+    g_free (bank->templates);
+    g_free (bank);
+  }
+}
+
+SonarSetup *
+sonar_doppler_bank_get_setup (const SonarDopplerBank * bank)
+{
+  return bank->setup;
+}
+
+guint
+sonar_doppler_bank_n_velocities (const SonarDopplerBank * bank)
+{
+  return bank->n_velocities;
+}
+
+double
+sonar_doppler_bank_velocity (const SonarDopplerBank * bank, guint i)
+{
+  return bank->v_min + i * bank->v_step;
+}
+
+double
+sonar_doppler_bank_step (const SonarDopplerBank * bank)
+{
+  return bank->v_step;
+}
+
+guint
+sonar_doppler_bank_nearest (const SonarDopplerBank * bank, double v)
+{
+  const double i = round ((v - bank->v_min) / bank->v_step);
+  return (guint) CLAMP (i, 0.0, bank->n_velocities - 1.0);
+}
+
+guint
+sonar_doppler_bank_max_length (const SonarDopplerBank * bank)
+{
+  return bank->max_length;
+}
+
+const float *
+sonar_doppler_bank_template (const SonarDopplerBank * bank, guint n, guint i,
+    guint * length)
+{
+  if (length)
+    *length = bank->lengths[i];
+  return bank->templates + ((gsize) n * bank->n_velocities + i) *
+      bank->max_length;
+}
+
+void
+sonar_doppler_bank_spectra (const SonarDopplerBank * bank, guint i,
+    SonarSpectrum * analyzer, guint n_bins, SonarComplex * out)
+{
+  for (guint n = 0; n < bank->setup->geometry.n_emitters; n++) {
+    guint length;
+    const float *t = sonar_doppler_bank_template (bank, n, i, &length);
+    sonar_spectrum_process (analyzer, t, length, 1, out + (gsize) n * n_bins,
+        NULL);
+  }
+}

@@ -1,0 +1,58 @@
+/* sonar-doppler-bank.h: the Doppler-tuned matched-filter bank (paper eq.
+ * 8-9, Fig. 4b): every emission time-scaled for every radial velocity of a
+ * grid, made once per set-up.
+ *
+ * The echo of an object moving at radial velocity v (positive away) is the
+ * emission time-scaled by alpha = (c - v) / (c + v): it is exact wideband
+ * Doppler, not a frequency shift. Template (n, v) is
+ *   sqrt (alpha) s_n (alpha t),  t = 0, 1, ... samples,
+ * read through the band-limited interpolator (sonar-interp.h); the factor
+ * sqrt (alpha) keeps every template's energy equal, so the bank's outputs
+ * compare linearly across velocities (no normalisation per filter, as the
+ * paper requires: no PHAT).
+ */
+#ifndef SONAR_DOPPLER_BANK_H
+#define SONAR_DOPPLER_BANK_H
+
+#include "sonar-setup.h"
+#include "sonar-spectrum.h"
+
+G_BEGIN_DECLS
+
+#define SONAR_MAX_BANK_VELOCITIES 20001
+
+typedef struct _SonarDopplerBank SonarDopplerBank;
+
+/* Velocities min, min + step, ..., up to max (m/s). */
+SonarDopplerBank *sonar_doppler_bank_new (SonarSetup * setup, double v_min,
+    double v_max, double v_step, GError ** error);
+SonarDopplerBank *sonar_doppler_bank_ref (SonarDopplerBank * bank);
+void sonar_doppler_bank_unref (SonarDopplerBank * bank);
+
+SonarSetup *sonar_doppler_bank_get_setup (const SonarDopplerBank * bank);
+guint sonar_doppler_bank_n_velocities (const SonarDopplerBank * bank);
+double sonar_doppler_bank_velocity (const SonarDopplerBank * bank, guint i);
+double sonar_doppler_bank_step (const SonarDopplerBank * bank);
+/* Index of the bank velocity nearest @v. */
+guint sonar_doppler_bank_nearest (const SonarDopplerBank * bank, double v);
+/* Longest template, samples. */
+guint sonar_doppler_bank_max_length (const SonarDopplerBank * bank);
+
+/* Doppler scale alpha = (c - v) / (c + v). */
+double sonar_doppler_scale (double speed_of_sound, double v);
+
+/* Template of emitter @n at velocity index @i; *length receives its
+ * length in samples. Owned by the bank. */
+const float *sonar_doppler_bank_template (const SonarDopplerBank * bank,
+    guint n, guint i, guint * length);
+
+/* Spectra of all emitters' templates at velocity index @i on the band of
+ * @analyzer, into out[n_emitters * n_bins]. */
+void sonar_doppler_bank_spectra (const SonarDopplerBank * bank, guint i,
+    SonarSpectrum * analyzer, guint n_bins, SonarComplex * out);
+
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarDopplerBank, sonar_doppler_bank_unref)
+
+G_END_DECLS
+
+#endif

@@ -1,0 +1,277 @@
+/* sonar-imager.c: see sonar-imager.h. */
+#include "sonar-imager.h"
+#include "sonar-fftw.h"
+#include "sonar-kernels.h"
+
+#include <fftw3.h>
+#include <gio/gio.h>
+#include <math.h>
+#include <string.h>
+
+#define MAX_DIRECTIONS 65536
+#define MAX_FOCUS_ZONES 64
+
+typedef struct
+{
+  guint first_range, end_range; /* range bins [first, end) of the grid */
+  double focus;                 /* m */
+  double *mic_path;             /* [direction][microphone] e_j, m */
+  double *emitter_path;         /* [direction][emitter] e_n, m */
+} FocusZone;
+
+struct _SonarImager
+{
+  SonarSetup *setup;
+  SonarBand band;
+  SonarImageGrid grid;
+  guint n_directions;
+  SonarVec3 *directions;
+  guint n_zones;
+  FocusZone *zones;
+
+  /* Delay and sum output of one direction, then its inverse transform. */
+  guint ifft_size;              /* M */
+  guint first_lag;              /* IFFT sample of range bin 0 */
+  SonarComplex *receive;        /* K: sum over microphones */
+  SonarComplex *transmit;       /* K: sum over emitters */
+  SonarComplex *baseband;       /* M */
+  fftwf_plan inverse;
+};
+
+void
+sonar_imager_params_init_default (SonarImagerParams * p)
+{
+  p->azimuth_min = -90.0;
+  p->azimuth_max = 90.0;
+  p->n_azimuth = 181;
+  p->elevation_min = 0.0;
+  p->elevation_max = 0.0;
+  p->n_elevation = 1;
+  p->range_min = 0.3;
+  p->range_max = 5.0;
+  p->range_resolution = 0.005;
+  p->focus_zones = 4;
+}
+
+static gboolean
+validate_params (const SonarImagerParams * p, double max_range,
+    GError ** error)
+{
+  const char *problem = NULL;
+
+  if (p->n_azimuth < 1 || p->n_elevation < 1
+      || (guint64) p->n_azimuth * p->n_elevation > MAX_DIRECTIONS)
+    problem = "the number of directions must be 1 to 65536";
+  else if (!(p->azimuth_min >= -90.0 && p->azimuth_max <= 90.0
+          && p->azimuth_min <= p->azimuth_max))
+    problem = "azimuths must satisfy -90 <= min <= max <= 90 degrees";
+  else if (!(p->elevation_min >= -90.0 && p->elevation_max <= 90.0
+          && p->elevation_min <= p->elevation_max))
+    problem = "elevations must satisfy -90 <= min <= max <= 90 degrees";
+  else if (!(p->range_min > 0.0 && p->range_min < p->range_max))
+    problem = "ranges must satisfy 0 < min < max";
+  else if (!(p->range_resolution > 0.0 && p->range_resolution <= 1.0))
+    problem = "the range resolution must be in (0, 1] m";
+  else if (p->focus_zones < 1 || p->focus_zones > MAX_FOCUS_ZONES)
+    problem = "focus zones must be 1 to 64";
+  if (problem) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "imager: %s", problem);
+    return FALSE;
+  }
+  if (p->range_max > max_range) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "imager: range-max %g m is beyond what one ping records (%.2f m)",
+        p->range_max, max_range);
+    return FALSE;
+  }
+  return TRUE;
+}
+
+static void
+init_zones (SonarImager * im, const SonarImagerParams * p)
+{
+  const SonarGeometry *g = &im->setup->geometry;
+  const double inv_near = 1.0 / p->range_min, inv_far = 1.0 / p->range_max;
+
+  im->n_zones = p->focus_zones;
+  im->zones = g_new0 (FocusZone, im->n_zones);
+  for (guint z = 0; z < im->n_zones; z++) {
+    FocusZone *zone = &im->zones[z];
+    /* Focusing errors scale with 1 / r: zones are even in 1 / r, focused
+     * at their middle in 1 / r. */
+    const double inv_a = inv_near + (inv_far - inv_near) * z / im->n_zones;
+    const double inv_b = inv_near + (inv_far - inv_near) * (z + 1) /
+        im->n_zones;
+    const double r_a = 1.0 / inv_a, r_b = 1.0 / inv_b;
+    double r = 2.0 / (inv_a + inv_b);
+
+    zone->focus = r;
+    zone->first_range = (guint) CLAMP (ceil ((r_a - im->grid.range_first)
+            / im->grid.range_step), 0, im->grid.n_range);
+    zone->end_range = z + 1 == im->n_zones ? im->grid.n_range :
+        (guint) CLAMP (ceil ((r_b - im->grid.range_first)
+            / im->grid.range_step), 0, im->grid.n_range);
+    zone->mic_path = g_new (double, (gsize) im->n_directions *
+        g->n_microphones);
+    zone->emitter_path = g_new (double, (gsize) im->n_directions *
+        g->n_emitters);
+    for (guint d = 0; d < im->n_directions; d++) {
+      const SonarVec3 point = sonar_vec3_scale (im->directions[d], r);
+      for (guint j = 0; j < g->n_microphones; j++)
+        zone->mic_path[(gsize) d * g->n_microphones + j] =
+            sonar_vec3_norm (sonar_vec3_sub (point, g->microphones[j])) - r;
+      for (guint n = 0; n < g->n_emitters; n++)
+        zone->emitter_path[(gsize) d * g->n_emitters + n] =
+            sonar_vec3_norm (sonar_vec3_sub (point, g->emitters[n])) - r;
+    }
+  }
+}
+
+SonarImager *
+sonar_imager_new (SonarSetup * setup, const SonarBand * band,
+    const SonarImagerParams * p, GError ** error)
+{
+  const double c = setup->speed_of_sound, fs = setup->sample_rate;
+  /* Lags up to the window's end are free of the FFT's wrap-around. */
+  const double max_range = 0.5 * c * setup->ping_length / fs;
+  SonarImager *im;
+  SonarImageGrid *grid;
+  double lag_range, period_range;
+  guint min_ifft;
+
+  if (!validate_params (p, max_range, error))
+    return NULL;
+
+  im = g_new0 (SonarImager, 1);
+  im->setup = sonar_setup_ref (setup);
+  im->band = *band;
+  grid = &im->grid;
+
+  grid->n_azimuth = p->n_azimuth;
+  grid->azimuth_first = p->azimuth_min;
+  grid->azimuth_step = p->n_azimuth > 1 ?
+      (p->azimuth_max - p->azimuth_min) / (p->n_azimuth - 1) : 0.0;
+  grid->n_elevation = p->n_elevation;
+  grid->elevation_first = p->elevation_min;
+  grid->elevation_step = p->n_elevation > 1 ?
+      (p->elevation_max - p->elevation_min) / (p->n_elevation - 1) : 0.0;
+  im->n_directions = p->n_azimuth * p->n_elevation;
+  im->directions = g_new (SonarVec3, im->n_directions);
+  for (guint e = 0; e < grid->n_elevation; e++)
+    for (guint a = 0; a < grid->n_azimuth; a++)
+      im->directions[e * grid->n_azimuth + a] =
+          sonar_vec3_from_direction (grid->azimuth_first +
+          a * grid->azimuth_step,
+          grid->elevation_first + e * grid->elevation_step);
+
+  /* The inverse transform of M points spans the FFT's period: one sample is
+   * period / M in time, period_range / M in range. M holds the band (no
+   * aliasing) and reaches the requested range step. */
+  period_range = 0.5 * c * band->fft_size / fs;
+  min_ifft = MAX (band->n_bins, (guint) ceil (period_range /
+          p->range_resolution));
+  im->ifft_size = sonar_fft_good_size (min_ifft);
+  lag_range = period_range / im->ifft_size;
+  grid->range_step = lag_range;
+  im->first_lag = (guint) ceil (p->range_min / lag_range);
+  grid->range_first = im->first_lag * lag_range;
+  grid->n_range = (guint) floor (p->range_max / lag_range) - im->first_lag + 1;
+
+  init_zones (im, p);
+
+  im->receive = fftwf_alloc_complex (band->n_bins);
+  im->transmit = fftwf_alloc_complex (band->n_bins);
+  im->baseband = fftwf_alloc_complex (im->ifft_size);
+  sonar_fftw_lock ();
+  im->inverse = fftwf_plan_dft_1d (im->ifft_size, im->baseband, im->baseband,
+      FFTW_BACKWARD, FFTW_MEASURE);
+  sonar_fftw_unlock ();
+  return im;
+}
+
+void
+sonar_imager_free (SonarImager * im)
+{
+  if (!im)
+    return;
+  for (guint z = 0; z < im->n_zones; z++) {
+    g_free (im->zones[z].mic_path);
+    g_free (im->zones[z].emitter_path);
+  }
+  g_free (im->zones);
+  g_free (im->directions);
+  sonar_fftw_lock ();
+  fftwf_destroy_plan (im->inverse);
+  sonar_fftw_unlock ();
+  fftwf_free (im->receive);
+  fftwf_free (im->transmit);
+  fftwf_free (im->baseband);
+  sonar_setup_unref (im->setup);
+  g_free (im);
+}
+
+const SonarImageGrid *
+sonar_imager_grid (const SonarImager * im)
+{
+  return &im->grid;
+}
+
+void
+sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
+    guint n_hypotheses, const SonarComplex * const *templates,
+    const double *velocities, int emitter, float *image)
+{
+  const SonarGeometry *g = &im->setup->geometry;
+  const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
+  const double c = im->setup->speed_of_sound;
+  /* Phase of a path difference of one metre, at the first bin and per bin. */
+  const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
+  const double dk = 2.0 * M_PI * im->setup->sample_rate /
+      im->band.fft_size / c;
+  /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
+  const float scale = 2.0f / im->band.fft_size;
+  const guint n_first = emitter < 0 ? 0 : (guint) emitter;
+  const guint n_end = emitter < 0 ? g->n_emitters : (guint) emitter + 1;
+
+  for (guint z = 0; z < im->n_zones; z++) {
+    const FocusZone *zone = &im->zones[z];
+    const guint first = zone->first_range;
+    const guint count = zone->end_range - zone->first_range;
+    if (count == 0)
+      continue;
+    for (guint d = 0; d < im->n_directions; d++) {
+      const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
+      const double *emitter_path = zone->emitter_path +
+          (gsize) d * g->n_emitters;
+      float *pixels = image + (gsize) d * n_range + first;
+
+      /* Receive side: once per direction for every hypothesis. */
+      memset (im->receive, 0, sizeof (SonarComplex) * n_bins);
+      for (guint j = 0; j < g->n_microphones; j++)
+        sonar_kernel_steer_accumulate (im->receive,
+            mic_spectra + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
+            dk * mic_path[j]);
+
+      for (guint h = 0; h < n_hypotheses; h++) {
+        const double v = velocities[h];
+        const double stretch = (c + v) / (c - v);       /* 1 / alpha */
+
+        memset (im->transmit, 0, sizeof (SonarComplex) * n_bins);
+        for (guint n = n_first; n < n_end; n++) {
+          const double path = emitter_path[n] * stretch;
+          sonar_kernel_steer_accumulate_conj (im->transmit,
+              templates[h] + (gsize) n * n_bins, n_bins, k0 * path,
+              dk * path);
+        }
+        sonar_kernel_multiply (im->baseband, im->receive, im->transmit,
+            n_bins);
+        memset (im->baseband + n_bins, 0, sizeof (SonarComplex) *
+            (im->ifft_size - n_bins));
+        fftwf_execute (im->inverse);
+        sonar_kernel_envelope (pixels, im->baseband + im->first_lag + first,
+            count, scale, h > 0);
+      }
+    }
+  }
+}

@@ -1,0 +1,83 @@
+/* sonar-imager.h: the MIMO virtual-array delay-and-sum image (paper eq.
+ * 11-13), computed on the band's spectra.
+ *
+ * For a pixel at range r in direction u, the echo through emitter n and
+ * microphone j arrives later than the array centre's by
+ *   tau_nj = (e_n / alpha + m_j) / c,  e = |r u - p| - r,
+ * alpha = (c - v) / (c + v) the Doppler scale of the hypothesis v: a moving
+ * object meets each emitter's pulse at a slightly different instant, which
+ * stretches the emitter leg by 1 / alpha. The delays of emitters and
+ * microphones add, so the sum over the N x J pairs of matched-filter
+ * spectra factors into (sum over microphones) x (sum over emitters): J + N
+ * products per bin instead of N J. Delays depend on r (the array is in
+ * its own near field below a few metres): they are exact at the focus
+ * range of each of a few range zones, spaced evenly in 1 / r.
+ *
+ * The image is the envelope of the delay-and-sum output, the magnitude of
+ * the analytic signal, sampled on a regular range grid.
+ */
+#ifndef SONAR_IMAGER_H
+#define SONAR_IMAGER_H
+
+#include "sonar-setup.h"
+#include "sonar-spectrum.h"
+
+G_BEGIN_DECLS
+
+typedef struct
+{
+  guint n_azimuth;
+  double azimuth_first, azimuth_step;   /* degrees */
+  guint n_elevation;
+  double elevation_first, elevation_step;       /* degrees */
+  guint n_range;
+  double range_first, range_step;       /* m */
+} SonarImageGrid;
+
+/* Pixel (elevation e, azimuth a, range i) is image[(e * n_azimuth + a)
+ * * n_range + i]. */
+static inline gsize
+sonar_image_grid_size (const SonarImageGrid * grid)
+{
+  return (gsize) grid->n_elevation * grid->n_azimuth * grid->n_range;
+}
+
+typedef struct
+{
+  double azimuth_min, azimuth_max;      /* degrees */
+  guint n_azimuth;
+  double elevation_min, elevation_max;  /* degrees */
+  guint n_elevation;
+  double range_min, range_max;  /* m */
+  double range_resolution;      /* m: the range step is at most this */
+  guint focus_zones;            /* >= 1 */
+} SonarImagerParams;
+
+/* 2-D fan: -90..90 degrees in 181 directions, 0.3-5 m, 4 focus zones. */
+void sonar_imager_params_init_default (SonarImagerParams * params);
+
+typedef struct _SonarImager SonarImager;
+
+SonarImager *sonar_imager_new (SonarSetup * setup, const SonarBand * band,
+    const SonarImagerParams * params, GError ** error);
+void sonar_imager_free (SonarImager * imager);
+
+const SonarImageGrid *sonar_imager_grid (const SonarImager * imager);
+
+/* Images the echoes in @mic_spectra (n_microphones x n_bins, the band's
+ * spectra of one ping) for @n_hypotheses Doppler hypotheses: hypothesis h
+ * has radial velocity velocities[h] and the spectra of the emissions
+ * scaled for it in templates[h] (n_emitters x n_bins). @image receives,
+ * per pixel, the maximum over the hypotheses. @emitter < 0 sums every
+ * emitter (the MIMO image); else only that emitter's echoes are imaged
+ * (the single-emitter, MISO image). */
+void sonar_imager_process (SonarImager * imager,
+    const SonarComplex * mic_spectra, guint n_hypotheses,
+    const SonarComplex * const *templates, const double *velocities,
+    int emitter, float *image);
+
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarImager, sonar_imager_free)
+
+G_END_DECLS
+
+#endif

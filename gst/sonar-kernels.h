@@ -1,0 +1,32 @@
+/* sonar-kernels.h: the hot loops of the imaging chain, each with one
+ * plain C definition here; faster versions must match these (tests). */
+#ifndef SONAR_KERNELS_H
+#define SONAR_KERNELS_H
+
+#include "sonar-spectrum.h"
+
+G_BEGIN_DECLS
+
+/* acc[k] += x[k] * exp(i (phase0 + k * dphase)), k < n: delaying a signal
+ * by a time tau on a band is a phase ramp, phase = omega_k * tau. The
+ * exponential is advanced by a rotation per bin (no sincos per bin); the
+ * rotation is formed in double so that the accumulated phase error stays
+ * below 1e-4 rad over 10^4 bins. */
+void sonar_kernel_steer_accumulate (SonarComplex * acc, const SonarComplex * x,
+    guint n, double phase0, double dphase);
+
+/* Same with conj (x[k]): the matched filter's conjugated template. */
+void sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
+    const SonarComplex * x, guint n, double phase0, double dphase);
+
+/* out[k] = a[k] * b[k]. */
+void sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
+    const SonarComplex * b, guint n);
+
+/* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). */
+void sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
+    float scale, gboolean accumulate);
+
+G_END_DECLS
+
+#endif

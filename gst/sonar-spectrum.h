@@ -1,0 +1,57 @@
+/* sonar-spectrum.h: the frequency grid the matched filters and the
+ * beamformer work on, and the front end that takes recordings onto it.
+ *
+ * A matched filter (paper eq. 2 and 10) is a product of spectra; only the
+ * bins of the sonar's band carry signal, so every spectrum in the chain is
+ * kept on those bins alone: a SonarBand. Linear (not circular) correlation
+ * over a whole ping needs an FFT of at least ping + template samples.
+ */
+#ifndef SONAR_SPECTRUM_H
+#define SONAR_SPECTRUM_H
+
+#include <complex.h>
+#include <glib.h>
+
+G_BEGIN_DECLS
+
+typedef float complex SonarComplex;
+
+typedef struct
+{
+  double sample_rate;           /* Hz */
+  guint fft_size;               /* N: real FFT length, samples */
+  guint first_bin;              /* k0: bin of the first kept frequency */
+  guint n_bins;                 /* K: kept bins k0 .. k0 + K - 1 */
+} SonarBand;
+
+/* Smallest 2^a 3^b 5^c >= n: a size FFTW transforms fast. */
+guint sonar_fft_good_size (guint n);
+
+/* A grid of at least @min_fft_size points whose kept bins cover
+ * [low, high] Hz (plus one bin each side). */
+void sonar_band_init (SonarBand * band, double sample_rate,
+    guint min_fft_size, double low, double high);
+
+static inline double
+sonar_band_frequency (const SonarBand * band, guint bin)
+{
+  return (band->first_bin + bin) * band->sample_rate / band->fft_size;
+}
+
+/* Spectra of real signals on a band, with plans made once at creation. */
+typedef struct _SonarSpectrum SonarSpectrum;
+
+SonarSpectrum *sonar_spectrum_new (const SonarBand * band);
+void sonar_spectrum_free (SonarSpectrum * spectrum);
+
+/* Spectrum of @length samples read at @stride (zero-padded to the FFT
+ * size, and cut to it when longer) into @out[n_bins]. Non-finite samples
+ * are read as 0 and counted into *n_bad (if not NULL). */
+void sonar_spectrum_process (SonarSpectrum * spectrum, const float *signal,
+    gsize length, gsize stride, SonarComplex * out, guint * n_bad);
+
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarSpectrum, sonar_spectrum_free)
+
+G_END_DECLS
+
+#endif

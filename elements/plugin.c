@@ -4,6 +4,8 @@
 #endif
 #include <gst/gst.h>
 
+#include "gstdopplerbank.h"
+#include "gstmimobeamform.h"
 #include "gstsonarsrc.h"
 
 static gboolean
@@ -12,6 +14,8 @@ plugin_init (GstPlugin * plugin)
   gboolean ok = FALSE;
 
   ok |= GST_ELEMENT_REGISTER (sonarsrc, plugin);
+  ok |= GST_ELEMENT_REGISTER (dopplerbank, plugin);
+  ok |= GST_ELEMENT_REGISTER (mimobeamform, plugin);
   return ok;
 }
 

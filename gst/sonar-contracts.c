@@ -246,3 +246,261 @@ sonar_truth_to_structure (guint64 ping_index, GstClockTime timestamp,
   gst_structure_take_value (s, "reflectors", &list);
   return s;
 }
+
+/* Microphone spectra ------------------------------------------------------*/
+
+GstCaps *
+sonar_spectra_caps_new (guint channels, const SonarBand * band)
+{
+  return gst_caps_new_simple (SONAR_SPECTRA_MEDIA_TYPE,
+      "channels", G_TYPE_INT, (int) channels,
+      "rate", G_TYPE_INT, (int) band->sample_rate,
+      "fft-size", G_TYPE_INT, (int) band->fft_size,
+      "first-bin", G_TYPE_INT, (int) band->first_bin,
+      "bins", G_TYPE_INT, (int) band->n_bins, NULL);
+}
+
+gboolean
+sonar_spectra_caps_parse (const GstCaps * caps, guint * channels,
+    SonarBand * band)
+{
+  const GstStructure *s;
+  int ch, rate, size, first, bins;
+
+  if (!gst_caps_is_fixed (caps))
+    return FALSE;
+  s = gst_caps_get_structure (caps, 0);
+  if (!gst_structure_has_name (s, SONAR_SPECTRA_MEDIA_TYPE)
+      || !gst_structure_get (s, "channels", G_TYPE_INT, &ch,
+          "rate", G_TYPE_INT, &rate, "fft-size", G_TYPE_INT, &size,
+          "first-bin", G_TYPE_INT, &first, "bins", G_TYPE_INT, &bins, NULL)
+      || ch < 1 || rate < 1 || size < 2 || first < 0 || bins < 1
+      || first + bins > size / 2 + 1)
+    return FALSE;
+  *channels = ch;
+  band->sample_rate = rate;
+  band->fft_size = size;
+  band->first_bin = first;
+  band->n_bins = bins;
+  return TRUE;
+}
+
+/* The Doppler bank event --------------------------------------------------*/
+
+GType
+sonar_doppler_bank_get_type (void)
+{
+  static GType type = 0;
+
+  if (g_once_init_enter (&type)) {
+    GType t = g_type_from_name ("SonarDopplerBank");
+    if (!t)
+      t = g_boxed_type_register_static ("SonarDopplerBank",
+          (GBoxedCopyFunc) sonar_doppler_bank_ref,
+          (GBoxedFreeFunc) sonar_doppler_bank_unref);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+GstEvent *
+sonar_bank_event_new (SonarDopplerBank * bank, const SonarBand * band)
+{
+  const guint n = sonar_doppler_bank_n_velocities (bank);
+  GstStructure *s = gst_structure_new (SONAR_BANK_EVENT_NAME,
+      "bank", SONAR_TYPE_DOPPLER_BANK, bank,
+      "velocity-min", G_TYPE_DOUBLE, sonar_doppler_bank_velocity (bank, 0),
+      "velocity-max", G_TYPE_DOUBLE, sonar_doppler_bank_velocity (bank, n - 1),
+      "velocity-step", G_TYPE_DOUBLE, sonar_doppler_bank_step (bank),
+      "velocities", G_TYPE_UINT, n,
+      "rate", G_TYPE_INT, (int) band->sample_rate,
+      "fft-size", G_TYPE_INT, (int) band->fft_size,
+      "first-bin", G_TYPE_INT, (int) band->first_bin,
+      "bins", G_TYPE_INT, (int) band->n_bins, NULL);
+  return gst_event_new_custom (GST_EVENT_CUSTOM_DOWNSTREAM_STICKY, s);
+}
+
+gboolean
+sonar_event_is_bank (GstEvent * event)
+{
+  return GST_EVENT_TYPE (event) == GST_EVENT_CUSTOM_DOWNSTREAM_STICKY
+      && gst_event_has_name (event, SONAR_BANK_EVENT_NAME);
+}
+
+SonarDopplerBank *
+sonar_bank_from_event (GstEvent * event, SonarBand * band)
+{
+  const GstStructure *s = gst_event_get_structure (event);
+  SonarDopplerBank *bank = NULL;
+  int rate, size, first, bins;
+
+  if (!gst_structure_get (s, "bank", SONAR_TYPE_DOPPLER_BANK, &bank,
+          "rate", G_TYPE_INT, &rate, "fft-size", G_TYPE_INT, &size,
+          "first-bin", G_TYPE_INT, &first, "bins", G_TYPE_INT, &bins, NULL))
+    return NULL;
+  band->sample_rate = rate;
+  band->fft_size = size;
+  band->first_bin = first;
+  band->n_bins = bins;
+  return bank;
+}
+
+/* The spectra meta --------------------------------------------------------*/
+
+GType
+sonar_spectra_meta_api_get_type (void)
+{
+  static GType type = 0;
+  static const gchar *tags[] = { NULL };
+
+  if (g_once_init_enter (&type)) {
+    GType t = g_type_from_name ("SonarSpectraMetaAPI");
+    if (!t)
+      t = gst_meta_api_type_register ("SonarSpectraMetaAPI", tags);
+    g_once_init_leave (&type, t);
+  }
+  return type;
+}
+
+static gboolean
+spectra_meta_init (GstMeta * meta, gpointer params, GstBuffer * buffer)
+{
+  ((SonarSpectraMeta *) meta)->spectra = NULL;
+  return TRUE;
+}
+
+static void
+spectra_meta_free (GstMeta * meta, GstBuffer * buffer)
+{
+  gst_clear_buffer (&((SonarSpectraMeta *) meta)->spectra);
+}
+
+static gboolean
+spectra_meta_transform (GstBuffer * dest, GstMeta * meta, GstBuffer * buffer,
+    GQuark type, gpointer data)
+{
+  SonarSpectraMeta *m = (SonarSpectraMeta *) meta;
+  return sonar_buffer_add_spectra_meta (dest, m->spectra, m->channels,
+      &m->band) != NULL;
+}
+
+static const GstMetaInfo *
+sonar_spectra_meta_get_info (void)
+{
+  static const GstMetaInfo *info = NULL;
+
+  if (g_once_init_enter ((GstMetaInfo **) & info)) {
+    const GstMetaInfo *mi = gst_meta_get_info ("SonarSpectraMeta");
+    if (!mi)
+      mi = gst_meta_register (SONAR_SPECTRA_META_API_TYPE, "SonarSpectraMeta",
+          sizeof (SonarSpectraMeta), spectra_meta_init, spectra_meta_free,
+          spectra_meta_transform);
+    g_once_init_leave ((GstMetaInfo **) & info, (GstMetaInfo *) mi);
+  }
+  return info;
+}
+
+SonarSpectraMeta *
+sonar_buffer_add_spectra_meta (GstBuffer * buffer, GstBuffer * spectra,
+    guint channels, const SonarBand * band)
+{
+  SonarSpectraMeta *m = (SonarSpectraMeta *) gst_buffer_add_meta (buffer,
+      sonar_spectra_meta_get_info (), NULL);
+
+  if (!m)
+    return NULL;
+  m->spectra = gst_buffer_ref (spectra);
+  m->channels = channels;
+  m->band = *band;
+  return m;
+}
+
+/* Energyscapes ------------------------------------------------------------*/
+
+GstCaps *
+sonar_energyscape_caps_new (const SonarImageGrid * grid, guint records)
+{
+  return gst_caps_new_simple (SONAR_ENERGYSCAPE_MEDIA_TYPE,
+      "records", G_TYPE_INT, (int) records,
+      "n-azimuth", G_TYPE_INT, (int) grid->n_azimuth,
+      "azimuth-first", G_TYPE_DOUBLE, grid->azimuth_first,
+      "azimuth-step", G_TYPE_DOUBLE, grid->azimuth_step,
+      "n-elevation", G_TYPE_INT, (int) grid->n_elevation,
+      "elevation-first", G_TYPE_DOUBLE, grid->elevation_first,
+      "elevation-step", G_TYPE_DOUBLE, grid->elevation_step,
+      "n-range", G_TYPE_INT, (int) grid->n_range,
+      "range-first", G_TYPE_DOUBLE, grid->range_first,
+      "range-step", G_TYPE_DOUBLE, grid->range_step, NULL);
+}
+
+gboolean
+sonar_energyscape_caps_parse (const GstCaps * caps, SonarImageGrid * grid,
+    guint * records)
+{
+  const GstStructure *s;
+  int n_rec, n_az, n_el, n_r;
+
+  if (!gst_caps_is_fixed (caps))
+    return FALSE;
+  s = gst_caps_get_structure (caps, 0);
+  if (!gst_structure_has_name (s, SONAR_ENERGYSCAPE_MEDIA_TYPE)
+      || !gst_structure_get (s, "records", G_TYPE_INT, &n_rec,
+          "n-azimuth", G_TYPE_INT, &n_az,
+          "azimuth-first", G_TYPE_DOUBLE, &grid->azimuth_first,
+          "azimuth-step", G_TYPE_DOUBLE, &grid->azimuth_step,
+          "n-elevation", G_TYPE_INT, &n_el,
+          "elevation-first", G_TYPE_DOUBLE, &grid->elevation_first,
+          "elevation-step", G_TYPE_DOUBLE, &grid->elevation_step,
+          "n-range", G_TYPE_INT, &n_r,
+          "range-first", G_TYPE_DOUBLE, &grid->range_first,
+          "range-step", G_TYPE_DOUBLE, &grid->range_step, NULL)
+      || n_rec < 1 || n_az < 1 || n_el < 1 || n_r < 1)
+    return FALSE;
+  grid->n_azimuth = n_az;
+  grid->n_elevation = n_el;
+  grid->n_range = n_r;
+  *records = n_rec;
+  return TRUE;
+}
+
+void
+sonar_energyscape_header_init (SonarEnergyscapeHeader * h,
+    const SonarImageGrid * grid, guint64 ping_index, double velocity,
+    int emitter)
+{
+  memset (h, 0, sizeof (*h));
+  memcpy (h->magic, SONAR_ENERGYSCAPE_MAGIC, 8);
+  h->header_size = sizeof (*h);
+  h->n_azimuth = grid->n_azimuth;
+  h->n_elevation = grid->n_elevation;
+  h->n_range = grid->n_range;
+  h->ping_index = ping_index;
+  h->azimuth_first = grid->azimuth_first;
+  h->azimuth_step = grid->azimuth_step;
+  h->elevation_first = grid->elevation_first;
+  h->elevation_step = grid->elevation_step;
+  h->range_first = grid->range_first;
+  h->range_step = grid->range_step;
+  h->velocity = velocity;
+  h->emitter = emitter;
+}
+
+gboolean
+sonar_energyscape_header_parse (const SonarEnergyscapeHeader * h,
+    SonarImageGrid * grid)
+{
+  if (memcmp (h->magic, SONAR_ENERGYSCAPE_MAGIC, 8) != 0
+      || h->header_size != sizeof (*h) || h->n_azimuth == 0
+      || h->n_elevation == 0 || h->n_range == 0)
+    return FALSE;
+  grid->n_azimuth = h->n_azimuth;
+  grid->n_elevation = h->n_elevation;
+  grid->n_range = h->n_range;
+  grid->azimuth_first = h->azimuth_first;
+  grid->azimuth_step = h->azimuth_step;
+  grid->elevation_first = h->elevation_first;
+  grid->elevation_step = h->elevation_step;
+  grid->range_first = h->range_first;
+  grid->range_step = h->range_step;
+  return TRUE;
+}

@@ -6,6 +6,8 @@
 #define SONAR_CONTRACTS_H
 
 #include <gst/gst.h>
+#include "sonar-doppler-bank.h"
+#include "sonar-imager.h"
 #include "sonar-setup.h"
 #include "sonar-simulator.h"
 
@@ -61,6 +63,93 @@ SonarTruthMeta *sonar_buffer_add_truth_meta (GstBuffer * buffer,
 
 GstStructure *sonar_truth_to_structure (guint64 ping_index,
     GstClockTime timestamp, const SonarTruth * truths, guint n_truths);
+
+/* Microphone spectra (dopplerbank -> mimobeamform) ----------------------*/
+
+/* One buffer per ping: channels x bins complex values (float32 real,
+ * float32 imaginary), microphone-major, on the band bins first-bin ..
+ * first-bin + bins - 1 of a real FFT of fft-size points at rate Hz. */
+#define SONAR_SPECTRA_MEDIA_TYPE "application/x-sonar-spectra"
+#define SONAR_SPECTRA_CAPS SONAR_SPECTRA_MEDIA_TYPE ", " \
+  "channels=(int)[ 1, 256 ], rate=(int)[ 1, MAX ], fft-size=(int)[ 1, MAX ], " \
+  "first-bin=(int)[ 0, MAX ], bins=(int)[ 1, MAX ]"
+
+GstCaps *sonar_spectra_caps_new (guint channels, const SonarBand * band);
+gboolean sonar_spectra_caps_parse (const GstCaps * caps, guint * channels,
+    SonarBand * band);
+
+/* The Doppler bank event --------------------------------------------------*/
+
+/* Sticky custom downstream event from dopplerbank, after the set-up event:
+ * the bank (a reference, not a copy) and the band its spectra are on. */
+#define SONAR_BANK_EVENT_NAME "sonar-doppler-bank"
+
+GType sonar_doppler_bank_get_type (void);
+#define SONAR_TYPE_DOPPLER_BANK (sonar_doppler_bank_get_type ())
+
+GstEvent *sonar_bank_event_new (SonarDopplerBank * bank,
+    const SonarBand * band);
+gboolean sonar_event_is_bank (GstEvent * event);
+/* A new reference to the bank, or NULL when malformed. */
+SonarDopplerBank *sonar_bank_from_event (GstEvent * event, SonarBand * band);
+
+/* The spectra meta --------------------------------------------------------*/
+
+/* mimobeamform attaches the ping's microphone spectra to its image, so that
+ * velocityest can evaluate the bank where the reflectors are. Registered
+ * without tags: every transform keeps it. */
+typedef struct
+{
+  GstMeta meta;
+  GstBuffer *spectra;           /* a SONAR_SPECTRA_MEDIA_TYPE buffer */
+  guint channels;
+  SonarBand band;
+} SonarSpectraMeta;
+
+GType sonar_spectra_meta_api_get_type (void);
+#define SONAR_SPECTRA_META_API_TYPE (sonar_spectra_meta_api_get_type ())
+SonarSpectraMeta *sonar_buffer_add_spectra_meta (GstBuffer * buffer,
+    GstBuffer * spectra, guint channels, const SonarBand * band);
+#define sonar_buffer_get_spectra_meta(b) \
+  ((SonarSpectraMeta *) gst_buffer_get_meta ((b), SONAR_SPECTRA_META_API_TYPE))
+
+/* Energyscapes (mimobeamform -> wardcluster) -----------------------------*/
+
+/* A buffer holds one or more records (one per Doppler hypothesis in the
+ * datacube mode), each a header then n_elevation x n_azimuth x n_range
+ * float32 envelope values (pixel order of SonarImageGrid). Self-describing,
+ * so that a file written by filesink can be read back (tools/energyscape.py).
+ * Little-endian. */
+#define SONAR_ENERGYSCAPE_MEDIA_TYPE "application/x-sonar-energyscape"
+#define SONAR_ENERGYSCAPE_CAPS SONAR_ENERGYSCAPE_MEDIA_TYPE
+#define SONAR_ENERGYSCAPE_MAGIC "SONARES1"
+
+typedef struct
+{
+  char magic[8];                /* SONAR_ENERGYSCAPE_MAGIC */
+  guint32 header_size;          /* 96: the data follows */
+  guint32 n_azimuth, n_elevation, n_range;
+  guint64 ping_index;
+  double azimuth_first, azimuth_step;   /* degrees */
+  double elevation_first, elevation_step;       /* degrees */
+  double range_first, range_step;       /* m */
+  double velocity;              /* m/s hypothesis; NaN: maximum over several */
+  gint32 emitter;               /* -1: MIMO (all emitters), else one emitter */
+  guint32 reserved;
+} SonarEnergyscapeHeader;
+
+G_STATIC_ASSERT (sizeof (SonarEnergyscapeHeader) == 96);
+
+GstCaps *sonar_energyscape_caps_new (const SonarImageGrid * grid,
+    guint records);
+gboolean sonar_energyscape_caps_parse (const GstCaps * caps,
+    SonarImageGrid * grid, guint * records);
+void sonar_energyscape_header_init (SonarEnergyscapeHeader * header,
+    const SonarImageGrid * grid, guint64 ping_index, double velocity,
+    int emitter);
+/* Grid of a header; FALSE when it is not a valid record header. */
+gboolean sonar_energyscape_header_parse (const SonarEnergyscapeHeader *
+    header, SonarImageGrid * grid);
 
 G_END_DECLS
 

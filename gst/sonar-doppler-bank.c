@@ -14,6 +14,9 @@ struct _SonarDopplerBank
   guint max_length;
   guint *lengths;               /* [i] */
   float *templates;             /* [n][i][max_length] */
+  gboolean has_band;
+  SonarBand band;
+  SonarComplex *spectra;        /* [i][n][n_bins] */
 };
 
 double
@@ -95,6 +98,7 @@ sonar_doppler_bank_unref (SonarDopplerBank * bank)
     sonar_setup_unref (bank->setup);
     g_free (bank->lengths);
     g_free (bank->templates);
+    g_free (bank->spectra);
     g_free (bank);
   }
 }
@@ -147,13 +151,37 @@ sonar_doppler_bank_template (const SonarDopplerBank * bank, guint n, guint i,
 }
 
 void
-sonar_doppler_bank_spectra (const SonarDopplerBank * bank, guint i,
-    SonarSpectrum * analyzer, guint n_bins, SonarComplex * out)
+sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
+    const SonarBand * band)
 {
-  for (guint n = 0; n < bank->setup->geometry.n_emitters; n++) {
-    guint length;
-    const float *t = sonar_doppler_bank_template (bank, n, i, &length);
-    sonar_spectrum_process (analyzer, t, length, 1, out + (gsize) n * n_bins,
-        NULL);
+  const guint n_emitters = bank->setup->geometry.n_emitters;
+  const gsize per_velocity = (gsize) n_emitters * band->n_bins;
+  g_autoptr (SonarSpectrum) analyzer = sonar_spectrum_new (band);
+
+  g_free (bank->spectra);
+  bank->spectra = g_new (SonarComplex, per_velocity * bank->n_velocities);
+  bank->band = *band;
+  bank->has_band = TRUE;
+  for (guint i = 0; i < bank->n_velocities; i++) {
+    for (guint n = 0; n < n_emitters; n++) {
+      guint length;
+      const float *t = sonar_doppler_bank_template (bank, n, i, &length);
+      sonar_spectrum_process (analyzer, t, length, 1,
+          bank->spectra + i * per_velocity + (gsize) n * band->n_bins, NULL);
+    }
   }
+}
+
+const SonarBand *
+sonar_doppler_bank_band (const SonarDopplerBank * bank)
+{
+  return bank->has_band ? &bank->band : NULL;
+}
+
+const SonarComplex *
+sonar_doppler_bank_spectra (const SonarDopplerBank * bank, guint i)
+{
+  g_return_val_if_fail (bank->has_band, NULL);
+  return bank->spectra + (gsize) i * bank->setup->geometry.n_emitters *
+      bank->band.n_bins;
 }

@@ -46,10 +46,16 @@ double sonar_doppler_scale (double speed_of_sound, double v);
 const float *sonar_doppler_bank_template (const SonarDopplerBank * bank,
     guint n, guint i, guint * length);
 
-/* Spectra of all emitters' templates at velocity index @i on the band of
- * @analyzer, into out[n_emitters * n_bins]. */
-void sonar_doppler_bank_spectra (const SonarDopplerBank * bank, guint i,
-    SonarSpectrum * analyzer, guint n_bins, SonarComplex * out);
+/* Computes every template's spectrum on @band, once, for the matched
+ * filters downstream: call it while the bank is not shared yet. */
+void sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
+    const SonarBand * band);
+/* The band the spectra are on (NULL before prepare_band). */
+const SonarBand *sonar_doppler_bank_band (const SonarDopplerBank * bank);
+/* Spectra of all emitters' templates at velocity index @i:
+ * n_emitters x n_bins of the prepared band. */
+const SonarComplex *sonar_doppler_bank_spectra (const SonarDopplerBank *
+    bank, guint i);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarDopplerBank, sonar_doppler_bank_unref)
 

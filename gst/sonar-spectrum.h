@@ -32,6 +32,13 @@ guint sonar_fft_good_size (guint n);
 void sonar_band_init (SonarBand * band, double sample_rate,
     guint min_fft_size, double low, double high);
 
+static inline gboolean
+sonar_band_equal (const SonarBand * a, const SonarBand * b)
+{
+  return a->sample_rate == b->sample_rate && a->fft_size == b->fft_size
+      && a->first_bin == b->first_bin && a->n_bins == b->n_bins;
+}
+
 static inline double
 sonar_band_frequency (const SonarBand * band, guint bin)
 {

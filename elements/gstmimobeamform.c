@@ -1,0 +1,490 @@
+/* gstmimobeamform.c: mimobeamform, the MIMO virtual-array energyscape.
+ *
+ * Per ping it matched-filters the microphone spectra with the bank's
+ * templates and delay-and-sums them over emitters and microphones (paper
+ * eq. 10-13) into an image of direction x range (sonar-imager.h).
+ *
+ * mode=detection (default): the maximum over Doppler hypotheses spaced
+ * hypothesis-spacing m/s across the bank, so that fast movers, which a
+ * filter tuned to the wrong speed loses, appear too. mode=fixed: the image
+ * at one velocity. mode=datacube: one image per velocity of the bank (the
+ * paper's Fig. 3; costly, for comparison). emitter=n images one emitter's
+ * echoes only (the single-emitter images of Fig. 4f).
+ *
+ * Output: application/x-sonar-energyscape (docs/CONTRACTS.md): records of a
+ * 96-byte header and float32 pixels; filesink saves them as a file that
+ * tools/plot-energyscape.py draws. Each image carries the ping's spectra
+ * (SonarSpectraMeta) for velocityest.
+ */
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstmimobeamform.h"
+
+#include <math.h>
+#include <string.h>
+
+GST_DEBUG_CATEGORY_STATIC (mimo_beamform_debug);
+#define GST_CAT_DEFAULT mimo_beamform_debug
+
+typedef enum
+{
+  IMAGE_MODE_DETECTION,
+  IMAGE_MODE_FIXED,
+  IMAGE_MODE_DATACUBE,
+} ImageMode;
+
+#define GST_TYPE_SONAR_IMAGE_MODE (sonar_image_mode_get_type ())
+static GType
+sonar_image_mode_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {IMAGE_MODE_DETECTION, "Maximum over Doppler hypotheses across the bank",
+        "detection"},
+    {IMAGE_MODE_FIXED, "One image at the velocity property", "fixed"},
+    {IMAGE_MODE_DATACUBE, "One image per velocity of the bank (costly)",
+        "datacube"},
+    {0, NULL, NULL}
+  };
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type, g_enum_register_static ("GstSonarImageMode",
+            values));
+  return type;
+}
+
+#define DEFAULT_MODE IMAGE_MODE_DETECTION
+#define DEFAULT_VELOCITY 0.0
+#define DEFAULT_HYPOTHESIS_SPACING 0.3
+#define DEFAULT_EMITTER -1
+
+enum
+{
+  PROP_0,
+  PROP_AZIMUTH_MIN,
+  PROP_AZIMUTH_MAX,
+  PROP_AZIMUTH_COUNT,
+  PROP_ELEVATION_MIN,
+  PROP_ELEVATION_MAX,
+  PROP_ELEVATION_COUNT,
+  PROP_RANGE_MIN,
+  PROP_RANGE_MAX,
+  PROP_RANGE_RESOLUTION,
+  PROP_FOCUS_ZONES,
+  PROP_MODE,
+  PROP_VELOCITY,
+  PROP_HYPOTHESIS_SPACING,
+  PROP_EMITTER,
+};
+
+struct _GstMimoBeamform
+{
+  GstSonarFilter parent;
+
+  /* Properties, protected by the object lock. */
+  SonarImagerParams params;
+  ImageMode mode;
+  double velocity;
+  double hypothesis_spacing;
+  int emitter;
+
+  /* Configured state. */
+  SonarImager *imager;
+  guint channels;
+  ImageMode active_mode;
+  int active_emitter;
+  guint n_hypotheses;
+  guint *hypotheses;            /* bank velocity indices */
+  const SonarComplex **templates;
+  double *velocities;
+};
+
+G_DEFINE_TYPE (GstMimoBeamform, gst_mimo_beamform, GST_TYPE_SONAR_FILTER);
+GST_ELEMENT_REGISTER_DEFINE_WITH_CODE (mimobeamform, "mimobeamform",
+    GST_RANK_NONE, GST_TYPE_MIMO_BEAMFORM,
+    GST_DEBUG_CATEGORY_INIT (mimo_beamform_debug, "mimobeamform", 0,
+        "MIMO virtual-array beamformer"));
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_SPECTRA_CAPS));
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
+
+/* Bank indices of the detection hypotheses: multiples of @spacing within
+ * the bank, plus its ends when they lie more than half a spacing beyond. */
+static guint
+choose_hypotheses (const SonarDopplerBank * bank, double spacing,
+    guint * out)
+{
+  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
+  const double lo = sonar_doppler_bank_velocity (bank, 0);
+  const double hi = sonar_doppler_bank_velocity (bank, n_bank - 1);
+  guint n = 0;
+
+  if (lo + 0.5 * spacing < ceil (lo / spacing) * spacing)
+    out[n++] = 0;
+  for (double k = ceil (lo / spacing); k * spacing <= hi + 1e-9; k++) {
+    const guint i = sonar_doppler_bank_nearest (bank, k * spacing);
+    if (n == 0 || out[n - 1] != i)
+      out[n++] = i;
+  }
+  if (n == 0 || (out[n - 1] != n_bank - 1
+          && sonar_doppler_bank_velocity (bank, out[n - 1]) + 0.5 * spacing
+          < hi))
+    out[n++] = n_bank - 1;
+  return n;
+}
+
+static GstCaps *
+gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
+    GError ** error)
+{
+  GstMimoBeamform *self = GST_MIMO_BEAMFORM (filter);
+  SonarSetup *setup = gst_sonar_filter_get_setup (filter);
+  SonarDopplerBank *bank = gst_sonar_filter_get_bank (filter);
+  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
+  SonarImagerParams params;
+  SonarBand band;
+  double velocity, spacing;
+  guint records;
+
+  if (!in_caps || !sonar_spectra_caps_parse (in_caps, &self->channels, &band)
+      || !sonar_band_equal (&band, gst_sonar_filter_get_band (filter))) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+        "mimobeamform: the input spectra are not on the Doppler bank's band");
+    return NULL;
+  }
+
+  GST_OBJECT_LOCK (self);
+  params = self->params;
+  self->active_mode = self->mode;
+  self->active_emitter = self->emitter;
+  velocity = self->velocity;
+  spacing = self->hypothesis_spacing;
+  GST_OBJECT_UNLOCK (self);
+
+  if (self->active_emitter >= (int) setup->geometry.n_emitters) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+        "mimobeamform: emitter %d does not exist (the sensor has %u: 0 to "
+        "%u, or -1 for all)", self->active_emitter,
+        setup->geometry.n_emitters, setup->geometry.n_emitters - 1);
+    return NULL;
+  }
+  self->imager = sonar_imager_new (setup, &band, &params, error);
+  if (!self->imager)
+    return NULL;
+
+  self->hypotheses = g_new (guint, n_bank + 2);
+  switch (self->active_mode) {
+    case IMAGE_MODE_DETECTION:
+      self->n_hypotheses = choose_hypotheses (bank, spacing,
+          self->hypotheses);
+      break;
+    case IMAGE_MODE_FIXED:{
+      const guint i = sonar_doppler_bank_nearest (bank, velocity);
+      if (fabs (sonar_doppler_bank_velocity (bank, i) - velocity) >
+          0.5 * sonar_doppler_bank_step (bank) + 1e-9) {
+        g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+            "mimobeamform: velocity %g m/s is outside the Doppler bank "
+            "(%g to %g m/s)", velocity, sonar_doppler_bank_velocity (bank, 0),
+            sonar_doppler_bank_velocity (bank, n_bank - 1));
+        return NULL;
+      }
+      self->hypotheses[0] = i;
+      self->n_hypotheses = 1;
+      break;
+    }
+    case IMAGE_MODE_DATACUBE:
+      for (guint i = 0; i < n_bank; i++)
+        self->hypotheses[i] = i;
+      self->n_hypotheses = n_bank;
+      break;
+  }
+  self->templates = g_new (const SonarComplex *, self->n_hypotheses);
+  self->velocities = g_new (double, self->n_hypotheses);
+  for (guint h = 0; h < self->n_hypotheses; h++) {
+    self->templates[h] = sonar_doppler_bank_spectra (bank,
+        self->hypotheses[h]);
+    self->velocities[h] = sonar_doppler_bank_velocity (bank,
+        self->hypotheses[h]);
+  }
+  GST_INFO_OBJECT (self, "%u Doppler hypotheses", self->n_hypotheses);
+  records = self->active_mode == IMAGE_MODE_DATACUBE ? self->n_hypotheses : 1;
+  return sonar_energyscape_caps_new (sonar_imager_grid (self->imager),
+      records);
+}
+
+static void
+gst_mimo_beamform_unconfigure (GstSonarFilter * filter)
+{
+  GstMimoBeamform *self = GST_MIMO_BEAMFORM (filter);
+
+  g_clear_pointer (&self->imager, sonar_imager_free);
+  g_clear_pointer (&self->hypotheses, g_free);
+  g_clear_pointer (&self->templates, g_free);
+  g_clear_pointer (&self->velocities, g_free);
+}
+
+static GstFlowReturn
+gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
+{
+  GstMimoBeamform *self = GST_MIMO_BEAMFORM (filter);
+  const SonarImageGrid *grid = sonar_imager_grid (self->imager);
+  const gsize pixels = sonar_image_grid_size (grid);
+  const gsize record_size = sizeof (SonarEnergyscapeHeader) +
+      sizeof (float) * pixels;
+  const gboolean datacube = self->active_mode == IMAGE_MODE_DATACUBE;
+  const guint records = datacube ? self->n_hypotheses : 1;
+  const gsize expected = sizeof (SonarComplex) * self->channels *
+      gst_sonar_filter_get_band (filter)->n_bins;
+  GstBuffer *out;
+  GstMapInfo in_map, out_map;
+
+  if (gst_buffer_get_size (buffer) != expected) {
+    GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("A spectra buffer of %"
+            G_GSIZE_FORMAT " bytes, expected %" G_GSIZE_FORMAT,
+            gst_buffer_get_size (buffer), expected), (NULL));
+    gst_buffer_unref (buffer);
+    return GST_FLOW_ERROR;
+  }
+  out = gst_buffer_new_allocate (NULL, record_size * records, NULL);
+  gst_buffer_map (buffer, &in_map, GST_MAP_READ);
+  gst_buffer_map (out, &out_map, GST_MAP_WRITE);
+  for (guint r = 0; r < records; r++) {
+    guint8 *record = out_map.data + r * record_size;
+    const guint first = datacube ? r : 0;
+    const guint count = datacube ? 1 : self->n_hypotheses;
+    const double velocity = count == 1 ? self->velocities[first] : NAN;
+
+    sonar_energyscape_header_init ((SonarEnergyscapeHeader *) record, grid,
+        GST_BUFFER_OFFSET (buffer), velocity, self->active_emitter);
+    sonar_imager_process (self->imager, (const SonarComplex *) in_map.data,
+        count, self->templates + first, self->velocities + first,
+        self->active_emitter, (float *) (record +
+            sizeof (SonarEnergyscapeHeader)));
+  }
+  gst_buffer_unmap (out, &out_map);
+  gst_buffer_unmap (buffer, &in_map);
+
+  gst_buffer_copy_into (out, buffer, GST_BUFFER_COPY_TIMESTAMPS |
+      GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_META, 0, -1);
+  sonar_buffer_add_spectra_meta (out, buffer, self->channels,
+      gst_sonar_filter_get_band (filter));
+  gst_buffer_unref (buffer);
+  return gst_sonar_filter_push (filter, out);
+}
+
+static void
+gst_mimo_beamform_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  GstMimoBeamform *self = GST_MIMO_BEAMFORM (object);
+  SonarImagerParams *p = &self->params;
+
+  GST_OBJECT_LOCK (self);
+  switch (prop_id) {
+    case PROP_AZIMUTH_MIN:
+      p->azimuth_min = g_value_get_double (value);
+      break;
+    case PROP_AZIMUTH_MAX:
+      p->azimuth_max = g_value_get_double (value);
+      break;
+    case PROP_AZIMUTH_COUNT:
+      p->n_azimuth = g_value_get_uint (value);
+      break;
+    case PROP_ELEVATION_MIN:
+      p->elevation_min = g_value_get_double (value);
+      break;
+    case PROP_ELEVATION_MAX:
+      p->elevation_max = g_value_get_double (value);
+      break;
+    case PROP_ELEVATION_COUNT:
+      p->n_elevation = g_value_get_uint (value);
+      break;
+    case PROP_RANGE_MIN:
+      p->range_min = g_value_get_double (value);
+      break;
+    case PROP_RANGE_MAX:
+      p->range_max = g_value_get_double (value);
+      break;
+    case PROP_RANGE_RESOLUTION:
+      p->range_resolution = g_value_get_double (value);
+      break;
+    case PROP_FOCUS_ZONES:
+      p->focus_zones = g_value_get_uint (value);
+      break;
+    case PROP_MODE:
+      self->mode = g_value_get_enum (value);
+      break;
+    case PROP_VELOCITY:
+      self->velocity = g_value_get_double (value);
+      break;
+    case PROP_HYPOTHESIS_SPACING:
+      self->hypothesis_spacing = g_value_get_double (value);
+      break;
+    case PROP_EMITTER:
+      self->emitter = g_value_get_int (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (self);
+}
+
+static void
+gst_mimo_beamform_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  GstMimoBeamform *self = GST_MIMO_BEAMFORM (object);
+  const SonarImagerParams *p = &self->params;
+
+  GST_OBJECT_LOCK (self);
+  switch (prop_id) {
+    case PROP_AZIMUTH_MIN:
+      g_value_set_double (value, p->azimuth_min);
+      break;
+    case PROP_AZIMUTH_MAX:
+      g_value_set_double (value, p->azimuth_max);
+      break;
+    case PROP_AZIMUTH_COUNT:
+      g_value_set_uint (value, p->n_azimuth);
+      break;
+    case PROP_ELEVATION_MIN:
+      g_value_set_double (value, p->elevation_min);
+      break;
+    case PROP_ELEVATION_MAX:
+      g_value_set_double (value, p->elevation_max);
+      break;
+    case PROP_ELEVATION_COUNT:
+      g_value_set_uint (value, p->n_elevation);
+      break;
+    case PROP_RANGE_MIN:
+      g_value_set_double (value, p->range_min);
+      break;
+    case PROP_RANGE_MAX:
+      g_value_set_double (value, p->range_max);
+      break;
+    case PROP_RANGE_RESOLUTION:
+      g_value_set_double (value, p->range_resolution);
+      break;
+    case PROP_FOCUS_ZONES:
+      g_value_set_uint (value, p->focus_zones);
+      break;
+    case PROP_MODE:
+      g_value_set_enum (value, self->mode);
+      break;
+    case PROP_VELOCITY:
+      g_value_set_double (value, self->velocity);
+      break;
+    case PROP_HYPOTHESIS_SPACING:
+      g_value_set_double (value, self->hypothesis_spacing);
+      break;
+    case PROP_EMITTER:
+      g_value_set_int (value, self->emitter);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (self);
+}
+
+static void
+gst_mimo_beamform_init (GstMimoBeamform * self)
+{
+  sonar_imager_params_init_default (&self->params);
+  self->mode = DEFAULT_MODE;
+  self->velocity = DEFAULT_VELOCITY;
+  self->hypothesis_spacing = DEFAULT_HYPOTHESIS_SPACING;
+  self->emitter = DEFAULT_EMITTER;
+}
+
+static void
+gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstSonarFilterClass *filter_class = GST_SONAR_FILTER_CLASS (klass);
+  const GParamFlags flags = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
+      | GST_PARAM_MUTABLE_READY;
+  SonarImagerParams d;
+
+  sonar_imager_params_init_default (&d);
+  gobject_class->set_property = gst_mimo_beamform_set_property;
+  gobject_class->get_property = gst_mimo_beamform_get_property;
+
+  g_object_class_install_property (gobject_class, PROP_AZIMUTH_MIN,
+      g_param_spec_double ("azimuth-min", "Minimum azimuth", "First "
+          "direction of the image, degrees from boresight towards +x",
+          -90.0, 90.0, d.azimuth_min, flags));
+  g_object_class_install_property (gobject_class, PROP_AZIMUTH_MAX,
+      g_param_spec_double ("azimuth-max", "Maximum azimuth", "Last "
+          "direction of the image, degrees", -90.0, 90.0, d.azimuth_max,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_AZIMUTH_COUNT,
+      g_param_spec_uint ("azimuth-count", "Azimuth count", "Number of "
+          "azimuths, evenly spaced from azimuth-min to azimuth-max", 1, 65536,
+          d.n_azimuth, flags));
+  g_object_class_install_property (gobject_class, PROP_ELEVATION_MIN,
+      g_param_spec_double ("elevation-min", "Minimum elevation", "Lowest "
+          "elevation, degrees towards +y (0 with elevation-count=1: the "
+          "horizontal 2-D fan)", -90.0, 90.0, d.elevation_min, flags));
+  g_object_class_install_property (gobject_class, PROP_ELEVATION_MAX,
+      g_param_spec_double ("elevation-max", "Maximum elevation", "Highest "
+          "elevation, degrees", -90.0, 90.0, d.elevation_max, flags));
+  g_object_class_install_property (gobject_class, PROP_ELEVATION_COUNT,
+      g_param_spec_uint ("elevation-count", "Elevation count", "Number of "
+          "elevations (1: a 2-D image; more: a 3-D azimuth x elevation grid)",
+          1, 65536, d.n_elevation, flags));
+  g_object_class_install_property (gobject_class, PROP_RANGE_MIN,
+      g_param_spec_double ("range-min", "Minimum range", "Nearest range of "
+          "the image, in m", 0.01, 1000.0, d.range_min, flags));
+  g_object_class_install_property (gobject_class, PROP_RANGE_MAX,
+      g_param_spec_double ("range-max", "Maximum range", "Farthest range of "
+          "the image, in m (at most what a ping records)", 0.01, 1000.0,
+          d.range_max, flags));
+  g_object_class_install_property (gobject_class, PROP_RANGE_RESOLUTION,
+      g_param_spec_double ("range-resolution", "Range resolution", "Largest "
+          "allowed spacing of the range bins, in m (the band may make them "
+          "finer)", 0.0001, 1.0, d.range_resolution, flags));
+  g_object_class_install_property (gobject_class, PROP_FOCUS_ZONES,
+      g_param_spec_uint ("focus-zones", "Focus zones", "Range zones, even "
+          "in 1/range, each focused at its own range (near-field "
+          "correction: more zones, sharper near images, more work)", 1, 64,
+          d.focus_zones, flags));
+  g_object_class_install_property (gobject_class, PROP_MODE,
+      g_param_spec_enum ("mode", "Mode", "Which Doppler hypotheses to image",
+          GST_TYPE_SONAR_IMAGE_MODE, DEFAULT_MODE, flags));
+  g_object_class_install_property (gobject_class, PROP_VELOCITY,
+      g_param_spec_double ("velocity", "Velocity", "Radial velocity of the "
+          "image in mode=fixed, in m/s (the nearest bank velocity)", -80.0,
+          80.0, DEFAULT_VELOCITY, flags));
+  g_object_class_install_property (gobject_class, PROP_HYPOTHESIS_SPACING,
+      g_param_spec_double ("hypothesis-spacing", "Hypothesis spacing",
+          "Largest spacing of the Doppler hypotheses of mode=detection, in "
+          "m/s (one emitter's Doppler main lobe is about 0.33 m/s wide)",
+          0.001, 100.0, DEFAULT_HYPOTHESIS_SPACING, flags));
+  g_object_class_install_property (gobject_class, PROP_EMITTER,
+      g_param_spec_int ("emitter", "Emitter", "-1: the MIMO image of all "
+          "emitters; n: the image of emitter n alone", -1, 63,
+          DEFAULT_EMITTER, flags));
+
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+  gst_element_class_set_static_metadata (element_class,
+      "MIMO sonar beamformer", "Filter/Analyzer/Sonar",
+      "Matched-filters and delay-and-sums every emitter-microphone pair into "
+      "an energyscape (direction x range) of the MIMO virtual array",
+      "gst-sonar-velocity developers");
+
+  filter_class->needs_bank = TRUE;
+  filter_class->configure = GST_DEBUG_FUNCPTR (gst_mimo_beamform_configure);
+  filter_class->unconfigure =
+      GST_DEBUG_FUNCPTR (gst_mimo_beamform_unconfigure);
+  filter_class->process = GST_DEBUG_FUNCPTR (gst_mimo_beamform_process);
+
+  gst_type_mark_as_plugin_api (GST_TYPE_SONAR_FILTER, 0);
+  gst_type_mark_as_plugin_api (GST_TYPE_SONAR_IMAGE_MODE, 0);
+}

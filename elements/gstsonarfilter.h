@@ -1,0 +1,63 @@
+/* gstsonarfilter.h: the base of the processing elements (dopplerbank,
+ * mimobeamform, wardcluster, velocityest).
+ *
+ * Every stage needs the sensor's set-up (and, after dopplerbank, the
+ * Doppler bank) before it can say what it outputs. The base holds the
+ * input caps and segment back until the first buffer, when the set-up is
+ * known; it then asks the subclass to configure itself, pushes the
+ * subclass's output caps, the segment, the set-up event and the bank event
+ * in that order, and hands buffers to the subclass from then on. A new
+ * set-up, bank or input caps configures again before the next buffer.
+ */
+#ifndef GST_SONAR_FILTER_H
+#define GST_SONAR_FILTER_H
+
+#include <gst/gst.h>
+
+#include "sonar-contracts.h"
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_SONAR_FILTER (gst_sonar_filter_get_type ())
+G_DECLARE_DERIVABLE_TYPE (GstSonarFilter, gst_sonar_filter, GST,
+    SONAR_FILTER, GstElement)
+
+struct _GstSonarFilterClass
+{
+  GstElementClass parent_class;
+
+  /* Whether configure() needs the Doppler bank event (all but dopplerbank). */
+  gboolean needs_bank;
+
+  /* Makes the subclass ready for @in_caps with the filter's set-up (and
+   * bank); returns the output caps, or NULL with @error set: the base posts
+   * it as the element's error. May set a new bank with
+   * gst_sonar_filter_set_bank(). */
+  GstCaps *(*configure) (GstSonarFilter * filter, GstCaps * in_caps,
+      GError ** error);
+  /* Processes one input buffer (takes it); pushes output with
+   * gst_sonar_filter_push(). */
+  GstFlowReturn (*process) (GstSonarFilter * filter, GstBuffer * buffer);
+  /* Forgets buffered data (flush), or handles what is left (EOS, drain ==
+   * TRUE). Optional. */
+  void (*reset) (GstSonarFilter * filter, gboolean drain);
+  /* Frees what configure() made (also on stop). Optional. */
+  void (*unconfigure) (GstSonarFilter * filter);
+};
+
+/* Valid during configure() and process(). */
+SonarSetup *gst_sonar_filter_get_setup (GstSonarFilter * filter);
+SonarDopplerBank *gst_sonar_filter_get_bank (GstSonarFilter * filter);
+const SonarBand *gst_sonar_filter_get_band (GstSonarFilter * filter);
+
+/* dopplerbank: the bank it made, sent downstream after the set-up. */
+void gst_sonar_filter_set_bank (GstSonarFilter * filter,
+    SonarDopplerBank * bank, const SonarBand * band);
+
+GstFlowReturn gst_sonar_filter_push (GstSonarFilter * filter,
+    GstBuffer * buffer);
+GstPad *gst_sonar_filter_get_srcpad (GstSonarFilter * filter);
+
+G_END_DECLS
+
+#endif

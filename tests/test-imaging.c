@@ -1,0 +1,286 @@
+/* test-imaging.c: the Doppler bank and the MIMO imager against the
+ * simulator's ground truth, without a pipeline. */
+#include <fftw3.h>
+#include <math.h>
+#include <string.h>
+
+#include "sonar-doppler-bank.h"
+#include "sonar-imager.h"
+#include "sonar-simulator.h"
+#include "sonar-test-util.h"
+#include "sonar-waveform.h"
+
+/* The default sensor with a window long enough for 5 m. */
+static SonarSetup *
+default_setup (void)
+{
+  SonarWaveformParams wp;
+  SonarGeometry g;
+  float *w;
+  SonarSetup *setup;
+
+  sonar_waveform_params_init_default (&wp);
+  sonar_geometry_init_default (&g);
+  w = g_new (float, wp.n_emitters * wp.length);
+  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
+  setup = sonar_setup_new (wp.sample_rate, 343.0, wp.band_low, wp.band_high,
+      &g, wp.length, w, 17500, NULL);
+  g_free (w);
+  sonar_geometry_clear (&g);
+  return setup;
+}
+
+typedef struct
+{
+  SonarSetup *setup;
+  SonarBand band;
+  SonarSpectrum *analyzer;
+  SonarComplex *mic_spectra;
+  float *ping;
+} Chain;
+
+static void
+chain_init (Chain * c, guint max_template)
+{
+  c->setup = default_setup ();
+  sonar_band_init (&c->band, c->setup->sample_rate,
+      c->setup->ping_length + max_template, c->setup->band_low,
+      c->setup->band_high);
+  c->analyzer = sonar_spectrum_new (&c->band);
+  c->mic_spectra = g_new (SonarComplex, (gsize) c->band.n_bins *
+      c->setup->geometry.n_microphones);
+  c->ping = g_new (float, (gsize) c->setup->ping_length *
+      c->setup->geometry.n_microphones);
+}
+
+static void
+chain_clear (Chain * c)
+{
+  sonar_spectrum_free (c->analyzer);
+  g_free (c->mic_spectra);
+  g_free (c->ping);
+  sonar_setup_unref (c->setup);
+}
+
+/* Simulates @json (noise-free unless @noise) and takes the microphone
+ * spectra; returns the truth of reflector 0. */
+static SonarTruth
+chain_simulate (Chain * c, const char *json, double noise)
+{
+  SonarScene scene;
+  SonarSimulatorParams params;
+  SonarSimulator *sim;
+  SonarTruth truth[16];
+  GError *error = NULL;
+
+  g_assert_true (sonar_scene_load_data (&scene, json, "test", &error));
+  g_assert_no_error (error);
+  sonar_simulator_params_init_default (&params);
+  params.noise_amplitude = noise;
+  sim = sonar_simulator_new (c->setup, &params, NULL);
+  sonar_simulator_render (sim, &scene, 0, 0.0, c->ping, truth);
+  for (guint j = 0; j < c->setup->geometry.n_microphones; j++)
+    sonar_spectrum_process (c->analyzer, c->ping + (gsize) j *
+        c->setup->ping_length, c->setup->ping_length, 1,
+        c->mic_spectra + (gsize) j * c->band.n_bins, NULL);
+  sonar_simulator_free (sim);
+  sonar_scene_clear (&scene);
+  return truth[0];
+}
+
+/* Images at the bank velocities @indices (maximum over them). */
+static float *
+chain_image (Chain * c, SonarDopplerBank * bank, const guint * indices,
+    guint n, int emitter, const SonarImagerParams * params,
+    const SonarImageGrid ** grid_out, SonarImager ** imager_out)
+{
+  GError *error = NULL;
+  SonarImager *imager = sonar_imager_new (c->setup, &c->band, params, &error);
+  const SonarComplex **templates = g_new (const SonarComplex *, n);
+  double *velocities = g_new (double, n);
+  float *image;
+
+  g_assert_no_error (error);
+  if (!sonar_doppler_bank_band (bank))
+    sonar_doppler_bank_prepare_band (bank, &c->band);
+  for (guint h = 0; h < n; h++) {
+    templates[h] = sonar_doppler_bank_spectra (bank, indices[h]);
+    velocities[h] = sonar_doppler_bank_velocity (bank, indices[h]);
+  }
+  image = g_new (float, sonar_image_grid_size (sonar_imager_grid (imager)));
+  sonar_imager_process (imager, c->mic_spectra, n, templates, velocities,
+      emitter, image);
+  *grid_out = sonar_imager_grid (imager);
+  *imager_out = imager;
+  g_free (templates);
+  g_free (velocities);
+  return image;
+}
+
+static float
+image_peak (const float *image, const SonarImageGrid * grid, double *azimuth,
+    double *elevation, double *range)
+{
+  gsize best = 0;
+  const gsize size = sonar_image_grid_size (grid);
+  for (gsize i = 1; i < size; i++)
+    if (image[i] > image[best])
+      best = i;
+  *range = grid->range_first + (best % grid->n_range) * grid->range_step;
+  *azimuth = grid->azimuth_first + (best / grid->n_range % grid->n_azimuth)
+      * grid->azimuth_step;
+  *elevation = grid->elevation_first + (best / grid->n_range /
+      grid->n_azimuth) * grid->elevation_step;
+  return image[best];
+}
+
+/* Templates are the exact band-limited time-scaled emission: compared with
+ * a double-precision evaluation of the emission's Fourier series. */
+static void
+test_bank_templates_exact (void)
+{
+  g_autoptr (SonarSetup) setup = default_setup ();
+  g_autoptr (SonarDopplerBank) bank = NULL;
+  const guint L = setup->waveform_length, N = 8192;
+  const float *w = sonar_setup_waveform (setup, 3);
+  double *x = fftw_alloc_real (N);
+  fftw_complex *X = fftw_alloc_complex (N / 2 + 1);
+  fftw_plan plan = fftw_plan_dft_r2c_1d (N, x, X, FFTW_ESTIMATE);
+  const double velocities[] = { -7.0, -0.02, 0.0, 0.02, 7.0 };
+  GError *error = NULL;
+
+  bank = sonar_doppler_bank_new (setup, -7.0, 7.0, 0.01, &error);
+  g_assert_no_error (error);
+  g_assert_cmpuint (sonar_doppler_bank_n_velocities (bank), ==, 1401);
+  memset (x, 0, sizeof (double) * N);
+  for (guint i = 0; i < L; i++)
+    x[i] = w[i];
+  fftw_execute (plan);
+
+  for (guint t = 0; t < G_N_ELEMENTS (velocities); t++) {
+    const guint i = sonar_doppler_bank_nearest (bank, velocities[t]);
+    const double v = sonar_doppler_bank_velocity (bank, i);
+    const double alpha = (343.0 - v) / (343.0 + v);
+    guint length;
+    const float *tpl = sonar_doppler_bank_template (bank, 3, i, &length);
+    double err2 = 0, sig2 = 0;
+
+    g_assert_cmpfloat (fabs (v - velocities[t]), <, 1e-9);
+    g_assert_cmpuint (length, ==, (guint) ceil ((L - 1) / alpha) + 1);
+    /* Every 7th sample: the exact value is an O(N) sum. */
+    for (guint k = 0; k < length; k += 7) {
+      const double tau = alpha * k;
+      double exact = X[0][0];
+      for (guint b = 1; b < N / 2; b++) {
+        const double ph = 2.0 * M_PI * b * tau / N;
+        exact += 2.0 * (X[b][0] * cos (ph) - X[b][1] * sin (ph));
+      }
+      exact *= sqrt (alpha) / N;
+      err2 += (tpl[k] - exact) * (tpl[k] - exact);
+      sig2 += exact * exact;
+    }
+    g_test_message ("v = %+.2f m/s: template error %.1f dB", v,
+        10 * log10 (err2 / sig2));
+    g_assert_cmpfloat (10 * log10 (err2 / sig2), <, -80.0);
+  }
+  fftw_destroy_plan (plan);
+  fftw_free (x);
+  fftw_free (X);
+}
+
+static void
+test_bank_errors (void)
+{
+  g_autoptr (SonarSetup) setup = default_setup ();
+  GError *error = NULL;
+
+  g_assert_null (sonar_doppler_bank_new (setup, 1, -1, 0.1, &error));
+  g_assert_nonnull (strstr (error->message, "min <= max"));
+  g_clear_error (&error);
+  g_assert_null (sonar_doppler_bank_new (setup, -1, 1, 0, &error));
+  g_assert_nonnull (strstr (error->message, "step 0 m/s must be positive"));
+  g_clear_error (&error);
+  g_assert_null (sonar_doppler_bank_new (setup, -100, 1, 0.1, &error));
+  g_assert_nonnull (strstr (error->message, "|v| < c / 4"));
+  g_clear_error (&error);
+}
+
+/* A point reflector appears at its azimuth (+-1 bin) and range (+-1 cm). */
+static void
+check_point (Chain * c, SonarDopplerBank * bank, const SonarImagerParams * p,
+    double range, double azimuth, double elevation)
+{
+  g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{\"range\": "
+      "%g, \"azimuth\": %g, \"elevation\": %g}]}", range, azimuth, elevation);
+  const SonarTruth truth = chain_simulate (c, json, 0.0);
+  const guint zero = sonar_doppler_bank_nearest (bank, 0.0);
+  const SonarImageGrid *grid;
+  SonarImager *imager;
+  float *image = chain_image (c, bank, &zero, 1, -1, p, &grid, &imager);
+  double az, el, r;
+
+  image_peak (image, grid, &az, &el, &r);
+  g_test_message ("truth %.3f m %.1f/%.1f deg -> peak %.4f m %.1f/%.1f deg",
+      truth.range, truth.azimuth, truth.elevation, r, az, el);
+  g_assert_cmpfloat (fabs (az - truth.azimuth), <=, grid->azimuth_step + 1e-9);
+  if (grid->n_elevation > 1)
+    g_assert_cmpfloat (fabs (el - truth.elevation), <=,
+        grid->elevation_step + 1e-9);
+  g_assert_cmpfloat (fabs (r - truth.range), <=, 0.01);
+  g_free (image);
+  sonar_imager_free (imager);
+}
+
+static void
+test_point_reflectors_2d (void)
+{
+  Chain c;
+  g_autoptr (SonarDopplerBank) bank = NULL;
+  SonarImagerParams p;
+  const double cases[][2] = {
+    {0.3, 0.0}, {0.3, 80.0}, {0.35, -45.0}, {1.0, 20.0}, {2.0, -80.0},
+    {4.8, 80.0}, {4.8, -30.0}, {4.8, 0.0},
+  };
+
+  chain_init (&c, 4100);
+  bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
+  sonar_imager_params_init_default (&p);
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++)
+    check_point (&c, bank, &p, cases[i][0], cases[i][1], 0.0);
+  chain_clear (&c);
+}
+
+static void
+test_point_reflectors_3d (void)
+{
+  Chain c;
+  g_autoptr (SonarDopplerBank) bank = NULL;
+  SonarImagerParams p;
+  const double cases[][3] = {
+    {0.5, 20.0, 30.0}, {1.5, -60.0, -20.0}, {4.5, 10.0, 50.0},
+  };
+
+  chain_init (&c, 4100);
+  bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
+  sonar_imager_params_init_default (&p);
+  p.n_azimuth = 61;
+  p.azimuth_min = -90;
+  p.azimuth_max = 90;
+  p.n_elevation = 31;
+  p.elevation_min = -60;
+  p.elevation_max = 60;
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++)
+    check_point (&c, bank, &p, cases[i][0], cases[i][1], cases[i][2]);
+  chain_clear (&c);
+}
+
+int
+main (int argc, char **argv)
+{
+  g_test_init (&argc, &argv, NULL);
+  g_test_add_func ("/imaging/bank-templates-exact", test_bank_templates_exact);
+  g_test_add_func ("/imaging/bank-errors", test_bank_errors);
+  g_test_add_func ("/imaging/point-reflectors-2d", test_point_reflectors_2d);
+  g_test_add_func ("/imaging/point-reflectors-3d", test_point_reflectors_3d);
+  return g_test_run ();
+}

@@ -1,0 +1,396 @@
+#!/usr/bin/python3
+"""Tests of the command-line tools: sonar-waveforms, the ambiguity function
+(tools/ambiguity.py, tools/plot-ambiguity.py) and the energyscape reader and
+plotter (tools/energyscape.py, tools/plot-energyscape.py).
+
+Run as SONAR_BUILD_DIR=build SONAR_SOURCE_DIR=. /usr/bin/python3
+tests/test_tools.py; prints TAP and exits non-zero when a test fails.
+"""
+
+import atexit
+import importlib.util
+import json
+import math
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+import traceback
+
+import numpy as np
+
+SOURCE_DIR = pathlib.Path(os.environ.get(
+    "SONAR_SOURCE_DIR", pathlib.Path(__file__).resolve().parent.parent))
+BUILD_DIR = pathlib.Path(os.environ.get("SONAR_BUILD_DIR",
+                                        SOURCE_DIR / "build"))
+TOOLS = SOURCE_DIR / "tools"
+PROGRAM = BUILD_DIR / "tools" / "sonar-waveforms"
+PYTHON = "/usr/bin/python3"
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+sys.path.insert(0, str(TOOLS))
+import ambiguity  # noqa: E402
+import energyscape  # noqa: E402
+
+
+def load_script(name):
+    """Import a tools/*.py script whose name is not a module name."""
+    spec = importlib.util.spec_from_file_location(
+        name.replace("-", "_"), TOOLS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+plot_energyscape = load_script("plot-energyscape")
+
+TESTS = []
+TMP = pathlib.Path(tempfile.mkdtemp(prefix="sonar-test-tools-"))
+atexit.register(shutil.rmtree, TMP, ignore_errors=True)
+
+
+def test(function):
+    """Register a test case; its docstring's first line is its TAP name."""
+    TESTS.append(function)
+    return function
+
+
+def run(*args, check=True):
+    """Run a command, capturing text output."""
+    result = subprocess.run([str(a) for a in args], capture_output=True,
+                            text=True, timeout=60)
+    if check and result.returncode != 0:
+        raise AssertionError(f"{args} exited {result.returncode}: "
+                             f"{result.stderr.strip()}")
+    return result
+
+
+def assert_png(path):
+    """The file exists, is a PNG and is not empty."""
+    data = pathlib.Path(path).read_bytes()
+    assert data.startswith(PNG_SIGNATURE), f"{path} is not a PNG"
+    assert len(data) > 10000, f"{path} is only {len(data)} bytes"
+
+
+# sonar-waveforms ---------------------------------------------------------
+
+DEFAULT_JSON = {}
+
+
+def default_output():
+    """Standard output of sonar-waveforms without options (run once)."""
+    if not DEFAULT_JSON:
+        DEFAULT_JSON["text"] = run(PROGRAM).stdout
+    return DEFAULT_JSON["text"]
+
+
+@test
+def waveforms_default_file():
+    """sonar-waveforms: default file is 8 x 4000 at 450 kHz, finite, unit
+    peak"""
+    doc = json.loads(default_output())
+    assert set(doc) == {"description", "sample-rate", "waveforms"}, doc.keys()
+    assert doc["sample-rate"] == 450000, doc["sample-rate"]
+    rows = np.array(doc["waveforms"], dtype=np.float64)
+    assert rows.shape == (8, 4000), rows.shape
+    assert np.all(np.isfinite(rows))
+    peaks = np.abs(rows).max(axis=1)
+    assert np.allclose(peaks, 1.0, atol=1e-6), peaks
+
+
+@test
+def waveforms_reproducible():
+    """sonar-waveforms: two runs are identical, -o writes the same bytes"""
+    assert run(PROGRAM).stdout == default_output()
+    out = TMP / "default.json"
+    run(PROGRAM, "-o", out)
+    assert out.read_text() == default_output()
+
+
+@test
+def waveforms_file_same_as_sonarsrc():
+    """sonar-waveforms: sonarsrc with the default file records the same
+    samples as sonarsrc with its built-in waveforms"""
+    out = TMP / "default.json"
+    run(PROGRAM, "-o", out)
+    env = dict(os.environ, GST_PLUGIN_PATH_1_0=str(BUILD_DIR / "elements"),
+               GST_REGISTRY_1_0=str(TMP / "registry.bin"))
+    recordings = []
+    for extra in ([], [f"waveforms-file={out}"]):
+        raw = TMP / f"ping{len(recordings)}.raw"
+        result = subprocess.run(
+            ["gst-launch-1.0", "-q", "sonarsrc", "num-buffers=1", *extra,
+             "!", "filesink", f"location={raw}"],
+            env=env, capture_output=True, text=True, timeout=60)
+        assert result.returncode == 0, result.stderr
+        recordings.append(raw.read_bytes())
+    assert len(recordings[0]) > 0
+    # Bit for bit: 9 significant digits carry every float32 exactly.
+    assert recordings[0] == recordings[1]
+
+
+@test
+def waveforms_seed_changes_output():
+    """sonar-waveforms: --seed 2 (or -s 2) gives other waveforms"""
+    a = np.array(json.loads(default_output())["waveforms"])
+    seed2 = run(PROGRAM, "--seed", "2").stdout
+    b = np.array(json.loads(seed2)["waveforms"])
+    assert a.shape == b.shape
+    assert np.abs(a - b).max() > 0.1
+    assert run(PROGRAM, "-s", "2").stdout == seed2
+
+
+@test
+def waveforms_options_respected():
+    """sonar-waveforms: --kind, --emitters, --length are applied"""
+    doc = json.loads(run(PROGRAM, "--kind", "multisine", "--emitters", "3",
+                         "--length", "2000").stdout)
+    assert "multisine" in doc["description"]
+    assert np.array(doc["waveforms"]).shape == (3, 2000)
+
+
+@test
+def waveforms_band_above_nyquist_refused():
+    """sonar-waveforms: --band-high 300000 exits 1 naming band_high"""
+    result = run(PROGRAM, "--band-high", "300000", check=False)
+    assert result.returncode == 1, result.returncode
+    assert "band_high" in result.stderr, result.stderr
+    assert result.stdout == ""
+
+
+@test
+def waveforms_unknown_kind_refused():
+    """sonar-waveforms: unknown --kind exits 1 naming the kind"""
+    result = run(PROGRAM, "--kind", "sawtooth", check=False)
+    assert result.returncode == 1, result.returncode
+    assert "sawtooth" in result.stderr, result.stderr
+
+
+@test
+def waveforms_bad_number_refused():
+    """sonar-waveforms: --emitters -1 exits 1 naming the option"""
+    result = run(PROGRAM, "--emitters", "-1", check=False)
+    assert result.returncode == 1, result.returncode
+    assert "--emitters" in result.stderr, result.stderr
+
+
+# Ambiguity function ------------------------------------------------------
+
+
+def default_noise():
+    """Emitter 0 of the default waveforms (what sonarsrc emits)."""
+    return np.array(json.loads(default_output())["waveforms"][0])
+
+
+@test
+def time_scale_is_band_limited_interpolation():
+    """ambiguity: time_scale reproduces x at alpha 1 and matches a direct
+    DFT sum at alpha 0.99"""
+    x = default_noise()
+    assert np.abs(ambiguity.time_scale(x, 1.0) - x).max() < 1e-9
+    alpha = 0.99
+    y = ambiguity.time_scale(x, alpha)
+    assert len(y) == math.ceil(len(x) / alpha)
+    # Independent evaluation of the same band-limited signal.
+    m = 2 * len(x)
+    spectrum = np.fft.rfft(x, m)
+    weights = np.full(len(spectrum), 2.0)
+    weights[0] = 1.0
+    weights[-1] = 0.0
+    n = np.arange(0, len(y), 37)
+    k = np.arange(len(spectrum))
+    direct = (np.exp(2j * np.pi * np.outer(alpha * n, k) / m)
+              @ (spectrum * weights)).real / m
+    assert np.abs(direct - y[n]).max() < 1e-7
+
+
+@test
+def noise_doppler_width():
+    """ambiguity: PR-AWGN -3 dB Doppler width is 0.2-0.5 m/s"""
+    width = ambiguity.AmbiguityFunction(default_noise()).doppler_width()
+    print(f"# PR-AWGN -3 dB Doppler width {width:.3f} m/s")
+    assert 0.2 <= width <= 0.5, width
+
+
+@test
+def chirp_doppler_tolerant():
+    """ambiguity: chirp -3 dB Doppler width is at least 5x the noise's"""
+    noise = ambiguity.AmbiguityFunction(default_noise()).doppler_width()
+    _, rows = ambiguity.generate_waveforms(PROGRAM, "hyperbolic-chirp")
+    chirp = ambiguity.AmbiguityFunction(rows[0]).doppler_width()
+    print(f"# chirp -3 dB Doppler width {chirp:.1f} m/s")
+    assert chirp >= 5 * noise, (chirp, noise)
+
+
+@test
+def noise_doppler_sidelobes():
+    """ambiguity: PR-AWGN Doppler cut has its main lobe at 0 and sidelobes
+    below -10 dB"""
+    velocities = np.linspace(-2.0, 2.0, 81)
+    _, _, cut = ambiguity.AmbiguityFunction(default_noise()).image(
+        velocities, 10)
+    assert np.argmax(cut) == 40 and abs(cut[40] - 1.0) < 1e-9, cut[40]
+    level, where = ambiguity.peak_sidelobe(velocities, cut)
+    print(f"# PR-AWGN peak Doppler sidelobe {level:.1f} dB at {where} m/s")
+    assert level < -10.0, level
+
+
+@test
+def plot_ambiguity_writes_png():
+    """plot-ambiguity.py: writes a PNG and the table"""
+    out = TMP / "ambiguity.png"
+    result = run(PYTHON, TOOLS / "plot-ambiguity.py", "--program", PROGRAM,
+                 "--rows", "15", "-o", out)
+    assert_png(out)
+    assert "PR-AWGN" in result.stdout and "chirp" in result.stdout
+
+
+# Energyscapes ------------------------------------------------------------
+
+
+def synthetic_records():
+    """A 2-D image with a blob at azimuth 20 deg, 1.5 m and a 3-D one."""
+    az = -90.0 + np.arange(181)
+    rng = 0.2 + 0.01 * np.arange(500)
+    a, r = np.meshgrid(az, rng, indexing="ij")
+    blob = np.exp(-((a - 20.0) / 3.0) ** 2 - ((r - 1.5) / 0.05) ** 2)
+    flat = energyscape.Energyscape(
+        ping_index=7, azimuth_first=-90.0, azimuth_step=1.0,
+        elevation_first=0.0, elevation_step=0.0, range_first=0.2,
+        range_step=0.01, velocity=math.nan, emitter=-1,
+        data=(blob + 0.001).astype(np.float32)[None])
+    gen = np.random.default_rng(3)
+    cube = energyscape.Energyscape(
+        ping_index=8, azimuth_first=-30.0, azimuth_step=2.0,
+        elevation_first=-15.0, elevation_step=2.0, range_first=0.3,
+        range_step=0.02, velocity=-0.25, emitter=3,
+        data=gen.random((16, 31, 200), dtype=np.float32))
+    return flat, cube
+
+
+def write_synthetic():
+    """Write the synthetic records; return (path, records)."""
+    records = synthetic_records()
+    path = TMP / "two.es"
+    energyscape.write(path, records)
+    return path, records
+
+
+@test
+def energyscape_round_trip():
+    """energyscape.py: two records read back with exact values and axes"""
+    path, (flat, cube) = write_synthetic()
+    assert path.stat().st_size == 2 * 96 + 4 * (181 * 500 + 31 * 16 * 200)
+    got = energyscape.read(path)
+    assert len(got) == 2
+    for want, have in zip((flat, cube), got):
+        assert np.array_equal(want.data, have.data)
+        for field in ("ping_index", "azimuth_step", "elevation_first",
+                      "elevation_step", "range_first", "range_step",
+                      "emitter"):
+            assert getattr(want, field) == getattr(have, field), field
+    assert math.isnan(got[0].velocity) and got[1].velocity == -0.25
+    assert not got[0].is_3d and got[1].is_3d
+    assert got[1].data.shape == (16, 31, 200)
+    assert got[0].azimuth[0] == -90.0 and got[0].azimuth[-1] == 90.0
+    assert got[1].elevation[-1] == 15.0
+    assert abs(got[1].range[-1] - (0.3 + 0.02 * 199)) < 1e-12
+    az, el, rng = got[0].peak()
+    assert az == 20.0 and el == 0.0 and abs(rng - 1.5) < 1e-9
+
+
+def expect_error(data, words):
+    """Parsing data fails with an EnergyscapeError mentioning words."""
+    try:
+        energyscape.parse(data, "test")
+    except energyscape.EnergyscapeError as e:
+        assert all(w in str(e) for w in words), str(e)
+        return
+    raise AssertionError(f"no error mentioning {words}")
+
+
+@test
+def energyscape_truncated():
+    """energyscape.py: truncated files are refused as truncated"""
+    path, _ = write_synthetic()
+    data = path.read_bytes()
+    expect_error(data[:-4], ["truncated", "record 1"])
+    expect_error(data[:96 + 4 * 181 * 500 + 50], ["truncated", "header"])
+
+
+@test
+def energyscape_bad_magic():
+    """energyscape.py: a bad magic is refused"""
+    path, _ = write_synthetic()
+    expect_error(b"SONARES2" + path.read_bytes()[8:], ["magic", "record 0"])
+
+
+@test
+def plot_energyscape_writes_pngs():
+    """plot-energyscape.py: PNGs for the 2-D and 3-D records, with
+    overlays"""
+    path, _ = write_synthetic()
+    truth = TMP / "truth.json"
+    truth.write_text(json.dumps([{"range": 1.5, "azimuth": 20.0,
+                                  "elevation": 0.0}]))
+    detections = TMP / "detections.jsonl"
+    detections.write_text("\n".join(json.dumps(line) for line in (
+        {"ping": 7, "detections": [{"range": 1.5, "azimuth": 20.0,
+                                    "elevation": 0.0,
+                                    "radial_velocity": -0.8}]},
+        {"ping": 8, "detections": [{"range": 1.0, "azimuth": -10.0,
+                                    "elevation": 4.0,
+                                    "radial_velocity": 0.3}]})) + "\n")
+    out = TMP / "es.png"
+    run(PYTHON, TOOLS / "plot-energyscape.py", path, "--all", "-o", out,
+        "--truth", truth, "--detections", detections)
+    assert_png(TMP / "es-0000.png")
+    assert_png(TMP / "es-0001.png")
+    assert [d["radial_velocity"] for d in
+            plot_energyscape.load_detections(detections, 8)] == [0.3]
+
+
+@test
+def plot_energyscape_fan_orientation():
+    """plot-energyscape.py: the 2-D image's maximum is drawn right of
+    boresight at azimuth 20 deg, 1.5 m"""
+    flat, _ = synthetic_records()
+    x, y = plot_energyscape.fan_peak_xy(flat)
+    assert x > 0, x
+    assert abs(x - 1.5 * math.sin(math.radians(20))) < 1e-6, x
+    assert abs(y - 1.5 * math.cos(math.radians(20))) < 1e-6, y
+
+
+@test
+def plot_energyscape_bad_record():
+    """plot-energyscape.py: --record out of range exits non-zero"""
+    path, _ = write_synthetic()
+    result = run(PYTHON, TOOLS / "plot-energyscape.py", path, "--record",
+                 "2", "-o", TMP / "none.png", check=False)
+    assert result.returncode != 0 and "--record 2" in result.stderr, \
+        result.stderr
+
+
+def main():
+    """Run every test, print TAP, exit 1 on failure."""
+    print(f"1..{len(TESTS)}")
+    failed = 0
+    for number, function in enumerate(TESTS, 1):
+        name = " ".join(function.__doc__.split())
+        try:
+            function()
+        except Exception:  # a crash fails the case, not the run
+            failed += 1
+            print(f"not ok {number} - {name}")
+            for line in traceback.format_exc().splitlines():
+                print(f"# {line}")
+        else:
+            print(f"ok {number} - {name}")
+        sys.stdout.flush()
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -45,6 +45,24 @@ sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
   }
 }
 
+SonarComplex
+sonar_kernel_steer_dot_conj (const SonarComplex * a, const SonarComplex * b,
+    guint n, double phase0, double dphase)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+  SonarComplex sum = 0.0f;
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      sum += a[k] * conjf (b[k]) * p;
+      p *= rotation;
+    }
+  }
+  return sum;
+}
+
 void
 sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
     const SonarComplex * b, guint n)

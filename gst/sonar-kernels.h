@@ -19,6 +19,12 @@ void sonar_kernel_steer_accumulate (SonarComplex * acc, const SonarComplex * x,
 void sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
     const SonarComplex * x, guint n, double phase0, double dphase);
 
+/* sum over k < n of a[k] * conj (b[k]) * exp(i (phase0 + k * dphase)):
+ * one output sample of a matched filter (template b) of a delayed signal
+ * (a), without transforming the whole spectrum back. */
+SonarComplex sonar_kernel_steer_dot_conj (const SonarComplex * a,
+    const SonarComplex * b, guint n, double phase0, double dphase);
+
 /* out[k] = a[k] * b[k]. */
 void sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
     const SonarComplex * b, guint n);

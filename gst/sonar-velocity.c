@@ -1,0 +1,264 @@
+/* sonar-velocity.c: see sonar-velocity.h. */
+#include "sonar-velocity.h"
+#include "sonar-kernels.h"
+
+#include <gio/gio.h>
+#include <math.h>
+#include <string.h>
+
+/* Added to every Doppler-ACF value before its logarithm: silence gives a
+ * flat curve, not -inf. */
+#define ACF_FLOOR 1e-30
+
+struct _SonarVelocityEstimator
+{
+  SonarDopplerBank *bank;
+  SonarSetup *setup;
+  SonarBand band;
+  SonarImageGrid grid;
+  SonarVelocityParams params;
+  guint n_velocities, n_emitters;
+  double main_lobe;             /* m/s: one emitter's Doppler resolution */
+  SonarComplex *receive;        /* n_bins */
+  double *acf;                  /* [emitter][velocity], linear */
+  double *log_product;          /* [velocity] */
+  double *scratch;              /* [velocity] */
+};
+
+void
+sonar_velocity_params_init_default (SonarVelocityParams * p)
+{
+  p->window_directions = 1;
+  p->window_ranges = 2;
+  p->refine = TRUE;
+  p->min_variance = 0.0;
+  p->min_agreeing_emitters = 5;
+  p->second_peak_db = 3.0;
+}
+
+SonarVelocityEstimator *
+sonar_velocity_estimator_new (SonarDopplerBank * bank,
+    const SonarImageGrid * grid, const SonarVelocityParams * params,
+    GError ** error)
+{
+  const SonarBand *band = sonar_doppler_bank_band (bank);
+  SonarVelocityEstimator *est;
+  SonarSetup *setup;
+
+  if (!band) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "velocity: the Doppler bank has no band spectra");
+    return NULL;
+  }
+  if (params->window_directions > 32 || params->window_ranges > 256
+      || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "velocity: window half-widths must be at most 32 directions and 256 "
+        "range steps, second-peak-db positive, min-variance >= 0");
+    return NULL;
+  }
+  setup = sonar_doppler_bank_get_setup (bank);
+  est = g_new0 (SonarVelocityEstimator, 1);
+  est->bank = sonar_doppler_bank_ref (bank);
+  est->setup = setup;
+  est->band = *band;
+  est->grid = *grid;
+  est->params = *params;
+  est->n_velocities = sonar_doppler_bank_n_velocities (bank);
+  est->n_emitters = setup->geometry.n_emitters;
+  /* c / (2 f0 T): the Doppler resolution of one emission (physics notes). */
+  est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
+          setup->band_high) * setup->waveform_length / setup->sample_rate);
+  est->receive = g_new (SonarComplex, band->n_bins);
+  est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
+  est->log_product = g_new (double, est->n_velocities);
+  est->scratch = g_new (double, est->n_velocities);
+  return est;
+}
+
+void
+sonar_velocity_estimator_free (SonarVelocityEstimator * est)
+{
+  if (!est)
+    return;
+  sonar_doppler_bank_unref (est->bank);
+  g_free (est->receive);
+  g_free (est->acf);
+  g_free (est->log_product);
+  g_free (est->scratch);
+  g_free (est);
+}
+
+/* Takes the maximum of the window's single-emitter image values at every
+ * velocity into est->acf. */
+static void
+evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    double range, double azimuth, double elevation)
+{
+  const SonarGeometry *g = &est->setup->geometry;
+  const SonarImageGrid *grid = &est->grid;
+  const guint n_bins = est->band.n_bins;
+  const double c = est->setup->speed_of_sound;
+  const double k0 = 2.0 * M_PI * sonar_band_frequency (&est->band, 0) / c;
+  const double dk = 2.0 * M_PI * est->band.sample_rate / est->band.fft_size /
+      c;
+  const float scale = 2.0f / est->band.fft_size;
+  const int wd = est->params.window_directions;
+  const int wr = est->params.window_ranges;
+  const int we = grid->n_elevation > 1 ? wd : 0;
+
+  for (gsize i = 0; i < (gsize) est->n_emitters * est->n_velocities; i++)
+    est->acf[i] = 0.0;
+
+  for (int de = -we; de <= we; de++) {
+    for (int da = -wd; da <= wd; da++) {
+      const double az = CLAMP (azimuth + da * grid->azimuth_step, -90, 90);
+      const double el = CLAMP (elevation + de * grid->elevation_step, -90,
+          90);
+      const SonarVec3 point = sonar_vec3_scale (sonar_vec3_from_direction (az,
+              el), range);
+
+      /* Receive beam focused exactly at this pixel's point. */
+      memset (est->receive, 0, sizeof (SonarComplex) * n_bins);
+      for (guint j = 0; j < g->n_microphones; j++) {
+        const double path = sonar_vec3_norm (sonar_vec3_sub (point,
+                g->microphones[j])) - range;
+        sonar_kernel_steer_accumulate (est->receive,
+            spectra + (gsize) j * n_bins, n_bins, k0 * path, dk * path);
+      }
+      for (guint n = 0; n < est->n_emitters; n++) {
+        const double e_path = sonar_vec3_norm (sonar_vec3_sub (point,
+                g->emitters[n])) - range;
+        for (guint v = 0; v < est->n_velocities; v++) {
+          const double vel = sonar_doppler_bank_velocity (est->bank, v);
+          const SonarComplex *tpl = sonar_doppler_bank_spectra (est->bank,
+              v) + (gsize) n * n_bins;
+          double *acf = &est->acf[(gsize) n * est->n_velocities + v];
+          for (int dr = -wr; dr <= wr; dr++) {
+            /* Lag of range bin dr plus the stretched emitter leg. */
+            const double path = 2.0 * (range + dr * grid->range_step) +
+                e_path * (c + vel) / (c - vel);
+            const SonarComplex y = sonar_kernel_steer_dot_conj
+                (est->receive, tpl, n_bins, k0 * path, dk * path);
+            *acf = MAX (*acf, scale * cabsf (y));
+          }
+        }
+      }
+    }
+  }
+}
+
+/* Vertex of the parabola through (-1, a), (0, b), (1, c): offset in steps. */
+static double
+parabola_offset (double a, double b, double c)
+{
+  const double denom = a - 2.0 * b + c;
+  return denom < 0.0 ? CLAMP (0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
+}
+
+static int
+compare_doubles (const void *a, const void *b)
+{
+  const double x = *(const double *) a, y = *(const double *) b;
+  return (x > y) - (x < y);
+}
+
+static void
+describe_peak (SonarVelocityEstimator * est, guint p, double median,
+    SonarVelocityEstimate * out)
+{
+  const guint nv = est->n_velocities;
+  const double step = sonar_doppler_bank_step (est->bank);
+  const double *lp = est->log_product;
+  double v = sonar_doppler_bank_velocity (est->bank, p);
+  double mean = 0.0, mean2 = 0.0;
+  guint agree = 0;
+
+  if (est->params.refine && p > 0 && p + 1 < nv)
+    v += step * parabola_offset (lp[p - 1], lp[p], lp[p + 1]);
+  out->radial_velocity = v;
+  out->bank_index = p;
+  out->at_bank_edge = p == 0 || p + 1 == nv;
+  /* Amplitude dB per emitter: the product of N curves is N times as steep. */
+  out->peak_db = 20.0 / G_LN10 * (lp[p] - median) / est->n_emitters;
+
+  /* The paper's variance test, on the product normalised to its peak. */
+  for (guint i = 0; i < nv; i++) {
+    const double x = exp (lp[i] - lp[p]);
+    mean += x;
+    mean2 += x * x;
+  }
+  mean /= nv;
+  out->variance = mean2 / nv - mean * mean;
+
+  for (guint n = 0; n < est->n_emitters; n++) {
+    const double *acf = est->acf + (gsize) n * nv;
+    guint best = 0;
+    for (guint i = 1; i < nv; i++)
+      if (acf[i] > acf[best])
+        best = i;
+    agree += fabs (sonar_doppler_bank_velocity (est->bank, best) -
+        sonar_doppler_bank_velocity (est->bank, p)) <= 0.5 * est->main_lobe;
+  }
+  out->agreeing_emitters = agree;
+  out->valid = agree >= MIN (est->params.min_agreeing_emitters,
+      est->n_emitters) && out->variance >= est->params.min_variance;
+  out->second = FALSE;
+}
+
+guint
+sonar_velocity_estimate (SonarVelocityEstimator * est,
+    const SonarComplex * mic_spectra, double range, double azimuth,
+    double elevation, SonarVelocityEstimate * out, float *curves)
+{
+  const guint nv = est->n_velocities;
+  double *lp = est->log_product;
+  double median;
+  guint peak = 0, count = 1;
+  int second = -1;
+
+  evaluate_window (est, mic_spectra, range, azimuth, elevation);
+  for (guint v = 0; v < nv; v++) {
+    lp[v] = 0.0;
+    for (guint n = 0; n < est->n_emitters; n++)
+      lp[v] += log (est->acf[(gsize) n * nv + v] + ACF_FLOOR);
+    if (lp[v] > lp[peak])
+      peak = v;
+  }
+  memcpy (est->scratch, lp, sizeof (double) * nv);
+  qsort (est->scratch, nv, sizeof (double), compare_doubles);
+  median = est->scratch[nv / 2];
+
+  out[0].range = range;
+  out[0].azimuth = azimuth;
+  out[0].elevation = elevation;
+  describe_peak (est, peak, median, &out[0]);
+
+  /* A second local maximum beyond the first's main lobe, nearly as high:
+   * two reflectors of different speeds in one centroid. */
+  for (guint v = 1; v + 1 < nv; v++) {
+    if (lp[v] >= lp[v - 1] && lp[v] >= lp[v + 1]
+        && fabs (sonar_doppler_bank_velocity (est->bank, v) -
+            sonar_doppler_bank_velocity (est->bank, peak)) > est->main_lobe
+        && (second < 0 || lp[v] > lp[second]))
+      second = v;
+  }
+  if (second >= 0 && lp[second] >= lp[peak] - est->n_emitters *
+      est->params.second_peak_db * G_LN10 / 20.0) {
+    out[1] = out[0];
+    describe_peak (est, second, median, &out[1]);
+    out[1].second = TRUE;
+    count = out[1].valid ? 2 : 1;
+  }
+
+  if (curves) {
+    for (guint n = 0; n < est->n_emitters; n++)
+      for (guint v = 0; v < nv; v++)
+        curves[(gsize) n * nv + v] = (float) (20.0 * log10
+            (est->acf[(gsize) n * nv + v] + ACF_FLOOR));
+    for (guint v = 0; v < nv; v++)
+      curves[(gsize) est->n_emitters * nv + v] = (float) (20.0 / G_LN10 *
+          lp[v] / est->n_emitters);
+  }
+  return count;
+}

@@ -1,0 +1,74 @@
+/* sonar-velocity.h: radial velocity of each reflector from its Doppler-ACF
+ * curves (paper Section III.B, eq. 15, Fig. 4f-g, 6 and 8).
+ *
+ * For a reflector at a centroid and for each emitter n, the single-emitter
+ * (MISO) image is evaluated at every velocity of the bank, but only in a
+ * small window of pixels around the centroid; its maximum over the window
+ * is the emitter's Doppler-ACF value at that velocity. The N curves are
+ * multiplied (summed in the log domain, so nothing underflows), and the
+ * product's peak, refined below the bank's step by a parabola through the
+ * log values, is the estimate. Work grows with reflectors x bank size x
+ * window, never with the whole image.
+ *
+ * A centroid whose curves are not peaked (a sidelobe or cross-talk ghost)
+ * is flagged: its normalised product has a small variance (the paper's
+ * test, Fig. 8) and the emitters' own peaks disagree.
+ */
+#ifndef SONAR_VELOCITY_H
+#define SONAR_VELOCITY_H
+
+#include "sonar-doppler-bank.h"
+#include "sonar-imager.h"
+
+G_BEGIN_DECLS
+
+typedef struct
+{
+  guint window_directions;      /* half-width of the window, in image direction steps */
+  guint window_ranges;          /* half-width of the window, in image range steps */
+  gboolean refine;              /* parabolic sub-step refinement of the peak */
+  double min_variance;          /* below: not peaked, flagged as a false positive */
+  guint min_agreeing_emitters;  /* emitters whose own peak is within a main lobe */
+  double second_peak_db;        /* a second product peak at most this far below
+                                 * the first (dB, > 0) is a second reflector */
+} SonarVelocityParams;
+
+void sonar_velocity_params_init_default (SonarVelocityParams * params);
+
+typedef struct
+{
+  double range, azimuth, elevation;     /* where it was evaluated (m, degrees) */
+  double radial_velocity;       /* m/s, + = moving away */
+  guint bank_index;             /* bank velocity nearest the estimate */
+  double peak_db;               /* product peak above the curve's median, dB per emitter */
+  double variance;              /* variance of the product normalised to [0, 1] */
+  guint agreeing_emitters;      /* emitters whose own peak agrees */
+  gboolean at_bank_edge;        /* the peak is the bank's first or last velocity */
+  gboolean valid;               /* passed the false-positive tests */
+  gboolean second;              /* a second reflector in the same centroid */
+} SonarVelocityEstimate;
+
+typedef struct _SonarVelocityEstimator SonarVelocityEstimator;
+
+/* @grid: the image the centroids come from (its steps set the window). */
+SonarVelocityEstimator *sonar_velocity_estimator_new (SonarDopplerBank * bank,
+    const SonarImageGrid * grid, const SonarVelocityParams * params,
+    GError ** error);
+void sonar_velocity_estimator_free (SonarVelocityEstimator * est);
+
+/* Estimates at the reflector at (@range m, @azimuth, @elevation degrees)
+ * from @mic_spectra (n_microphones x n_bins on the bank's band). Writes 1
+ * or 2 estimates (2 when a second reflector of another speed shares the
+ * centroid) and returns their number. If @curves is not NULL it receives
+ * the n_emitters + 1 Doppler-ACF curves in dB (emitters, then the product
+ * divided by n_emitters), n_velocities each. */
+guint sonar_velocity_estimate (SonarVelocityEstimator * est,
+    const SonarComplex * mic_spectra, double range, double azimuth,
+    double elevation, SonarVelocityEstimate * out, float *curves);
+
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
+    sonar_velocity_estimator_free)
+
+G_END_DECLS
+
+#endif

@@ -1,0 +1,173 @@
+/* test-velocity.c: Doppler-ACF velocity estimates against ground truth,
+ * evaluated at the true position (the clustering is tested on its own). */
+#include <math.h>
+#include <string.h>
+
+#include "sonar-doppler-bank.h"
+#include "sonar-imager.h"
+#include "sonar-simulator.h"
+#include "sonar-test-util.h"
+#include "sonar-velocity.h"
+#include "sonar-waveform.h"
+
+typedef struct
+{
+  SonarSetup *setup;
+  SonarDopplerBank *bank;
+  SonarImageGrid grid;
+  SonarSpectrum *analyzer;
+  SonarComplex *spectra;
+  float *ping;
+  SonarVelocityEstimator *est;
+} Fixture;
+
+static void
+fixture_init (Fixture * f, double v_min, double v_max, double v_step)
+{
+  SonarWaveformParams wp;
+  SonarGeometry g;
+  float *w;
+  SonarBand band;
+  SonarImagerParams ip;
+  SonarVelocityParams vp;
+  SonarImager *imager;
+
+  sonar_waveform_params_init_default (&wp);
+  sonar_geometry_init_default (&g);
+  w = g_new (float, wp.n_emitters * wp.length);
+  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
+  f->setup = sonar_setup_new (wp.sample_rate, 343.0, wp.band_low,
+      wp.band_high, &g, wp.length, w, 17500, NULL);
+  g_free (w);
+  sonar_geometry_clear (&g);
+  f->bank = sonar_doppler_bank_new (f->setup, v_min, v_max, v_step, NULL);
+  sonar_band_init (&band, f->setup->sample_rate, f->setup->ping_length +
+      sonar_doppler_bank_max_length (f->bank), f->setup->band_low,
+      f->setup->band_high);
+  sonar_doppler_bank_prepare_band (f->bank, &band);
+  f->analyzer = sonar_spectrum_new (&band);
+  sonar_imager_params_init_default (&ip);
+  imager = sonar_imager_new (f->setup, &band, &ip, NULL);
+  f->grid = *sonar_imager_grid (imager);
+  sonar_imager_free (imager);
+  f->spectra = g_new (SonarComplex, (gsize) band.n_bins * 32);
+  f->ping = g_new (float, (gsize) f->setup->ping_length * 32);
+  sonar_velocity_params_init_default (&vp);
+  f->est = sonar_velocity_estimator_new (f->bank, &f->grid, &vp, NULL);
+}
+
+static void
+fixture_clear (Fixture * f)
+{
+  sonar_velocity_estimator_free (f->est);
+  sonar_spectrum_free (f->analyzer);
+  sonar_doppler_bank_unref (f->bank);
+  sonar_setup_unref (f->setup);
+  g_free (f->spectra);
+  g_free (f->ping);
+}
+
+/* Simulates @json, estimates at reflector @k's true position. */
+static SonarVelocityEstimate
+estimate_at_truth (Fixture * f, const char *json, double noise, guint k,
+    SonarTruth * truth_out)
+{
+  SonarScene scene;
+  SonarSimulatorParams params;
+  SonarSimulator *sim;
+  SonarTruth truth[16];
+  SonarVelocityEstimate est[2];
+
+  g_assert_true (sonar_scene_load_data (&scene, json, "test", NULL));
+  sonar_simulator_params_init_default (&params);
+  params.noise_amplitude = noise;
+  params.seed = 7;
+  sim = sonar_simulator_new (f->setup, &params, NULL);
+  sonar_simulator_render (sim, &scene, 0, 0.0, f->ping, truth);
+  for (guint j = 0; j < 32; j++)
+    sonar_spectrum_process (f->analyzer, f->ping + (gsize) j *
+        f->setup->ping_length, f->setup->ping_length, 1,
+        f->spectra + (gsize) j * sonar_doppler_bank_band (f->bank)->n_bins,
+        NULL);
+  sonar_velocity_estimate (f->est, f->spectra, truth[k].range,
+      truth[k].azimuth, truth[k].elevation, est, NULL);
+  *truth_out = truth[k];
+  sonar_simulator_free (sim);
+  sonar_scene_clear (&scene);
+  return est[0];
+}
+
+/* The Fig. 10 setting: small speeds, fine bank, realistic noise. */
+static void
+test_slow_objects (void)
+{
+  Fixture f;
+  const double cases[][3] = {   /* range, azimuth, radial velocity */
+    {0.6, -70, -0.1}, {1.0, 40, -0.23}, {1.8, -25, -0.27}, {2.5, 75, -0.08},
+    {3.3, 10, -0.295}, {4.5, -50, -0.19}, {2.0, 0, 0.013},
+  };
+  double sum = 0, worst = 0;
+
+  fixture_init (&f, -0.4, 0.4, 0.02);
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
+    g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{\"kind\": "
+        "\"cylinder\", \"radius\": 0.05, \"range\": %g, \"azimuth\": %g, "
+        "\"radial-velocity\": %g}]}", cases[i][0], cases[i][1], cases[i][2]);
+    SonarTruth truth;
+    SonarVelocityEstimate e = estimate_at_truth (&f, json, 0.01, 0, &truth);
+    const double err = fabs (e.radial_velocity - truth.radial_velocity);
+    g_test_message ("%.1f m %+.0f deg: truth %+.4f, estimate %+.4f m/s "
+        "(error %.4f), agree %u, peak %.1f dB, variance %.4f", truth.range,
+        truth.azimuth, truth.radial_velocity, e.radial_velocity, err,
+        e.agreeing_emitters, e.peak_db, e.variance);
+    g_assert_true (e.valid);
+    sum += err;
+    worst = MAX (worst, err);
+  }
+  g_test_message ("mean error %.4f m/s, worst %.4f m/s",
+      sum / G_N_ELEMENTS (cases), worst);
+  g_assert_cmpfloat (sum / G_N_ELEMENTS (cases), <=, 0.005);
+  g_assert_cmpfloat (worst, <=, 0.02);
+  fixture_clear (&f);
+}
+
+/* The Fig. 9 setting: fast movers, the -7..7 m/s bank at 0.05 m/s. */
+static void
+test_fast_movers (void)
+{
+  Fixture f;
+  const double cases[][4] = {   /* range, azimuth, radial, tangential */
+    {2.0, -40, -3.0, 1.0}, {3.0, 35, 1.8, -0.8}, {1.5, 10, -6.5, 0.0},
+    {2.5, -60, 5.0, 0.5}, {1.2, 65, 0.0, 0.0},
+  };
+  double worst = 0;
+
+  fixture_init (&f, -7.0, 7.0, 0.05);
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
+    g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{\"kind\": "
+        "\"cylinder\", \"radius\": 0.05, \"range\": %g, \"azimuth\": %g, "
+        "\"radial-velocity\": %g, \"tangential-velocity\": %g}]}",
+        cases[i][0], cases[i][1], cases[i][2], cases[i][3]);
+    SonarTruth truth;
+    SonarVelocityEstimate e = estimate_at_truth (&f, json, 0.01, 0, &truth);
+    const double err = fabs (e.radial_velocity - truth.radial_velocity);
+    g_test_message ("%.1f m %+.0f deg: truth %+.4f, estimate %+.4f m/s "
+        "(error %.4f), agree %u, peak %.1f dB", truth.range, truth.azimuth,
+        truth.radial_velocity, e.radial_velocity, err, e.agreeing_emitters,
+        e.peak_db);
+    g_assert_true (e.valid);
+    worst = MAX (worst, err);
+  }
+  g_test_message ("worst error %.4f m/s", worst);
+  g_assert_cmpfloat (worst, <=, 0.02);
+  fixture_clear (&f);
+}
+
+int
+main (int argc, char **argv)
+{
+  g_test_init (&argc, &argv, NULL);
+  g_test_add_func ("/velocity/slow-objects", test_slow_objects);
+  g_test_add_func ("/velocity/fast-movers", test_fast_movers);
+  return g_test_run ();
+}

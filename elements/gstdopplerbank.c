@@ -12,6 +12,13 @@
  * Input: the recording, one ping per set-up ping-length samples, whatever
  * the buffer sizes. Output: application/x-sonar-spectra, one buffer per ping.
  *
+ * A recording made elsewhere (a WAV file) carries no set-up event: give
+ * waveforms-file, ping-length and, unless the array is the built-in one,
+ * geometry-file (docs/FORMATS.md):
+ *
+ *   gst-launch-1.0 filesrc location=pings.wav ! wavparse ! dopplerbank \
+ *       waveforms-file=waveforms.json ping-length=17261 ! mimobeamform ! ...
+ *
  *   gst-launch-1.0 sonarsrc ! dopplerbank velocity-min=-0.4 velocity-max=0.4 \
  *       velocity-step=0.02 ! mimobeamform ! fakesink
  */
@@ -21,6 +28,7 @@
 
 #include "gstdopplerbank.h"
 
+#include <gio/gio.h>
 #include <gst/audio/audio.h>
 #include <gst/base/gstadapter.h>
 
@@ -37,6 +45,10 @@ enum
   PROP_VELOCITY_MIN,
   PROP_VELOCITY_MAX,
   PROP_VELOCITY_STEP,
+  PROP_GEOMETRY_FILE,
+  PROP_WAVEFORMS_FILE,
+  PROP_PING_LENGTH,
+  PROP_SPEED_OF_SOUND,
 };
 
 struct _GstDopplerBank
@@ -45,6 +57,9 @@ struct _GstDopplerBank
 
   /* Properties, protected by the object lock. */
   double velocity_min, velocity_max, velocity_step;
+  char *geometry_file, *waveforms_file;
+  guint ping_length_setting;
+  double speed_of_sound;
 
   /* Configured state. */
   guint channels;
@@ -66,6 +81,41 @@ static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
     GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_RECORDING_CAPS));
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_SPECTRA_CAPS));
+
+/* With waveforms-file set, the set-up comes from the files, whatever
+ * arrives from upstream. */
+static SonarSetup *
+gst_doppler_bank_make_setup (GstSonarFilter * filter, GstCaps * in_caps,
+    GError ** error)
+{
+  GstDopplerBank *self = GST_DOPPLER_BANK (filter);
+  g_autofree char *geometry = NULL, *waveforms = NULL;
+  guint ping_length;
+  double c;
+
+  GST_OBJECT_LOCK (self);
+  geometry = g_strdup (self->geometry_file);
+  waveforms = g_strdup (self->waveforms_file);
+  ping_length = self->ping_length_setting;
+  c = self->speed_of_sound;
+  GST_OBJECT_UNLOCK (self);
+
+  if (!waveforms) {
+    if (geometry || ping_length)
+      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+          "dopplerbank: geometry-file and ping-length need waveforms-file "
+          "too");
+    return NULL;
+  }
+  if (ping_length == 0) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "dopplerbank: waveforms-file needs ping-length, the samples per "
+        "channel of one ping of the recording");
+    return NULL;
+  }
+  return sonar_setup_new_from_files (geometry, waveforms, c, ping_length,
+      error);
+}
 
 static GstCaps *
 gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
@@ -236,6 +286,20 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
     case PROP_VELOCITY_STEP:
       self->velocity_step = g_value_get_double (value);
       break;
+    case PROP_GEOMETRY_FILE:
+      g_free (self->geometry_file);
+      self->geometry_file = g_value_dup_string (value);
+      break;
+    case PROP_WAVEFORMS_FILE:
+      g_free (self->waveforms_file);
+      self->waveforms_file = g_value_dup_string (value);
+      break;
+    case PROP_PING_LENGTH:
+      self->ping_length_setting = g_value_get_uint (value);
+      break;
+    case PROP_SPEED_OF_SOUND:
+      self->speed_of_sound = g_value_get_double (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -260,6 +324,18 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
     case PROP_VELOCITY_STEP:
       g_value_set_double (value, self->velocity_step);
       break;
+    case PROP_GEOMETRY_FILE:
+      g_value_set_string (value, self->geometry_file);
+      break;
+    case PROP_WAVEFORMS_FILE:
+      g_value_set_string (value, self->waveforms_file);
+      break;
+    case PROP_PING_LENGTH:
+      g_value_set_uint (value, self->ping_length_setting);
+      break;
+    case PROP_SPEED_OF_SOUND:
+      g_value_set_double (value, self->speed_of_sound);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -273,6 +349,8 @@ gst_doppler_bank_finalize (GObject * object)
   GstDopplerBank *self = GST_DOPPLER_BANK (object);
 
   g_object_unref (self->adapter);
+  g_free (self->geometry_file);
+  g_free (self->waveforms_file);
   G_OBJECT_CLASS (gst_doppler_bank_parent_class)->finalize (object);
 }
 
@@ -282,6 +360,7 @@ gst_doppler_bank_init (GstDopplerBank * self)
   self->velocity_min = DEFAULT_VELOCITY_MIN;
   self->velocity_max = DEFAULT_VELOCITY_MAX;
   self->velocity_step = DEFAULT_VELOCITY_STEP;
+  self->speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND;
   self->adapter = gst_adapter_new ();
 }
 
@@ -311,6 +390,24 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
           "bank's velocities, in m/s (the paper uses 0.05 and 0.02)",
           0.0001, 100.0, DEFAULT_VELOCITY_STEP, flags));
 
+  g_object_class_install_property (gobject_class, PROP_GEOMETRY_FILE,
+      g_param_spec_string ("geometry-file", "Geometry file", "For "
+          "recordings: JSON array geometry (docs/FORMATS.md); default the "
+          "built-in eRTIS array. Needs waveforms-file", NULL, flags));
+  g_object_class_install_property (gobject_class, PROP_WAVEFORMS_FILE,
+      g_param_spec_string ("waveforms-file", "Waveforms file", "For "
+          "recordings: JSON emission waveforms (docs/FORMATS.md). When set, "
+          "the set-up comes from these files instead of upstream", NULL,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_PING_LENGTH,
+      g_param_spec_uint ("ping-length", "Ping length", "For recordings: "
+          "samples per channel of one ping (sonarsrc's pings: see its "
+          "set-up; 17261 by default)", 0, SONAR_MAX_PING_LENGTH, 0, flags));
+  g_object_class_install_property (gobject_class, PROP_SPEED_OF_SOUND,
+      g_param_spec_double ("speed-of-sound", "Speed of sound", "For "
+          "recordings: speed of sound, in m/s", 100.0, 2000.0,
+          SONAR_DEFAULT_SPEED_OF_SOUND, flags));
+
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);
   gst_element_class_set_static_metadata (element_class,
@@ -320,6 +417,7 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
       "gst-sonar-velocity developers");
 
   filter_class->needs_bank = FALSE;
+  filter_class->make_setup = GST_DEBUG_FUNCPTR (gst_doppler_bank_make_setup);
   filter_class->configure = GST_DEBUG_FUNCPTR (gst_doppler_bank_configure);
   filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_doppler_bank_unconfigure);
   filter_class->process = GST_DEBUG_FUNCPTR (gst_doppler_bank_process);

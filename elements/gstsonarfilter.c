@@ -106,12 +106,28 @@ configure (GstSonarFilter * filter)
   GError *error = NULL;
   GstCaps *out_caps;
 
+  if (klass->make_setup) {
+    SonarSetup *own = klass->make_setup (filter, priv->in_caps, &error);
+    if (error) {
+      GST_ELEMENT_ERROR (filter, RESOURCE, SETTINGS, ("%s", error->message),
+          (NULL));
+      g_error_free (error);
+      return FALSE;
+    }
+    if (own) {
+      g_clear_pointer (&priv->setup, sonar_setup_unref);
+      priv->setup = own;
+      gst_clear_event (&priv->setup_event);
+      priv->setup_event = sonar_setup_event_new (own);
+    }
+  }
   if (!priv->setup) {
     GST_ELEMENT_ERROR (filter, CORE, NEGOTIATION,
         ("No sonar set-up arrived before the data: %s needs the array "
             "geometry and emission waveforms (the sonar-setup event that "
-            "sonarsrc sends, or sonarsetup for recordings)",
-            GST_OBJECT_NAME (filter)), (NULL));
+            "sonarsrc sends; for a recording, set dopplerbank's "
+            "waveforms-file and ping-length)", GST_OBJECT_NAME (filter)),
+        (NULL));
     return FALSE;
   }
   if (klass->needs_bank && !priv->bank) {

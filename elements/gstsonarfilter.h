@@ -29,6 +29,10 @@ struct _GstSonarFilterClass
   /* Whether configure() needs the Doppler bank event (all but dopplerbank). */
   gboolean needs_bank;
 
+  /* Optional: a set-up of the element's own (dopplerbank, from files, for
+   * recordings). NULL without error: use the upstream set-up event. */
+  SonarSetup *(*make_setup) (GstSonarFilter * filter, GstCaps * in_caps,
+      GError ** error);
   /* Makes the subclass ready for @in_caps with the filter's set-up (and
    * bank); returns the output caps, or NULL with @error set: the base posts
    * it as the element's error. May set a new bank with

@@ -386,7 +386,7 @@ make_setup (const SonarSrcSettings * s, GError ** error)
     guint n_rows;
     double file_rate;
     waveforms = sonar_waveforms_load_file (s->waveforms_file, &n_rows,
-        &wp.length, &file_rate, error);
+        &wp.length, &file_rate, &wp.band_low, &wp.band_high, error);
     if (!waveforms)
       goto done;
     if (n_rows != geometry.n_emitters || file_rate != wp.sample_rate) {

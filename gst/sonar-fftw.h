@@ -7,6 +7,12 @@
 
 G_BEGIN_DECLS
 
+/* FFTW_ESTIMATE, not FFTW_MEASURE: measured plans depend on timings, so two
+ * runs could round differently; the same ping must always give the same
+ * image and velocities (a WAV recording processes exactly like the live
+ * ping). */
+#define SONAR_FFTW_PLANNING FFTW_ESTIMATE
+
 void sonar_fftw_lock (void);
 void sonar_fftw_unlock (void);
 

@@ -1,6 +1,7 @@
 /* sonar-setup.c: see sonar-setup.h. */
 #include "sonar-setup.h"
 #include "sonar-json.h"
+#include "sonar-spectrum.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -124,13 +125,53 @@ sonar_geometry_load_file (SonarGeometry * geometry, const char *path,
   return TRUE;
 }
 
+/* The band holding all but @fraction of the waveforms' energy at each end. */
+static void
+estimate_band (const float *waveforms, guint n_rows, guint length,
+    double sample_rate, double fraction, double *low, double *high)
+{
+  SonarBand band;
+  g_autoptr (SonarSpectrum) analyzer = NULL;
+  SonarComplex *spectrum;
+  double *power, total = 0.0, below = 0.0, above = 0.0;
+  guint lo, hi;
+
+  sonar_band_init (&band, sample_rate, length, 0.0, sample_rate / 2.0);
+  analyzer = sonar_spectrum_new (&band);
+  spectrum = g_new (SonarComplex, band.n_bins);
+  power = g_new0 (double, band.n_bins);
+  for (guint n = 0; n < n_rows; n++) {
+    sonar_spectrum_process (analyzer, waveforms + (gsize) n * length, length,
+        1, spectrum, NULL);
+    for (guint k = 0; k < band.n_bins; k++)
+      power[k] += crealf (spectrum[k] * conjf (spectrum[k]));
+  }
+  for (guint k = 0; k < band.n_bins; k++)
+    total += power[k];
+  for (lo = 0; lo + 1 < band.n_bins && below + power[lo] < fraction * total;
+      lo++)
+    below += power[lo];
+  for (hi = band.n_bins - 1; hi > lo && above + power[hi] < fraction * total;
+      hi--)
+    above += power[hi];
+  *low = MAX (sonar_band_frequency (&band, lo), 0.5 * sample_rate /
+      band.fft_size);
+  *high = MAX (sonar_band_frequency (&band, hi), *low + sample_rate /
+      band.fft_size);
+  *high = MIN (*high, sample_rate / 2.0);
+  g_free (spectrum);
+  g_free (power);
+}
+
 float *
 sonar_waveforms_load_file (const char *path, guint * n_emitters,
-    guint * length, double *sample_rate, GError ** error)
+    guint * length, double *sample_rate, double *band_low,
+    double *band_high, GError ** error)
 {
   static const char *const members[] = { "description", "sample-rate",
-    "waveforms", NULL
+    "band", "waveforms", NULL
   };
+  JsonNode *band_node;
   g_autoptr (JsonNode) node = NULL;
   JsonObject *root;
   JsonNode *rows_node;
@@ -192,9 +233,61 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
       waveforms[(gsize) n * n_cols + i] = (float) value;
     }
   }
+  band_node = json_object_get_member (root, "band");
+  if (band_node) {
+    JsonArray *edges = JSON_NODE_HOLDS_ARRAY (band_node) ?
+        json_node_get_array (band_node) : NULL;
+    if (!edges || json_array_get_length (edges) != 2
+        || !((*band_low = json_array_get_double_element (edges, 0)) > 0.0)
+        || !((*band_high = json_array_get_double_element (edges, 1))
+            > *band_low) || *band_high > *sample_rate / 2.0) {
+      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+          "%s: \"band\" must be [low, high] in Hz with 0 < low < high <= "
+          "sample-rate / 2", path);
+      g_free (waveforms);
+      return NULL;
+    }
+  } else {
+    estimate_band (waveforms, n_rows, n_cols, *sample_rate, 1e-4, band_low,
+        band_high);
+  }
   *n_emitters = n_rows;
   *length = n_cols;
   return waveforms;
+}
+
+SonarSetup *
+sonar_setup_new_from_files (const char *geometry_file,
+    const char *waveforms_file, double speed_of_sound, guint ping_length,
+    GError ** error)
+{
+  SonarGeometry geometry = { 0 };
+  g_autofree float *waveforms = NULL;
+  guint n_rows, length;
+  double rate, low, high;
+  SonarSetup *setup = NULL;
+
+  if (geometry_file) {
+    if (!sonar_geometry_load_file (&geometry, geometry_file, error))
+      return NULL;
+  } else {
+    sonar_geometry_init_default (&geometry);
+  }
+  waveforms = sonar_waveforms_load_file (waveforms_file, &n_rows, &length,
+      &rate, &low, &high, error);
+  if (!waveforms)
+    goto done;
+  if (n_rows != geometry.n_emitters) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+        "%s: holds %u waveforms, but the array has %u emitters",
+        waveforms_file, n_rows, geometry.n_emitters);
+    goto done;
+  }
+  setup = sonar_setup_new (rate, speed_of_sound, low, high, &geometry,
+      length, waveforms, ping_length, error);
+done:
+  sonar_geometry_clear (&geometry);
+  return setup;
 }
 
 SonarSetup *

@@ -67,9 +67,12 @@ gboolean sonar_geometry_validate (const SonarGeometry * geometry,
     GError ** error);
 
 /* Waveforms file (format: docs/FORMATS.md). Returns a newly allocated
- * n_emitters * length array. */
+ * n_emitters * length array. *band_low / *band_high receive the file's
+ * "band", or else the band holding all but 1e-4 of the waveforms' energy
+ * at each end. */
 float *sonar_waveforms_load_file (const char *path, guint * n_emitters,
-    guint * length, double *sample_rate, GError ** error);
+    guint * length, double *sample_rate, double *band_low,
+    double *band_high, GError ** error);
 
 /* Setup ------------------------------------------------------------------*/
 
@@ -77,6 +80,13 @@ float *sonar_waveforms_load_file (const char *path, guint * n_emitters,
 SonarSetup *sonar_setup_new (double sample_rate, double speed_of_sound,
     double band_low, double band_high, const SonarGeometry * geometry,
     guint waveform_length, const float *waveforms, guint ping_length,
+    GError ** error);
+
+/* The set-up of a recording made elsewhere: the geometry file (NULL: the
+ * built-in array), the waveforms file, the speed of sound and the samples
+ * per ping. Every error names the file and the problem. */
+SonarSetup *sonar_setup_new_from_files (const char *geometry_file,
+    const char *waveforms_file, double speed_of_sound, guint ping_length,
     GError ** error);
 
 SonarSetup *sonar_setup_ref (SonarSetup * setup);

@@ -68,9 +68,8 @@ sonar_spectrum_new (const SonarBand * band)
   s->input = fftwf_alloc_real (band->fft_size);
   s->output = fftwf_alloc_complex (band->fft_size / 2 + 1);
   sonar_fftw_lock ();
-  /* MEASURE planning overwrites the arrays: fine, nothing is in them yet. */
   s->plan = fftwf_plan_dft_r2c_1d (band->fft_size, s->input, s->output,
-      FFTW_MEASURE);
+      SONAR_FFTW_PLANNING);
   sonar_fftw_unlock ();
   return s;
 }

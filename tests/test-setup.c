@@ -140,10 +140,10 @@ test_waveforms_file (void)
         "\"waveforms\"[0][15] must be a finite number"},
   };
   guint n, length;
-  double rate;
+  double rate, low, high;
   GError *error = NULL;
   g_autofree float *w = sonar_waveforms_load_file (good, &n, &length, &rate,
-      &error);
+      &low, &high, &error);
 
   g_assert_no_error (error);
   g_assert_cmpuint (n, ==, 2);
@@ -154,7 +154,7 @@ test_waveforms_file (void)
   for (guint i = 0; i < G_N_ELEMENTS (bad); i++) {
     g_autofree char *path = sonar_test_write_temp ("wf.json", bad[i].json);
     float *none = sonar_waveforms_load_file (path, &n, &length, &rate,
-        &error);
+        &low, &high, &error);
     g_assert_null (none);
     g_test_message ("%s", error->message);
     g_assert_nonnull (strstr (error->message, bad[i].expected));

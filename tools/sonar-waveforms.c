@@ -88,7 +88,11 @@ waveforms_to_json (const float *waveforms)
   append_double (json, params.band_high, "%.17g");
   g_string_append (json, " Hz (sonar-waveforms)\",\n  \"sample-rate\": ");
   append_double (json, params.sample_rate, "%.17g");
-  g_string_append (json, ",\n  \"waveforms\": [\n");
+  g_string_append (json, ",\n  \"band\": [");
+  append_double (json, params.band_low, "%.17g");
+  g_string_append (json, ", ");
+  append_double (json, params.band_high, "%.17g");
+  g_string_append (json, "],\n  \"waveforms\": [\n");
   for (guint n = 0; n < params.n_emitters; n++) {
     const float *row = waveforms + (gsize) n * params.length;
 

@@ -7,6 +7,8 @@
 #include "gstdopplerbank.h"
 #include "gstmimobeamform.h"
 #include "gstsonarsrc.h"
+#include "gstvelocityest.h"
+#include "gstwardcluster.h"
 
 static gboolean
 plugin_init (GstPlugin * plugin)
@@ -16,6 +18,8 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (sonarsrc, plugin);
   ok |= GST_ELEMENT_REGISTER (dopplerbank, plugin);
   ok |= GST_ELEMENT_REGISTER (mimobeamform, plugin);
+  ok |= GST_ELEMENT_REGISTER (wardcluster, plugin);
+  ok |= GST_ELEMENT_REGISTER (velocityest, plugin);
   return ok;
 }
 

@@ -2,6 +2,7 @@
 #include "sonar-contracts.h"
 
 #include <gio/gio.h>
+#include <math.h>
 #include <string.h>
 
 /* The set-up event ------------------------------------------------------*/
@@ -503,4 +504,238 @@ sonar_energyscape_header_parse (const SonarEnergyscapeHeader * h,
   grid->range_first = h->range_first;
   grid->range_step = h->range_step;
   return TRUE;
+}
+
+/* Array metas: centroids and detections -----------------------------------*/
+
+/* Both metas hold a ping index and a copied array; they differ only in the
+ * element type. */
+typedef struct
+{
+  GstMeta meta;
+  guint64 ping_index;
+  guint n;
+  gpointer items;
+} ArrayMeta;
+
+static gboolean
+array_meta_init (GstMeta * meta, gpointer params, GstBuffer * buffer)
+{
+  ArrayMeta *m = (ArrayMeta *) meta;
+  m->ping_index = 0;
+  m->n = 0;
+  m->items = NULL;
+  return TRUE;
+}
+
+static void
+array_meta_free (GstMeta * meta, GstBuffer * buffer)
+{
+  g_free (((ArrayMeta *) meta)->items);
+}
+
+static GType
+array_meta_api_type (const char *name)
+{
+  static const gchar *tags[] = { NULL };
+  GType t = g_type_from_name (name);
+  return t ? t : gst_meta_api_type_register (name, tags);
+}
+
+static const GstMetaInfo *
+array_meta_info (GType api, const char *name, GstMetaTransformFunction
+    transform)
+{
+  const GstMetaInfo *mi = gst_meta_get_info (name);
+  return mi ? mi : gst_meta_register (api, name, sizeof (ArrayMeta),
+      array_meta_init, array_meta_free, transform);
+}
+
+static ArrayMeta *
+array_meta_add (GstBuffer * buffer, const GstMetaInfo * info,
+    guint64 ping_index, gconstpointer items, guint n, gsize item_size)
+{
+  ArrayMeta *m = (ArrayMeta *) gst_buffer_add_meta (buffer, info, NULL);
+  if (!m)
+    return NULL;
+  m->ping_index = ping_index;
+  m->n = n;
+  m->items = g_memdup2 (items, item_size * n);
+  return m;
+}
+
+GType
+sonar_centroids_meta_api_get_type (void)
+{
+  static GType type = 0;
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type, array_meta_api_type ("SonarCentroidsMetaAPI"));
+  return type;
+}
+
+static gboolean
+centroids_meta_transform (GstBuffer * dest, GstMeta * meta,
+    GstBuffer * buffer, GQuark type, gpointer data)
+{
+  ArrayMeta *m = (ArrayMeta *) meta;
+  return sonar_buffer_add_centroids_meta (dest, m->ping_index, m->items,
+      m->n) != NULL;
+}
+
+SonarCentroidsMeta *
+sonar_buffer_add_centroids_meta (GstBuffer * buffer, guint64 ping_index,
+    const SonarCentroid * centroids, guint n)
+{
+  static const GstMetaInfo *info = NULL;
+  if (g_once_init_enter ((GstMetaInfo **) & info))
+    g_once_init_leave ((GstMetaInfo **) & info, (GstMetaInfo *)
+        array_meta_info (SONAR_CENTROIDS_META_API_TYPE, "SonarCentroidsMeta",
+            centroids_meta_transform));
+  return (SonarCentroidsMeta *) array_meta_add (buffer, info, ping_index,
+      centroids, n, sizeof (SonarCentroid));
+}
+
+GType
+sonar_detections_meta_api_get_type (void)
+{
+  static GType type = 0;
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type, array_meta_api_type ("SonarDetectionsMetaAPI"));
+  return type;
+}
+
+static gboolean
+detections_meta_transform (GstBuffer * dest, GstMeta * meta,
+    GstBuffer * buffer, GQuark type, gpointer data)
+{
+  ArrayMeta *m = (ArrayMeta *) meta;
+  return sonar_buffer_add_detections_meta (dest, m->ping_index, m->items,
+      m->n) != NULL;
+}
+
+SonarDetectionsMeta *
+sonar_buffer_add_detections_meta (GstBuffer * buffer, guint64 ping_index,
+    const SonarDetection * detections, guint n)
+{
+  static const GstMetaInfo *info = NULL;
+  if (g_once_init_enter ((GstMetaInfo **) & info))
+    g_once_init_leave ((GstMetaInfo **) & info, (GstMetaInfo *)
+        array_meta_info (SONAR_DETECTIONS_META_API_TYPE,
+            "SonarDetectionsMeta", detections_meta_transform));
+  return (SonarDetectionsMeta *) array_meta_add (buffer, info, ping_index,
+      detections, n, sizeof (SonarDetection));
+}
+
+static GstStructure *
+list_message (const char *name, guint64 ping_index, GstClockTime timestamp,
+    const char *field, GValue * array)
+{
+  GstStructure *s = gst_structure_new (name,
+      "ping", G_TYPE_UINT64, ping_index,
+      "timestamp", G_TYPE_UINT64, timestamp, NULL);
+  gst_structure_take_value (s, field, array);
+  return s;
+}
+
+GstStructure *
+sonar_centroids_to_structure (guint64 ping_index, GstClockTime timestamp,
+    const SonarCentroid * centroids, guint n)
+{
+  GValue array = G_VALUE_INIT;
+
+  g_value_init (&array, GST_TYPE_ARRAY);
+  for (guint k = 0; k < n; k++) {
+    const SonarCentroid *c = &centroids[k];
+    GValue item = G_VALUE_INIT;
+    g_value_init (&item, GST_TYPE_STRUCTURE);
+    gst_value_set_structure (&item, gst_structure_new ("centroid",
+            "range", G_TYPE_DOUBLE, c->range,
+            "azimuth", G_TYPE_DOUBLE, c->azimuth,
+            "elevation", G_TYPE_DOUBLE, c->elevation,
+            "x", G_TYPE_DOUBLE, c->position.x,
+            "y", G_TYPE_DOUBLE, c->position.y,
+            "z", G_TYPE_DOUBLE, c->position.z,
+            "peak", G_TYPE_DOUBLE, c->peak_value,
+            "members", G_TYPE_UINT, c->n_members, NULL));
+    gst_value_array_append_and_take_value (&array, &item);
+  }
+  return list_message (SONAR_CENTROIDS_MESSAGE_NAME, ping_index, timestamp,
+      "centroids", &array);
+}
+
+GstStructure *
+sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
+    const SonarDetection * detections, guint n)
+{
+  GValue array = G_VALUE_INIT;
+
+  g_value_init (&array, GST_TYPE_ARRAY);
+  for (guint k = 0; k < n; k++) {
+    const SonarDetection *d = &detections[k];
+    GValue item = G_VALUE_INIT;
+    g_value_init (&item, GST_TYPE_STRUCTURE);
+    gst_value_set_structure (&item, gst_structure_new ("detection",
+            "range", G_TYPE_DOUBLE, d->range,
+            "azimuth", G_TYPE_DOUBLE, d->azimuth,
+            "elevation", G_TYPE_DOUBLE, d->elevation,
+            "x", G_TYPE_DOUBLE, d->position.x,
+            "y", G_TYPE_DOUBLE, d->position.y,
+            "z", G_TYPE_DOUBLE, d->position.z,
+            "radial-velocity", G_TYPE_DOUBLE, d->radial_velocity,
+            "approaching", G_TYPE_BOOLEAN, d->approaching,
+            "confidence", G_TYPE_DOUBLE, d->confidence,
+            "out-of-range", G_TYPE_BOOLEAN, d->out_of_range,
+            "valid", G_TYPE_BOOLEAN, d->valid, NULL));
+    gst_value_array_append_and_take_value (&array, &item);
+  }
+  return list_message (SONAR_DETECTIONS_MESSAGE_NAME, ping_index, timestamp,
+      "detections", &array);
+}
+
+/* Numbers in JSON with a C locale's decimal point, whatever the user's. */
+static void
+append_number (GString * s, const char *name, double value, int decimals)
+{
+  char buffer[G_ASCII_DTOSTR_BUF_SIZE];
+  char format[8];
+
+  g_snprintf (format, sizeof format, "%%.%df", decimals);
+  g_string_append_printf (s, "\"%s\": %s", name, isfinite (value) ?
+      g_ascii_formatd (buffer, sizeof buffer, format, value) : "null");
+}
+
+char *
+sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
+    const SonarDetection * detections, guint n)
+{
+  GString *s = g_string_new (NULL);
+
+  g_string_append_printf (s, "{\"ping\": %" G_GUINT64_FORMAT ", ", ping_index);
+  append_number (s, "time", GST_CLOCK_TIME_IS_VALID (timestamp) ?
+      timestamp / (double) GST_SECOND : NAN, 6);
+  g_string_append (s, ", \"detections\": [");
+  for (guint k = 0; k < n; k++) {
+    const SonarDetection *d = &detections[k];
+    g_string_append (s, k ? ", {" : "{");
+    append_number (s, "range", d->range, 4);
+    g_string_append (s, ", ");
+    append_number (s, "azimuth", d->azimuth, 2);
+    g_string_append (s, ", ");
+    append_number (s, "elevation", d->elevation, 2);
+    g_string_append (s, ", ");
+    append_number (s, "x", d->position.x, 4);
+    g_string_append (s, ", ");
+    append_number (s, "y", d->position.y, 4);
+    g_string_append (s, ", ");
+    append_number (s, "z", d->position.z, 4);
+    g_string_append (s, ", ");
+    append_number (s, "radial_velocity", d->radial_velocity, 4);
+    g_string_append_printf (s, ", \"approaching\": %s, ",
+        d->approaching ? "true" : "false");
+    append_number (s, "confidence", d->confidence, 3);
+    g_string_append_printf (s, ", \"out_of_range\": %s, \"valid\": %s}",
+        d->out_of_range ? "true" : "false", d->valid ? "true" : "false");
+  }
+  g_string_append (s, "]}\n");
+  return g_string_free (s, FALSE);
 }

@@ -6,6 +6,7 @@
 #define SONAR_CONTRACTS_H
 
 #include <gst/gst.h>
+#include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-imager.h"
 #include "sonar-setup.h"
@@ -150,6 +151,74 @@ void sonar_energyscape_header_init (SonarEnergyscapeHeader * header,
 /* Grid of a header; FALSE when it is not a valid record header. */
 gboolean sonar_energyscape_header_parse (const SonarEnergyscapeHeader *
     header, SonarImageGrid * grid);
+
+/* Centroids (wardcluster -> velocityest) ---------------------------------*/
+
+/* wardcluster passes the energyscape through and attaches the reflector
+ * centroids it found, strongest first. Registered without tags. */
+typedef struct
+{
+  GstMeta meta;
+  guint64 ping_index;
+  guint n_centroids;
+  SonarCentroid *centroids;
+} SonarCentroidsMeta;
+
+GType sonar_centroids_meta_api_get_type (void);
+#define SONAR_CENTROIDS_META_API_TYPE (sonar_centroids_meta_api_get_type ())
+SonarCentroidsMeta *sonar_buffer_add_centroids_meta (GstBuffer * buffer,
+    guint64 ping_index, const SonarCentroid * centroids, guint n);
+#define sonar_buffer_get_centroids_meta(b) \
+  ((SonarCentroidsMeta *) gst_buffer_get_meta ((b), \
+      SONAR_CENTROIDS_META_API_TYPE))
+
+/* Element message posted by wardcluster per ping. */
+#define SONAR_CENTROIDS_MESSAGE_NAME "sonar-centroids"
+GstStructure *sonar_centroids_to_structure (guint64 ping_index,
+    GstClockTime timestamp, const SonarCentroid * centroids, guint n);
+
+/* Detections (velocityest's results) -------------------------------------*/
+
+typedef struct
+{
+  guint centroid;               /* index of the centroid it was found at */
+  double range, azimuth, elevation;     /* m, degrees */
+  SonarVec3 position;           /* m, sensor frame */
+  double radial_velocity;       /* m/s, d(range)/dt: + moving away */
+  gboolean approaching;         /* radial_velocity < 0 */
+  double confidence;            /* 0..1: share of emitters whose own curve agrees */
+  gboolean out_of_range;        /* at the bank's edge: the speed may lie beyond */
+  gboolean valid;               /* passed the false-positive tests */
+  double peak_db;               /* Doppler-ACF product peak over its median, dB per emitter */
+  double variance;              /* the paper's variance of the normalised product */
+} SonarDetection;
+
+typedef struct
+{
+  GstMeta meta;
+  guint64 ping_index;
+  guint n_detections;
+  SonarDetection *detections;
+} SonarDetectionsMeta;
+
+GType sonar_detections_meta_api_get_type (void);
+#define SONAR_DETECTIONS_META_API_TYPE (sonar_detections_meta_api_get_type ())
+SonarDetectionsMeta *sonar_buffer_add_detections_meta (GstBuffer * buffer,
+    guint64 ping_index, const SonarDetection * detections, guint n);
+#define sonar_buffer_get_detections_meta(b) \
+  ((SonarDetectionsMeta *) gst_buffer_get_meta ((b), \
+      SONAR_DETECTIONS_META_API_TYPE))
+
+/* Element message posted by velocityest per ping. */
+#define SONAR_DETECTIONS_MESSAGE_NAME "sonar-detections"
+GstStructure *sonar_detections_to_structure (guint64 ping_index,
+    GstClockTime timestamp, const SonarDetection * detections, guint n);
+/* One line of JSON (ending in a newline) with the ping's detections. */
+char *sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
+    const SonarDetection * detections, guint n);
+
+/* velocityest's output: UTF-8 text, one JSON line per ping. */
+#define SONAR_DETECTIONS_CAPS "text/x-raw, format=(string)utf8"
 
 G_END_DECLS
 

@@ -36,6 +36,7 @@ struct _SonarImager
   SonarComplex *transmit;       /* K: sum over emitters */
   SonarComplex *baseband;       /* M */
   fftwf_plan inverse;
+  SonarComplex *rescaled;       /* microphones x K: see data_exponent () */
 };
 
 void
@@ -183,9 +184,11 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   im->receive = fftwf_alloc_complex (band->n_bins);
   im->transmit = fftwf_alloc_complex (band->n_bins);
   im->baseband = fftwf_alloc_complex (im->ifft_size);
+  im->rescaled = g_new (SonarComplex, (gsize) band->n_bins *
+      setup->geometry.n_microphones);
   sonar_fftw_lock ();
   im->inverse = fftwf_plan_dft_1d (im->ifft_size, im->baseband, im->baseband,
-      FFTW_BACKWARD, FFTW_MEASURE);
+      FFTW_BACKWARD, SONAR_FFTW_PLANNING);
   sonar_fftw_unlock ();
   return im;
 }
@@ -207,6 +210,7 @@ sonar_imager_free (SonarImager * im)
   fftwf_free (im->receive);
   fftwf_free (im->transmit);
   fftwf_free (im->baseband);
+  g_free (im->rescaled);
   sonar_setup_unref (im->setup);
   g_free (im);
 }
@@ -215,6 +219,21 @@ const SonarImageGrid *
 sonar_imager_grid (const SonarImager * im)
 {
   return &im->grid;
+}
+
+/* Binary exponent of the largest component of @x (0 when all zero or not
+ * finite): x / 2^exponent is below 1. */
+static int
+data_exponent (const SonarComplex * x, gsize n)
+{
+  float peak = 0.0f;
+  int exponent = 0;
+
+  for (gsize i = 0; i < n; i++)
+    peak = MAX (peak, MAX (fabsf (crealf (x[i])), fabsf (cimagf (x[i]))));
+  if (peak > 0.0f && isfinite (peak))
+    frexpf (peak, &exponent);
+  return exponent;
 }
 
 void
@@ -229,10 +248,24 @@ sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
   const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
   const double dk = 2.0 * M_PI * im->setup->sample_rate /
       im->band.fft_size / c;
-  /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
-  const float scale = 2.0f / im->band.fft_size;
   const guint n_first = emitter < 0 ? 0 : (guint) emitter;
   const guint n_end = emitter < 0 ? g->n_emitters : (guint) emitter + 1;
+  const gsize n_data = (gsize) g->n_microphones * n_bins;
+  /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
+  float scale = 2.0f / im->band.fft_size;
+  /* The envelope squares float sums of up to N J K products: far from
+   * unity (a recording scaled by 1e-30, spikes of 1e30) they underflow or
+   * overflow. Such data are imaged scaled by a power of two (exact), and
+   * the envelope scaled back. */
+  const int exponent = data_exponent (mic_spectra, n_data);
+
+  if (ABS (exponent) > 30) {
+    const float factor = ldexpf (1.0f, -exponent);
+    for (gsize i = 0; i < n_data; i++)
+      im->rescaled[i] = mic_spectra[i] * factor;
+    mic_spectra = im->rescaled;
+    scale = ldexpf (scale, exponent);
+  }
 
   for (guint z = 0; z < im->n_zones; z++) {
     const FocusZone *zone = &im->zones[z];

@@ -3,11 +3,13 @@
 #include "sonar-fftw.h"
 #include "sonar-spectrum.h"
 
+#include <complex.h>          /* before fftw3.h: fftwf_complex is C99 */
 #include <fftw3.h>
+#include <math.h>
 #include <string.h>
 
-SonarInterp *
-sonar_interp_new (const float *signal, guint length)
+static SonarInterp *
+interp_new (const float *signal, guint length, gboolean filterable)
 {
   SonarInterp *in = g_new0 (SonarInterp, 1);
   const guint n = sonar_fft_good_size (length + 2 * SONAR_INTERP_PAD);
@@ -17,30 +19,51 @@ sonar_interp_new (const float *signal, guint length)
 
   in->length = length;
   in->fft_size = n;
+  /* up_n > table_points: the last step's end point is in the transform. */
   in->table_points = SONAR_INTERP_OVERSAMPLE * (length - 1 +
       2 * SONAR_INTERP_PAD) + 1;
-  /* One entry before and two after the points, for the 4-point stencil. */
-  in->table = g_new (float, in->table_points + 3);
+  in->table = g_new (float, 4 * (gsize) in->table_points);
   in->spectrum = fftwf_alloc_complex (n / 2 + 1);
-  in->up_spectrum = fftwf_alloc_complex (up_n / 2 + 1);
-  in->up_signal = fftwf_alloc_real (up_n);
+  in->up[0] = fftwf_alloc_complex (up_n / 2 + 1);
+  in->up[1] = fftwf_alloc_complex (up_n / 2 + 1);
 
   sonar_fftw_lock ();
   forward = fftwf_plan_dft_r2c_1d (n, padded, in->spectrum, FFTW_ESTIMATE);
-  in->up_plan = fftwf_plan_dft_c2r_1d (up_n, in->up_spectrum, in->up_signal,
+  in->up_plan = fftwf_plan_dft_c2r_1d (up_n, in->up[0], in->up[0],
       FFTW_ESTIMATE);
   sonar_fftw_unlock ();
 
   memset (padded, 0, sizeof (float) * n);
   memcpy (padded + SONAR_INTERP_PAD, signal, sizeof (float) * length);
   fftwf_execute (forward);
+  sonar_interp_filter (in, NULL);
+
   sonar_fftw_lock ();
   fftwf_destroy_plan (forward);
+  if (!filterable) {
+    fftwf_destroy_plan (in->up_plan);
+    in->up_plan = NULL;
+  }
   sonar_fftw_unlock ();
   fftwf_free (padded);
-
-  sonar_interp_filter (in, NULL);
+  if (!filterable) {
+    g_clear_pointer (&in->spectrum, fftwf_free);
+    g_clear_pointer (&in->up[0], fftwf_free);
+    g_clear_pointer (&in->up[1], fftwf_free);
+  }
   return in;
+}
+
+SonarInterp *
+sonar_interp_new (const float *signal, guint length)
+{
+  return interp_new (signal, length, FALSE);
+}
+
+SonarInterp *
+sonar_interp_new_filterable (const float *signal, guint length)
+{
+  return interp_new (signal, length, TRUE);
 }
 
 void
@@ -48,12 +71,14 @@ sonar_interp_free (SonarInterp * in)
 {
   if (!in)
     return;
-  sonar_fftw_lock ();
-  fftwf_destroy_plan (in->up_plan);
-  sonar_fftw_unlock ();
+  if (in->up_plan) {
+    sonar_fftw_lock ();
+    fftwf_destroy_plan (in->up_plan);
+    sonar_fftw_unlock ();
+  }
   fftwf_free (in->spectrum);
-  fftwf_free (in->up_spectrum);
-  fftwf_free (in->up_signal);
+  fftwf_free (in->up[0]);
+  fftwf_free (in->up[1]);
   g_free (in->table);
   g_free (in);
 }
@@ -74,20 +99,34 @@ void
 sonar_interp_filter (SonarInterp * in, const float *gains)
 {
   const guint n = in->fft_size, up_n = n * SONAR_INTERP_OVERSAMPLE;
+  /* The derivative per table step, not per sample. */
+  const double omega = 2.0 * M_PI / up_n;
   const fftwf_complex *spectrum = in->spectrum;
-  fftwf_complex *up = in->up_spectrum;
-  const float scale = 1.0f / n;
+  const float *y = in->up[0], *d = in->up[1];
 
-  memset (up, 0, sizeof (fftwf_complex) * (up_n / 2 + 1));
-  for (guint k = 0; k <= n / 2; k++) {
-    /* The Nyquist bin of an even size is shared by +-fs/2. */
-    const float g = scale * (gains ? gains[k] : 1.0f)
-        * (2 * k == n ? 0.5f : 1.0f);
-    up[k] = spectrum[k] * g;
+  g_return_if_fail (in->up_plan != NULL);
+
+  for (int pass = 0; pass < 2; pass++) {
+    fftwf_complex *up = in->up[pass];
+
+    memset (up, 0, sizeof (fftwf_complex) * (up_n / 2 + 1));
+    for (guint k = 0; k <= n / 2; k++) {
+      /* The Nyquist bin of an even size is shared by +-fs/2; its
+       * derivative is zero. */
+      const double g = (gains ? gains[k] : 1.0) / n
+          * (2 * k == n ? (pass ? 0.0 : 0.5) : 1.0);
+      const double re = crealf (spectrum[k]) * g;
+      const double im = cimagf (spectrum[k]) * g;
+      up[k] = pass ? CMPLXF (-im * omega * k, re * omega * k) :
+          CMPLXF (re, im);
+    }
+    fftwf_execute_dft_c2r (in->up_plan, up, (float *) up);
   }
-  fftwf_execute (in->up_plan);
-  /* Entry 0 is one step before -PAD: the end of the periodic signal. */
-  in->table[0] = in->up_signal[up_n - 1];
-  memcpy (in->table + 1, in->up_signal, sizeof (float) *
-      MIN (in->table_points + 2, up_n));
+  for (guint m = 0; m < in->table_points; m++) {
+    float *c = in->table + 4 * (gsize) m;
+    c[0] = y[m];
+    c[1] = d[m];
+    c[2] = 3.0f * (y[m + 1] - y[m]) - 2.0f * d[m] - d[m + 1];
+    c[3] = 2.0f * (y[m] - y[m + 1]) + d[m] + d[m + 1];
+  }
 }

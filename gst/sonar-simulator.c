@@ -39,29 +39,22 @@
  * a fast mover changes along its echo as it does physically. The path is
  * clamped at MIN_PATH so that a reflector on an element stays finite.
  *
- * Interpolation: each waveform is turned once into a table oversampled
- * OVERSAMPLE times by FFT zero-padding (exact band-limited interpolation of
- * the zero-extended waveform), with its exact derivative, read as one
- * cubic Hermite polynomial per table step: error below h^4 max|w^(4)| / 384
- * (h the step), -96 dB of a component at 80 kHz sampled at 450 kHz.
- * The band-limited waveform extends TABLE_PAD samples beyond each end
- * (its interpolation tails) and is zero beyond.
+ * Interpolation: each waveform is read through its SonarInterp
+ * (sonar-interp.h), stepping table coordinates directly in the inner loop.
  *
  * Air absorption: ISO 9613-1 at 20 C, 50 % RH, applied as a zero-phase
  * gain on each waveform's spectrum for the reflector's centre path length
- * (c times its echo delay); the tables are rebuilt per reflector and ping,
- * two inverse FFTs per emitter, with plans and buffers made in _new().
+ * (c times its echo delay): sonar_interp_filter() rebuilds the tables per
+ * reflector and ping with the plans and buffers made in _new().
  */
 #include "sonar-simulator.h"
+#include "sonar-interp.h"
 #include "sonar-rng.h"
 
-#include <fftw3.h>
 #include <gio/gio.h>
 #include <math.h>
 #include <string.h>
 
-#define OVERSAMPLE 4
-#define TABLE_PAD 32
 #define NODE_SPACING 64         /* samples between exact solutions */
 #define MIN_PATH 0.01           /* m */
 
@@ -69,30 +62,17 @@
 #define AIR_KELVIN 293.15
 #define AIR_HUMIDITY 50.0       /* % */
 
-/* FFTW's planner is not thread-safe; elements may start concurrently. */
-G_LOCK_DEFINE_STATIC (fftw_planner);
-
 struct _SonarSimulator
 {
   SonarSetup *setup;
   SonarSimulatorParams params;
 
-  /* Interpolation tables: entries 4 m to 4 m + 3 are the cubic, in the
-   * fraction f of a step, of the waveform from sample m / OVERSAMPLE -
-   * TABLE_PAD to the next table point, m < table_points. */
-  guint table_points;
-  gsize table_stride;
-  float *tables;                /* n_emitters * table_stride */
+  SonarInterp **waveforms;      /* [n_emitters] */
 
-  /* Set-up of the tables; kept only when they are rebuilt per reflector. */
-  guint fft_size;
-  fftwf_complex *spectra;       /* n_emitters * (fft_size / 2 + 1) */
+  /* Only with air absorption. */
+  guint n_bins;
   double *absorption;           /* nepers per metre, per bin */
   float *gains;                 /* per bin, for the current reflector */
-  fftwf_complex *up_spectrum;
-  float *up_signal;
-  float *up_derivative;
-  fftwf_plan up_plan;
 
   /* Per-ping scratch, sized in _new(). */
   guint *spans;                 /* [2 * (j * n_emitters + n)] sample range */
@@ -130,59 +110,6 @@ air_absorption_db_per_m (double frequency, double kelvin, double humidity)
           + 0.1068 * exp (-3352.0 / kelvin) / (fr_n + f2 / fr_n)));
 }
 
-/* Smallest 2^a 3^b 5^c >= n: sizes FFTW transforms fast. */
-static guint
-good_fft_size (guint n)
-{
-  for (;; n++) {
-    guint m = n;
-    while (m % 2 == 0)
-      m /= 2;
-    while (m % 3 == 0)
-      m /= 3;
-    while (m % 5 == 0)
-      m /= 5;
-    if (m == 1)
-      return n;
-  }
-}
-
-/* Fills @table from @spectrum (fft_size / 2 + 1 bins, times @gains if not
- * NULL): zero-padded OVERSAMPLE times, inverse transformed once as is and
- * once times i omega for the exact derivative, then turned into the cubic
- * Hermite coefficients of each table step. */
-static void
-build_table (SonarSimulator * sim, const fftwf_complex * spectrum,
-    const float *gains, float *table)
-{
-  const guint n = sim->fft_size, up_n = n * OVERSAMPLE;
-  /* The derivative per table step, not per sample. */
-  const double omega = 2.0 * M_PI / n / OVERSAMPLE;
-  const float *y = sim->up_signal, *d = sim->up_derivative;
-
-  for (int pass = 0; pass < 2; pass++) {
-    memset (sim->up_spectrum, 0, sizeof (fftwf_complex) * (up_n / 2 + 1));
-    for (guint k = 0; k <= n / 2; k++) {
-      /* The Nyquist bin of an even size is shared by +-fs/2; its
-       * derivative is zero. */
-      const double g = (gains ? gains[k] : 1.0) / n
-          * (2 * k == n ? (pass ? 0.0 : 0.5) : 1.0);
-      const double re = spectrum[k][0] * g, im = spectrum[k][1] * g;
-      sim->up_spectrum[k][0] = pass ? -im * omega * k : re;
-      sim->up_spectrum[k][1] = pass ? re * omega * k : im;
-    }
-    fftwf_execute_dft_c2r (sim->up_plan, sim->up_spectrum,
-        pass ? sim->up_derivative : sim->up_signal);
-  }
-  for (guint m = 0; m < sim->table_points; m++) {
-    float *c = table + 4 * m;
-    c[0] = y[m];
-    c[1] = d[m];
-    c[2] = 3.0f * (y[m + 1] - y[m]) - 2.0f * d[m] - d[m + 1];
-    c[3] = 2.0f * (y[m] - y[m + 1]) + d[m] + d[m + 1];
-  }
-}
-
 SonarSimulator *
 sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
     GError ** error)
@@ -190,10 +117,6 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
   SonarSimulator *sim;
   const guint n_emitters = setup->geometry.n_emitters;
   const guint length = setup->waveform_length;
-  guint n, up_n, n_bins;
-  float *signal;
-  fftwf_complex *bins;
-  fftwf_plan forward;
 
   g_return_val_if_fail (setup != NULL && params != NULL, NULL);
 
@@ -208,57 +131,21 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
   sim->setup = sonar_setup_ref (setup);
   sim->params = *params;
 
-  n = sim->fft_size = good_fft_size (length + 2 * TABLE_PAD);
-  up_n = n * OVERSAMPLE;
-  n_bins = n / 2 + 1;
-  sim->table_points = OVERSAMPLE * (length - 1 + 2 * TABLE_PAD) + 1;
-  sim->table_stride = 4 * (gsize) sim->table_points;
-  sim->tables = g_new (float, sim->table_stride * n_emitters);
-  sim->spectra = fftwf_alloc_complex ((gsize) n_bins * n_emitters);
-  sim->up_spectrum = fftwf_alloc_complex (up_n / 2 + 1);
-  sim->up_signal = fftwf_alloc_real (up_n);
-  sim->up_derivative = fftwf_alloc_real (up_n);
-  signal = fftwf_alloc_real (n);
-  bins = fftwf_alloc_complex (n_bins);
-
-  G_LOCK (fftw_planner);
-  forward = fftwf_plan_dft_r2c_1d (n, signal, bins, FFTW_ESTIMATE);
-  sim->up_plan = fftwf_plan_dft_c2r_1d (up_n, sim->up_spectrum,
-      sim->up_signal, FFTW_ESTIMATE);
-  G_UNLOCK (fftw_planner);
-
+  sim->waveforms = g_new (SonarInterp *, n_emitters);
   for (guint e = 0; e < n_emitters; e++) {
-    fftwf_complex *spectrum = sim->spectra + (gsize) e * n_bins;
-    memset (signal, 0, sizeof (float) * n);
-    memcpy (signal + TABLE_PAD, sonar_setup_waveform (setup, e),
-        sizeof (float) * length);
-    fftwf_execute (forward);
-    memcpy (spectrum, bins, sizeof (fftwf_complex) * n_bins);
-    build_table (sim, spectrum, NULL, sim->tables + e * sim->table_stride);
+    const float *w = sonar_setup_waveform (setup, e);
+    sim->waveforms[e] = params->air_absorption ?
+        sonar_interp_new_filterable (w, length) : sonar_interp_new (w, length);
   }
 
-  G_LOCK (fftw_planner);
-  fftwf_destroy_plan (forward);
-  G_UNLOCK (fftw_planner);
-  fftwf_free (signal);
-  fftwf_free (bins);
-
   if (params->air_absorption) {
-    sim->absorption = g_new (double, n_bins);
-    sim->gains = g_new (float, n_bins);
-    for (guint k = 0; k < n_bins; k++)
-      sim->absorption[k] = air_absorption_db_per_m (k * setup->sample_rate
-          / n, AIR_KELVIN, AIR_HUMIDITY) * (G_LN10 / 20.0);
-  } else {
-    /* The tables are final: drop what only rebuilding them needs. */
-    G_LOCK (fftw_planner);
-    fftwf_destroy_plan (sim->up_plan);
-    G_UNLOCK (fftw_planner);
-    sim->up_plan = NULL;
-    g_clear_pointer (&sim->spectra, fftwf_free);
-    g_clear_pointer (&sim->up_spectrum, fftwf_free);
-    g_clear_pointer (&sim->up_signal, fftwf_free);
-    g_clear_pointer (&sim->up_derivative, fftwf_free);
+    sim->n_bins = sonar_interp_n_bins (sim->waveforms[0]);
+    sim->absorption = g_new (double, sim->n_bins);
+    sim->gains = g_new (float, sim->n_bins);
+    for (guint k = 0; k < sim->n_bins; k++)
+      sim->absorption[k] = air_absorption_db_per_m (sonar_interp_bin_frequency
+          (sim->waveforms[0], k) * setup->sample_rate, AIR_KELVIN,
+          AIR_HUMIDITY) * (G_LN10 / 20.0);
   }
 
   sim->node_pos = g_new (double, setup->ping_length / NODE_SPACING + 4);
@@ -275,18 +162,11 @@ sonar_simulator_free (SonarSimulator * sim)
 {
   if (!sim)
     return;
-  if (sim->up_plan) {
-    G_LOCK (fftw_planner);
-    fftwf_destroy_plan (sim->up_plan);
-    G_UNLOCK (fftw_planner);
-  }
-  fftwf_free (sim->spectra);
-  fftwf_free (sim->up_spectrum);
-  fftwf_free (sim->up_signal);
-  fftwf_free (sim->up_derivative);
+  for (guint e = 0; e < sim->setup->geometry.n_emitters; e++)
+    sonar_interp_free (sim->waveforms[e]);
+  g_free (sim->waveforms);
   g_free (sim->absorption);
   g_free (sim->gains);
-  g_free (sim->tables);
   g_free (sim->node_pos);
   g_free (sim->node_amp);
   g_free (sim->spans);
@@ -456,18 +336,7 @@ clamp_sample (double x, guint length)
   return x <= 0.0 ? 0 : x >= length ? length : (guint) x;
 }
 
-/* The waveform at table position @pos, 0 <= pos <= table_points - 1. */
-static inline float
-interpolate (const float *table, double pos)
-{
-  const gsize k = (gsize) pos;
-  const float f = (float) (pos - (double) k);
-  const float *c = table + 4 * k;
-
-  return ((c[3] * f + c[2]) * f + c[1]) * f + c[0];
-}
-
-/* Exact table positions and amplitudes of one echo at the samples
+/* Exact table coordinates and amplitudes of one echo at the samples
  * i0 + NODE_SPACING * (k - 1), k < n_nodes: backwards from each
  * reception instant t to the reflection, then to the emission. */
 static void
@@ -475,7 +344,6 @@ solve_nodes (SonarSimulator * sim, const Motion * m, SonarVec3 e,
     SonarVec3 mic, double h, double strength, guint i0, guint n_nodes)
 {
   const double fs = sim->setup->sample_rate, dt = 1.0 / fs;
-  const double scale = OVERSAMPLE * fs, offset = OVERSAMPLE * TABLE_PAD;
   const double ch = m->c * h, hh = h * h;
 
   for (guint k = 0; k < n_nodes; k++) {
@@ -486,7 +354,7 @@ solve_nodes (SonarSimulator * sim, const Motion * m, SonarVec3 e,
         ch, hh);
     const double path = MAX (m->c * (t - te), MIN_PATH);
 
-    sim->node_pos[k] = te * scale + offset;
+    sim->node_pos[k] = sonar_interp_table_position (te * fs);
     sim->node_amp[k] = strength / (path * path);
   }
 }
@@ -509,10 +377,10 @@ cubic_differences (const double y[4], double d[4])
 
 /* Adds the echo whose nodes were solved over samples [i0, i1). */
 static void
-add_echo (const SonarSimulator * sim, const float *table, guint i0, guint i1,
-    float *restrict channel)
+add_echo (const SonarSimulator * sim, const SonarInterp * waveform, guint i0,
+    guint i1, float *restrict channel)
 {
-  const double last = sim->table_points - 1;
+  const double last = sonar_interp_table_end (waveform);
   guint i = i0;
 
   for (guint k = 0; i < i1; k++) {
@@ -527,7 +395,8 @@ add_echo (const SonarSimulator * sim, const float *table, guint i0, guint i1,
     for (guint q = 0; q < 4; q++)
       a[q] = (float) amp[q];
     for (; i < end; i++) {
-      channel[i] += a[0] * interpolate (table, CLAMP (p[0], 0.0, last));
+      channel[i] += a[0] * sonar_interp_at_table (waveform,
+          CLAMP (p[0], 0.0, last));
       p[0] += p[1];
       p[1] += p[2];
       p[2] += p[3];
@@ -550,8 +419,8 @@ render_reflector (SonarSimulator * sim, const SonarReflector * r,
   const double rho = reflector_radius (r);
   const double tau_mid = tau_centre + 0.5 * (setup->waveform_length - 1) * dt;
   /* Emission instants of the ends of the interpolated waveform. */
-  const double first = -TABLE_PAD * dt;
-  const double last = (setup->waveform_length - 1 + TABLE_PAD) * dt;
+  const double first = -SONAR_INTERP_PAD * dt;
+  const double last = (setup->waveform_length - 1 + SONAR_INTERP_PAD) * dt;
   gboolean any = FALSE;
 
   for (guint j = 0; j < n_m; j++) {
@@ -577,26 +446,29 @@ render_reflector (SonarSimulator * sim, const SonarReflector * r,
 
   if (sim->absorption) {
     const double path = m->c * echo_delay;
-    for (guint k = 0; k <= sim->fft_size / 2; k++)
+    for (guint k = 0; k < sim->n_bins; k++)
       sim->gains[k] = (float) exp (-sim->absorption[k] * path);
-    for (guint n = 0; n < n_e; n++)
-      build_table (sim, sim->spectra + (gsize) n * (sim->fft_size / 2 + 1),
-          sim->gains, sim->tables + n * sim->table_stride);
   }
 
-  /* Emitter by emitter, so that its table stays in the cache. */
+  /* Emitter by emitter, so that its table stays in the cache (and is
+   * rebuilt only if it is read, just before). */
   for (guint n = 0; n < n_e; n++) {
+    gboolean filtered = !sim->absorption;
+
     for (guint j = 0; j < n_m; j++) {
       const gsize pair = (gsize) j * n_e + n;
       const guint i0 = sim->spans[2 * pair], i1 = sim->spans[2 * pair + 1];
 
       if (i1 == i0)
         continue;
+      if (!filtered) {
+        sonar_interp_filter (sim->waveforms[n], sim->gains);
+        filtered = TRUE;
+      }
       solve_nodes (sim, m, g->emitters[n], g->microphones[j],
           sim->heights[pair], r->strength, i0,
           (i1 - i0 + NODE_SPACING - 1) / NODE_SPACING + 3);
-      add_echo (sim, sim->tables + n * sim->table_stride, i0, i1,
-          out + (gsize) j * length);
+      add_echo (sim, sim->waveforms[n], i0, i1, out + (gsize) j * length);
     }
   }
 }

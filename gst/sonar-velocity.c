@@ -33,6 +33,7 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->refine = TRUE;
   p->min_variance = 0.0;
   p->min_agreeing_emitters = 5;
+  p->min_coherence = 0.8;
   p->second_peak_db = 3.0;
 }
 
@@ -51,10 +52,12 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
     return NULL;
   }
   if (params->window_directions > 32 || params->window_ranges > 256
-      || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)) {
+      || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)
+      || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
         "velocity: window half-widths must be at most 32 directions and 256 "
-        "range steps, second-peak-db positive, min-variance >= 0");
+        "range steps, second-peak-db positive, min-variance >= 0 and "
+        "min-coherence in [0, 1]");
     return NULL;
   }
   setup = sonar_doppler_bank_get_setup (bank);
@@ -89,20 +92,136 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est);
 }
 
+/* Receive beam of @spectra focused at @point (range @range) into
+ * est->receive. */
+static void
+receive_beam (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    SonarVec3 point, double range)
+{
+  const SonarGeometry *g = &est->setup->geometry;
+  const guint n_bins = est->band.n_bins;
+  const double c = est->setup->speed_of_sound;
+  const double k0 = 2.0 * M_PI * sonar_band_frequency (&est->band, 0) / c;
+  const double dk = 2.0 * M_PI * est->band.sample_rate / est->band.fft_size /
+      c;
+
+  memset (est->receive, 0, sizeof (SonarComplex) * n_bins);
+  for (guint j = 0; j < g->n_microphones; j++) {
+    const double path = sonar_vec3_norm (sonar_vec3_sub (point,
+            g->microphones[j])) - range;
+    sonar_kernel_steer_accumulate (est->receive, spectra + (gsize) j * n_bins,
+        n_bins, k0 * path, dk * path);
+  }
+}
+
+/* Output of emitter @n's matched filter at velocity index @v for the beam
+ * in est->receive, at the lag of range @lag_range for a pixel at @point. */
+static SonarComplex
+emitter_output (SonarVelocityEstimator * est, guint n, guint v,
+    SonarVec3 point, double range, double lag_range)
+{
+  const SonarGeometry *g = &est->setup->geometry;
+  const guint n_bins = est->band.n_bins;
+  const double c = est->setup->speed_of_sound;
+  const double k0 = 2.0 * M_PI * sonar_band_frequency (&est->band, 0) / c;
+  const double dk = 2.0 * M_PI * est->band.sample_rate / est->band.fft_size /
+      c;
+  const double vel = sonar_doppler_bank_velocity (est->bank, v);
+  const double e_path = sonar_vec3_norm (sonar_vec3_sub (point,
+          g->emitters[n])) - range;
+  /* Lag of the pixel's range plus the emitter leg, stretched by 1 / alpha. */
+  const double path = 2.0 * lag_range + e_path * (c + vel) / (c - vel);
+
+  return sonar_kernel_steer_dot_conj (est->receive,
+      sonar_doppler_bank_spectra (est->bank, v) + (gsize) n * n_bins, n_bins,
+      k0 * path, dk * path) * (2.0f / est->band.fft_size);
+}
+
+/* Coherence factor of the emitters' outputs at velocity index @v: the
+ * largest over the window of |sum|^2 / (N sum |.|^2). */
+static double
+coherence_at (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    double range, double azimuth, double elevation, guint v)
+{
+  const SonarImageGrid *grid = &est->grid;
+  const int wd = est->params.window_directions;
+  const int wr = est->params.window_ranges;
+  const int we = grid->n_elevation > 1 ? wd : 0;
+  double best_sum = -1.0, best = 0.0;
+
+  for (int de = -we; de <= we; de++) {
+    for (int da = -wd; da <= wd; da++) {
+      const SonarVec3 point = sonar_vec3_scale (sonar_vec3_from_direction
+          (CLAMP (azimuth + da * grid->azimuth_step, -90, 90),
+              CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
+      receive_beam (est, spectra, point, range);
+      for (int dr = -wr; dr <= wr; dr++) {
+        SonarComplex sum = 0.0f;
+        double power = 0.0;
+        for (guint n = 0; n < est->n_emitters; n++) {
+          const SonarComplex y = emitter_output (est, n, v, point, range,
+              range + dr * grid->range_step);
+          sum += y;
+          power += crealf (y * conjf (y));
+        }
+        if (crealf (sum * conjf (sum)) > best_sum) {
+          best_sum = crealf (sum * conjf (sum));
+          best = power > 0.0 ? best_sum / (est->n_emitters * power) : 0.0;
+        }
+      }
+    }
+  }
+  return best;
+}
+
+static double parabola_offset (double a, double b, double c);
+
+/* Envelope peak of emitter @n's output at velocity index @v over the lags
+ * of range bins -wr..wr around @range. The image's range bins are about
+ * one envelope width apart: their sampled maximum would scallop
+ * differently for every velocity (the peak's lag moves with the Doppler
+ * mismatch) and bias the curve. So the best bin is refined on a grid four
+ * times finer, and the peak read off a parabola through the logarithms of
+ * the best fine sample and its neighbours. */
+static double
+window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
+    double range, int wr)
+{
+  const double step = est->grid.range_step;
+  double fine[9], best_value = -1.0, best_lag = 0.0;
+  int best = 4;
+
+  for (int dr = -wr; dr <= wr; dr++) {
+    const double y = cabsf (emitter_output (est, n, v, point, range,
+            range + dr * step));
+    if (y > best_value) {
+      best_value = y;
+      best_lag = dr * step;
+    }
+  }
+  /* Quarter steps from -1 to +1 bin around the best. */
+  for (int q = 0; q < 9; q++)
+    fine[q] = q == 4 ? best_value : cabsf (emitter_output (est, n, v, point,
+            range, range + best_lag + (q - 4) * 0.25 * step));
+  for (int q = 1; q < 8; q++)
+    if (fine[q] > fine[best])
+      best = q;
+  if (fine[best - 1] > 0.0 && fine[best] > 0.0 && fine[best + 1] > 0.0) {
+    const double la = log (fine[best - 1]), lb = log (fine[best]);
+    const double lc = log (fine[best + 1]);
+    const double x = parabola_offset (la, lb, lc);
+    return exp (lb + 0.25 * (la - lc) * x);
+  }
+  return fine[best];
+}
+
 /* Takes the maximum of the window's single-emitter image values at every
  * velocity into est->acf. */
 static void
 evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
     double range, double azimuth, double elevation)
 {
-  const SonarGeometry *g = &est->setup->geometry;
   const SonarImageGrid *grid = &est->grid;
-  const guint n_bins = est->band.n_bins;
-  const double c = est->setup->speed_of_sound;
-  const double k0 = 2.0 * M_PI * sonar_band_frequency (&est->band, 0) / c;
-  const double dk = 2.0 * M_PI * est->band.sample_rate / est->band.fft_size /
-      c;
-  const float scale = 2.0f / est->band.fft_size;
   const int wd = est->params.window_directions;
   const int wr = est->params.window_ranges;
   const int we = grid->n_elevation > 1 ? wd : 0;
@@ -112,36 +231,15 @@ evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
-      const double az = CLAMP (azimuth + da * grid->azimuth_step, -90, 90);
-      const double el = CLAMP (elevation + de * grid->elevation_step, -90,
-          90);
-      const SonarVec3 point = sonar_vec3_scale (sonar_vec3_from_direction (az,
-              el), range);
-
+      const SonarVec3 point = sonar_vec3_scale (sonar_vec3_from_direction
+          (CLAMP (azimuth + da * grid->azimuth_step, -90, 90),
+              CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
       /* Receive beam focused exactly at this pixel's point. */
-      memset (est->receive, 0, sizeof (SonarComplex) * n_bins);
-      for (guint j = 0; j < g->n_microphones; j++) {
-        const double path = sonar_vec3_norm (sonar_vec3_sub (point,
-                g->microphones[j])) - range;
-        sonar_kernel_steer_accumulate (est->receive,
-            spectra + (gsize) j * n_bins, n_bins, k0 * path, dk * path);
-      }
+      receive_beam (est, spectra, point, range);
       for (guint n = 0; n < est->n_emitters; n++) {
-        const double e_path = sonar_vec3_norm (sonar_vec3_sub (point,
-                g->emitters[n])) - range;
         for (guint v = 0; v < est->n_velocities; v++) {
-          const double vel = sonar_doppler_bank_velocity (est->bank, v);
-          const SonarComplex *tpl = sonar_doppler_bank_spectra (est->bank,
-              v) + (gsize) n * n_bins;
           double *acf = &est->acf[(gsize) n * est->n_velocities + v];
-          for (int dr = -wr; dr <= wr; dr++) {
-            /* Lag of range bin dr plus the stretched emitter leg. */
-            const double path = 2.0 * (range + dr * grid->range_step) +
-                e_path * (c + vel) / (c - vel);
-            const SonarComplex y = sonar_kernel_steer_dot_conj
-                (est->receive, tpl, n_bins, k0 * path, dk * path);
-            *acf = MAX (*acf, scale * cabsf (y));
-          }
+          *acf = MAX (*acf, window_peak (est, n, v, point, range, wr));
         }
       }
     }
@@ -156,6 +254,38 @@ parabola_offset (double a, double b, double c)
   return denom < 0.0 ? CLAMP (0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
 }
 
+/* Vertex, in steps from @p, of the least-squares parabola through lp[]
+ * over the middle of the main lobe (+-0.4 of its width, at least one step
+ * each side). The curves are a main lobe wide (about 0.33 m/s): a parabola
+ * through the top three points alone follows their small wiggles. */
+static double
+fit_vertex (const double *lp, guint n, guint p, double lobe_steps)
+{
+  const int half = MAX (1, (int) floor (0.4 * lobe_steps));
+  const int lo = MAX (-half, -(int) p), hi = MIN (half, (int) (n - 1 - p));
+  double s[5] = { 0 }, t[3] = { 0 }, det, b, c;
+
+  /* Normal equations of y = a + b x + c x^2. */
+  for (int x = lo; x <= hi; x++) {
+    double xp = 1.0;
+    for (int k = 0; k < 5; k++) {
+      s[k] += xp;
+      if (k < 3)
+        t[k] += xp * lp[p + x];
+      xp *= x;
+    }
+  }
+  det = s[0] * (s[2] * s[4] - s[3] * s[3]) - s[1] * (s[1] * s[4] - s[3] *
+      s[2]) + s[2] * (s[1] * s[3] - s[2] * s[2]);
+  if (hi - lo < 2 || fabs (det) < 1e-12)
+    return parabola_offset (lp[p - 1], lp[p], lp[p + 1]);
+  b = (s[0] * (t[1] * s[4] - s[3] * t[2]) - t[0] * (s[1] * s[4] - s[3] *
+          s[2]) + s[2] * (s[1] * t[2] - t[1] * s[2])) / det;
+  c = (s[0] * (s[2] * t[2] - t[1] * s[3]) - s[1] * (s[1] * t[2] - t[1] *
+          s[2]) + t[0] * (s[1] * s[3] - s[2] * s[2])) / det;
+  return c < 0.0 ? CLAMP (-b / (2.0 * c), lo, hi) : 0.0;
+}
+
 static int
 compare_doubles (const void *a, const void *b)
 {
@@ -164,8 +294,8 @@ compare_doubles (const void *a, const void *b)
 }
 
 static void
-describe_peak (SonarVelocityEstimator * est, guint p, double median,
-    SonarVelocityEstimate * out)
+describe_peak (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    guint p, double median, SonarVelocityEstimate * out)
 {
   const guint nv = est->n_velocities;
   const double step = sonar_doppler_bank_step (est->bank);
@@ -175,7 +305,7 @@ describe_peak (SonarVelocityEstimator * est, guint p, double median,
   guint agree = 0;
 
   if (est->params.refine && p > 0 && p + 1 < nv)
-    v += step * parabola_offset (lp[p - 1], lp[p], lp[p + 1]);
+    v += step * fit_vertex (lp, nv, p, est->main_lobe / step);
   out->radial_velocity = v;
   out->bank_index = p;
   out->at_bank_edge = p == 0 || p + 1 == nv;
@@ -201,8 +331,11 @@ describe_peak (SonarVelocityEstimator * est, guint p, double median,
         sonar_doppler_bank_velocity (est->bank, p)) <= 0.5 * est->main_lobe;
   }
   out->agreeing_emitters = agree;
+  out->coherence = coherence_at (est, spectra, out->range, out->azimuth,
+      out->elevation, p);
   out->valid = agree >= MIN (est->params.min_agreeing_emitters,
-      est->n_emitters) && out->variance >= est->params.min_variance;
+      est->n_emitters) && out->variance >= est->params.min_variance
+      && out->coherence >= est->params.min_coherence;
   out->second = FALSE;
 }
 
@@ -232,7 +365,7 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   out[0].range = range;
   out[0].azimuth = azimuth;
   out[0].elevation = elevation;
-  describe_peak (est, peak, median, &out[0]);
+  describe_peak (est, mic_spectra, peak, median, &out[0]);
 
   /* A second local maximum beyond the first's main lobe, nearly as high:
    * two reflectors of different speeds in one centroid. */
@@ -246,7 +379,7 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   if (second >= 0 && lp[second] >= lp[peak] - est->n_emitters *
       est->params.second_peak_db * G_LN10 / 20.0) {
     out[1] = out[0];
-    describe_peak (est, second, median, &out[1]);
+    describe_peak (est, mic_spectra, second, median, &out[1]);
     out[1].second = TRUE;
     count = out[1].valid ? 2 : 1;
   }

@@ -12,7 +12,9 @@
  *
  * A centroid whose curves are not peaked (a sidelobe or cross-talk ghost)
  * is flagged: its normalised product has a small variance (the paper's
- * test, Fig. 8) and the emitters' own peaks disagree.
+ * test, Fig. 8), the emitters' own peaks disagree, and the emitters'
+ * outputs at the estimated velocity do not add up coherently (a true echo
+ * has a coherence factor above 0.9, a cross-talk ridge 0.4-0.7).
  */
 #ifndef SONAR_VELOCITY_H
 #define SONAR_VELOCITY_H
@@ -29,6 +31,7 @@ typedef struct
   gboolean refine;              /* parabolic sub-step refinement of the peak */
   double min_variance;          /* below: not peaked, flagged as a false positive */
   guint min_agreeing_emitters;  /* emitters whose own peak is within a main lobe */
+  double min_coherence;         /* coherence factor across emitters, 0..1 */
   double second_peak_db;        /* a second product peak at most this far below
                                  * the first (dB, > 0) is a second reflector */
 } SonarVelocityParams;
@@ -43,6 +46,8 @@ typedef struct
   double peak_db;               /* product peak above the curve's median, dB per emitter */
   double variance;              /* variance of the product normalised to [0, 1] */
   guint agreeing_emitters;      /* emitters whose own peak agrees */
+  double coherence;             /* |sum of emitters' outputs|^2 / (N sum of
+                                 * their powers) at the best window pixel */
   gboolean at_bank_edge;        /* the peak is the bank's first or last velocity */
   gboolean valid;               /* passed the false-positive tests */
   gboolean second;              /* a second reflector in the same centroid */

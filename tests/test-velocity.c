@@ -117,9 +117,9 @@ test_slow_objects (void)
     SonarVelocityEstimate e = estimate_at_truth (&f, json, 0.01, 0, &truth);
     const double err = fabs (e.radial_velocity - truth.radial_velocity);
     g_test_message ("%.1f m %+.0f deg: truth %+.4f, estimate %+.4f m/s "
-        "(error %.4f), agree %u, peak %.1f dB, variance %.4f", truth.range,
-        truth.azimuth, truth.radial_velocity, e.radial_velocity, err,
-        e.agreeing_emitters, e.peak_db, e.variance);
+        "(error %.4f), agree %u, peak %.1f dB, variance %.4f, coherence %.3f",
+        truth.range, truth.azimuth, truth.radial_velocity, e.radial_velocity,
+        err, e.agreeing_emitters, e.peak_db, e.variance, e.coherence);
     g_assert_true (e.valid);
     sum += err;
     worst = MAX (worst, err);

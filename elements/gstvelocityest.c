@@ -1,0 +1,354 @@
+/* gstvelocityest.c: velocityest, the radial velocity of every reflector
+ * (paper Section III.B, eq. 15, Fig. 4f-g).
+ *
+ * For each centroid from wardcluster it evaluates every emitter's
+ * single-emitter image at every velocity of the Doppler bank in a small
+ * window around the centroid, multiplies the N Doppler-ACF curves and takes
+ * the product's peak, refined below the bank's step (sonar-velocity.h).
+ * Centroids whose curves are not peaked (sidelobes, cross-talk ghosts) are
+ * dropped (keep-rejected=true keeps them, marked "valid": false). Two
+ * separate peaks in one centroid give two detections.
+ *
+ * Results, per ping, three ways (docs/CONTRACTS.md): a line of JSON as the
+ * output buffer (text/x-raw, utf8: fdsink or filesink write it), a
+ * SonarDetectionsMeta on that buffer (appsink), and a "sonar-detections"
+ * element message.
+ *
+ *   gst-launch-1.0 sonarsrc scene=fig10 num-buffers=5 ! dopplerbank \
+ *       velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02 ! \
+ *       mimobeamform ! wardcluster ! velocityest ! fdsink
+ */
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstvelocityest.h"
+
+#include <string.h>
+
+#include "sonar-velocity.h"
+
+GST_DEBUG_CATEGORY_STATIC (velocity_est_debug);
+#define GST_CAT_DEFAULT velocity_est_debug
+
+#define DEFAULT_KEEP_REJECTED FALSE
+#define DEFAULT_POST_MESSAGES TRUE
+
+enum
+{
+  PROP_0,
+  PROP_WINDOW_DIRECTIONS,
+  PROP_WINDOW_RANGES,
+  PROP_REFINE,
+  PROP_MIN_VARIANCE,
+  PROP_MIN_AGREEING_EMITTERS,
+  PROP_MIN_COHERENCE,
+  PROP_SECOND_PEAK,
+  PROP_KEEP_REJECTED,
+  PROP_POST_MESSAGES,
+};
+
+struct _GstVelocityEst
+{
+  GstSonarFilter parent;
+
+  /* Properties, protected by the object lock. */
+  SonarVelocityParams params;
+  gboolean keep_rejected;
+  gboolean post_messages;
+
+  SonarVelocityEstimator *estimator;
+  SonarImageGrid grid;
+  guint n_emitters;
+  GArray *detections;           /* SonarDetection, reused every ping */
+};
+
+G_DEFINE_TYPE (GstVelocityEst, gst_velocity_est, GST_TYPE_SONAR_FILTER);
+GST_ELEMENT_REGISTER_DEFINE_WITH_CODE (velocityest, "velocityest",
+    GST_RANK_NONE, GST_TYPE_VELOCITY_EST,
+    GST_DEBUG_CATEGORY_INIT (velocity_est_debug, "velocityest", 0,
+        "radial velocity estimation"));
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_DETECTIONS_CAPS));
+
+static GstCaps *
+gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
+    GError ** error)
+{
+  GstVelocityEst *self = GST_VELOCITY_EST (filter);
+  SonarVelocityParams params;
+  guint records;
+
+  if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
+          &records) || records != 1) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+        "velocityest: it needs one energyscape per ping with centroids "
+        "(mimobeamform ! wardcluster ! velocityest)");
+    return NULL;
+  }
+  GST_OBJECT_LOCK (self);
+  params = self->params;
+  GST_OBJECT_UNLOCK (self);
+  self->estimator = sonar_velocity_estimator_new (gst_sonar_filter_get_bank
+      (filter), &self->grid, &params, error);
+  if (!self->estimator)
+    return NULL;
+  self->n_emitters = gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
+  return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
+}
+
+static void
+gst_velocity_est_unconfigure (GstSonarFilter * filter)
+{
+  g_clear_pointer (&GST_VELOCITY_EST (filter)->estimator,
+      sonar_velocity_estimator_free);
+}
+
+static void
+add_detection (GstVelocityEst * self, guint centroid,
+    const SonarVelocityEstimate * e)
+{
+  SonarDetection d;
+
+  d.centroid = centroid;
+  d.range = e->range;
+  d.azimuth = e->azimuth;
+  d.elevation = e->elevation;
+  d.position = sonar_vec3_scale (sonar_vec3_from_direction (e->azimuth,
+          e->elevation), e->range);
+  d.radial_velocity = e->radial_velocity;
+  d.approaching = e->radial_velocity < 0.0;
+  d.confidence = (double) e->agreeing_emitters / self->n_emitters;
+  d.out_of_range = e->at_bank_edge;
+  d.valid = e->valid;
+  d.peak_db = e->peak_db;
+  d.variance = e->variance;
+  g_array_append_val (self->detections, d);
+}
+
+static GstFlowReturn
+gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
+{
+  GstVelocityEst *self = GST_VELOCITY_EST (filter);
+  SonarCentroidsMeta *centroids = sonar_buffer_get_centroids_meta (buffer);
+  SonarSpectraMeta *spectra = sonar_buffer_get_spectra_meta (buffer);
+  const SonarBand *band = gst_sonar_filter_get_band (filter);
+  GstBuffer *out;
+  GstMapInfo map;
+  char *json;
+  guint64 ping;
+
+  if (!centroids || !spectra || !sonar_band_equal (&spectra->band, band)) {
+    GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("An energyscape without "
+            "centroids or spectra: velocityest needs mimobeamform ! "
+            "wardcluster before it"), (NULL));
+    gst_buffer_unref (buffer);
+    return GST_FLOW_ERROR;
+  }
+  ping = centroids->ping_index;
+  g_array_set_size (self->detections, 0);
+  gst_buffer_map (spectra->spectra, &map, GST_MAP_READ);
+  for (guint k = 0; k < centroids->n_centroids; k++) {
+    const SonarCentroid *c = &centroids->centroids[k];
+    SonarVelocityEstimate e[2];
+    const guint n = sonar_velocity_estimate (self->estimator,
+        (const SonarComplex *) map.data, c->range, c->azimuth, c->elevation,
+        e, NULL);
+    for (guint i = 0; i < n; i++)
+      if (e[i].valid || self->keep_rejected)
+        add_detection (self, k, &e[i]);
+  }
+  gst_buffer_unmap (spectra->spectra, &map);
+
+  json = sonar_detections_to_json (ping, GST_BUFFER_PTS (buffer),
+      (SonarDetection *) self->detections->data, self->detections->len);
+  out = gst_buffer_new_wrapped (json, strlen (json));
+  gst_buffer_copy_into (out, buffer, GST_BUFFER_COPY_TIMESTAMPS |
+      GST_BUFFER_COPY_META, 0, -1);
+  sonar_buffer_add_detections_meta (out, ping,
+      (SonarDetection *) self->detections->data, self->detections->len);
+  if (self->post_messages)
+    gst_element_post_message (GST_ELEMENT (self),
+        gst_message_new_element (GST_OBJECT (self),
+            sonar_detections_to_structure (ping, GST_BUFFER_PTS (buffer),
+                (SonarDetection *) self->detections->data,
+                self->detections->len)));
+  gst_buffer_unref (buffer);
+  return gst_sonar_filter_push (filter, out);
+}
+
+static void
+gst_velocity_est_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  GstVelocityEst *self = GST_VELOCITY_EST (object);
+  SonarVelocityParams *p = &self->params;
+
+  GST_OBJECT_LOCK (self);
+  switch (prop_id) {
+    case PROP_WINDOW_DIRECTIONS:
+      p->window_directions = g_value_get_uint (value);
+      break;
+    case PROP_WINDOW_RANGES:
+      p->window_ranges = g_value_get_uint (value);
+      break;
+    case PROP_REFINE:
+      p->refine = g_value_get_boolean (value);
+      break;
+    case PROP_MIN_VARIANCE:
+      p->min_variance = g_value_get_double (value);
+      break;
+    case PROP_MIN_AGREEING_EMITTERS:
+      p->min_agreeing_emitters = g_value_get_uint (value);
+      break;
+    case PROP_MIN_COHERENCE:
+      p->min_coherence = g_value_get_double (value);
+      break;
+    case PROP_SECOND_PEAK:
+      p->second_peak_db = g_value_get_double (value);
+      break;
+    case PROP_KEEP_REJECTED:
+      self->keep_rejected = g_value_get_boolean (value);
+      break;
+    case PROP_POST_MESSAGES:
+      self->post_messages = g_value_get_boolean (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (self);
+}
+
+static void
+gst_velocity_est_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  GstVelocityEst *self = GST_VELOCITY_EST (object);
+  const SonarVelocityParams *p = &self->params;
+
+  GST_OBJECT_LOCK (self);
+  switch (prop_id) {
+    case PROP_WINDOW_DIRECTIONS:
+      g_value_set_uint (value, p->window_directions);
+      break;
+    case PROP_WINDOW_RANGES:
+      g_value_set_uint (value, p->window_ranges);
+      break;
+    case PROP_REFINE:
+      g_value_set_boolean (value, p->refine);
+      break;
+    case PROP_MIN_VARIANCE:
+      g_value_set_double (value, p->min_variance);
+      break;
+    case PROP_MIN_AGREEING_EMITTERS:
+      g_value_set_uint (value, p->min_agreeing_emitters);
+      break;
+    case PROP_MIN_COHERENCE:
+      g_value_set_double (value, p->min_coherence);
+      break;
+    case PROP_SECOND_PEAK:
+      g_value_set_double (value, p->second_peak_db);
+      break;
+    case PROP_KEEP_REJECTED:
+      g_value_set_boolean (value, self->keep_rejected);
+      break;
+    case PROP_POST_MESSAGES:
+      g_value_set_boolean (value, self->post_messages);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (self);
+}
+
+static void
+gst_velocity_est_finalize (GObject * object)
+{
+  g_array_unref (GST_VELOCITY_EST (object)->detections);
+  G_OBJECT_CLASS (gst_velocity_est_parent_class)->finalize (object);
+}
+
+static void
+gst_velocity_est_init (GstVelocityEst * self)
+{
+  sonar_velocity_params_init_default (&self->params);
+  self->keep_rejected = DEFAULT_KEEP_REJECTED;
+  self->post_messages = DEFAULT_POST_MESSAGES;
+  self->detections = g_array_new (FALSE, FALSE, sizeof (SonarDetection));
+}
+
+static void
+gst_velocity_est_class_init (GstVelocityEstClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstSonarFilterClass *filter_class = GST_SONAR_FILTER_CLASS (klass);
+  const GParamFlags flags = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
+      | GST_PARAM_MUTABLE_READY;
+  SonarVelocityParams d;
+
+  sonar_velocity_params_init_default (&d);
+  gobject_class->set_property = gst_velocity_est_set_property;
+  gobject_class->get_property = gst_velocity_est_get_property;
+  gobject_class->finalize = gst_velocity_est_finalize;
+
+  g_object_class_install_property (gobject_class, PROP_WINDOW_DIRECTIONS,
+      g_param_spec_uint ("window-directions", "Window directions", "Half "
+          "width of the Doppler-ACF window (eq. 15) in image direction steps "
+          "(1: 3 directions)", 0, 32, d.window_directions, flags));
+  g_object_class_install_property (gobject_class, PROP_WINDOW_RANGES,
+      g_param_spec_uint ("window-ranges", "Window ranges", "Half width of "
+          "the Doppler-ACF window in image range steps (2: 5 ranges)", 0,
+          256, d.window_ranges, flags));
+  g_object_class_install_property (gobject_class, PROP_REFINE,
+      g_param_spec_boolean ("refine", "Refine", "Refine the peak below the "
+          "bank's step with a parabola through the log product", d.refine,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_VARIANCE,
+      g_param_spec_double ("min-variance", "Minimum variance", "The paper's "
+          "false-positive test: a centroid whose normalised Doppler-ACF "
+          "product varies less than this is not a reflector", 0.0, 1.0,
+          d.min_variance, flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_AGREEING_EMITTERS,
+      g_param_spec_uint ("min-agreeing-emitters", "Minimum agreeing "
+          "emitters", "A reflector needs at least this many emitters whose "
+          "own Doppler-ACF peak lies within half a Doppler main lobe of the "
+          "product's", 0, 64, d.min_agreeing_emitters, flags));
+  g_object_class_install_property (gobject_class, PROP_MIN_COHERENCE,
+      g_param_spec_double ("min-coherence", "Minimum coherence", "A "
+          "reflector's emitters add up coherently at its velocity: coherence "
+          "factor |sum|^2 / (N sum of powers) at least this (true echoes "
+          "score above 0.9, cross-talk ridges 0.4-0.7)", 0.0, 1.0,
+          d.min_coherence, flags));
+  g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
+      g_param_spec_double ("second-peak", "Second peak", "A second "
+          "Doppler-ACF peak at most this many dB (per emitter) below the "
+          "first, a main lobe away, is a second reflector in the centroid",
+          0.01, 100.0, d.second_peak_db, flags));
+  g_object_class_install_property (gobject_class, PROP_KEEP_REJECTED,
+      g_param_spec_boolean ("keep-rejected", "Keep rejected", "Report the "
+          "centroids that fail the false-positive tests too, with "
+          "\"valid\": false", DEFAULT_KEEP_REJECTED, flags));
+  g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
+      g_param_spec_boolean ("post-messages", "Post messages", "Post a "
+          "\"sonar-detections\" element message per ping",
+          DEFAULT_POST_MESSAGES, flags));
+
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+  gst_element_class_set_static_metadata (element_class,
+      "Sonar radial velocity estimator", "Filter/Analyzer/Sonar",
+      "Estimates each reflector's radial velocity from the product of its "
+      "per-emitter Doppler-ACF curves; outputs one JSON line per ping",
+      "gst-sonar-velocity developers");
+
+  filter_class->needs_bank = TRUE;
+  filter_class->configure = GST_DEBUG_FUNCPTR (gst_velocity_est_configure);
+  filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_velocity_est_unconfigure);
+  filter_class->process = GST_DEBUG_FUNCPTR (gst_velocity_est_process);
+}

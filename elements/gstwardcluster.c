@@ -1,0 +1,380 @@
+/* gstwardcluster.c: wardcluster, the reflectors' centroids (paper Section
+ * III.A, Fig. 5).
+ *
+ * Thresholds the energyscape (relative to the ping's maximum and
+ * absolutely), finds its local peaks and merges them by agglomerative
+ * hierarchical clustering (Ward's minimum variance by default; single,
+ * complete, average and centroid linkage for comparison), stopping where
+ * the inconsistency of the last levels jumps (or at a distance). The image
+ * passes through unchanged with a SonarCentroidsMeta; each ping's centroids
+ * are also posted as a "sonar-centroids" element message.
+ *
+ * Echoes weaken as 1 / (2 r)^2 (paper eq. 6): with range-compensation (the
+ * default) the thresholds and the clustering see the image times r^2, so
+ * that a far object is not lost below a near one's relative threshold. The
+ * cross-talk ridges this lifts behind near objects are velocityest's to
+ * reject (they fail its coherence and agreement tests).
+ */
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstwardcluster.h"
+
+GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
+#define GST_CAT_DEFAULT ward_cluster_debug
+
+#define MAX_CENTROIDS 256
+#define DEFAULT_POST_MESSAGES TRUE
+#define DEFAULT_RANGE_COMPENSATION TRUE
+/* With range compensation the objects of a scene come out at similar
+ * levels and cross-talk ridges 10-20 dB below them (physics notes). */
+#define DEFAULT_THRESHOLD -10.0
+
+#define GST_TYPE_SONAR_LINKAGE (sonar_linkage_get_type ())
+static GType
+sonar_linkage_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {SONAR_LINKAGE_WARD, "Ward's minimum variance", "ward"},
+    {SONAR_LINKAGE_SINGLE, "Single link (nearest neighbour, SLINK)",
+        "single"},
+    {SONAR_LINKAGE_COMPLETE, "Complete link (farthest neighbour)",
+        "complete"},
+    {SONAR_LINKAGE_AVERAGE, "Average link (UPGMA)", "average"},
+    {SONAR_LINKAGE_CENTROID, "Centroid link (UPGMC)", "centroid"},
+    {0, NULL, NULL}
+  };
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type, g_enum_register_static ("GstSonarLinkage",
+            values));
+  return type;
+}
+
+#define GST_TYPE_SONAR_STOP (sonar_stop_get_type ())
+static GType
+sonar_stop_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {SONAR_STOP_INCONSISTENCY, "Inconsistency of the last merge levels",
+        "inconsistency"},
+    {SONAR_STOP_DISTANCE, "Merge height above distance", "distance"},
+    {0, NULL, NULL}
+  };
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type, g_enum_register_static ("GstSonarStop",
+            values));
+  return type;
+}
+
+enum
+{
+  PROP_0,
+  PROP_THRESHOLD,
+  PROP_ABSOLUTE_THRESHOLD,
+  PROP_LINKAGE,
+  PROP_STOP,
+  PROP_INCONSISTENCY,
+  PROP_DEPTH,
+  PROP_DISTANCE,
+  PROP_MAX_PEAKS,
+  PROP_RANGE_COMPENSATION,
+  PROP_POST_MESSAGES,
+};
+
+struct _GstWardCluster
+{
+  GstSonarFilter parent;
+
+  SonarClusterParams params;    /* protected by the object lock */
+  gboolean post_messages;
+  gboolean range_compensation;
+
+  SonarClusterer *clusterer;
+  float *compensated;           /* the image times r^2 */
+  SonarImageGrid grid;
+  SonarCentroid centroids[MAX_CENTROIDS];
+};
+
+G_DEFINE_TYPE (GstWardCluster, gst_ward_cluster, GST_TYPE_SONAR_FILTER);
+GST_ELEMENT_REGISTER_DEFINE_WITH_CODE (wardcluster, "wardcluster",
+    GST_RANK_NONE, GST_TYPE_WARD_CLUSTER,
+    GST_DEBUG_CATEGORY_INIT (ward_cluster_debug, "wardcluster", 0,
+        "hierarchical clustering of sonar images"));
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
+    GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
+
+static GstCaps *
+gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
+    GError ** error)
+{
+  GstWardCluster *self = GST_WARD_CLUSTER (filter);
+  SonarClusterParams params;
+  guint records;
+
+  if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
+          &records) || records != 1) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+        "wardcluster: it needs one energyscape per ping (mimobeamform "
+        "mode=detection or mode=fixed, not datacube)");
+    return NULL;
+  }
+  GST_OBJECT_LOCK (self);
+  params = self->params;
+  GST_OBJECT_UNLOCK (self);
+  self->clusterer = sonar_clusterer_new (&self->grid, &params, error);
+  if (!self->clusterer)
+    return NULL;
+  if (self->range_compensation)
+    self->compensated = g_new (float, sonar_image_grid_size (&self->grid));
+  return gst_caps_ref (in_caps);
+}
+
+static void
+gst_ward_cluster_unconfigure (GstSonarFilter * filter)
+{
+  GstWardCluster *self = GST_WARD_CLUSTER (filter);
+
+  g_clear_pointer (&self->clusterer, sonar_clusterer_free);
+  g_clear_pointer (&self->compensated, g_free);
+}
+
+/* The image times r^2: every range bin scaled by its range squared. */
+static const float *
+compensate (GstWardCluster * self, const float *image)
+{
+  const SonarImageGrid *g = &self->grid;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+
+  for (gsize d = 0; d < n_dirs; d++) {
+    const float *in = image + d * g->n_range;
+    float *out = self->compensated + d * g->n_range;
+    for (guint i = 0; i < g->n_range; i++) {
+      const float r = (float) (g->range_first + i * g->range_step);
+      out[i] = in[i] * r * r;
+    }
+  }
+  return self->compensated;
+}
+
+static GstFlowReturn
+gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
+{
+  GstWardCluster *self = GST_WARD_CLUSTER (filter);
+  const gsize expected = sizeof (SonarEnergyscapeHeader) + sizeof (float) *
+      sonar_image_grid_size (&self->grid);
+  const SonarEnergyscapeHeader *header;
+  GstMapInfo map;
+  guint64 ping;
+  guint n;
+
+  if (gst_buffer_get_size (buffer) != expected) {
+    GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("An energyscape of %"
+            G_GSIZE_FORMAT " bytes, expected %" G_GSIZE_FORMAT,
+            gst_buffer_get_size (buffer), expected), (NULL));
+    gst_buffer_unref (buffer);
+    return GST_FLOW_ERROR;
+  }
+  gst_buffer_map (buffer, &map, GST_MAP_READ);
+  header = (const SonarEnergyscapeHeader *) map.data;
+  ping = header->ping_index;
+  {
+    const float *image = (const float *) (map.data +
+        sizeof (SonarEnergyscapeHeader));
+    n = sonar_clusterer_process (self->clusterer, self->compensated ?
+        compensate (self, image) : image, self->centroids, MAX_CENTROIDS);
+  }
+  gst_buffer_unmap (buffer, &map);
+  GST_LOG_OBJECT (self, "ping %" G_GUINT64_FORMAT ": %u peaks, %u centroids",
+      ping, sonar_clusterer_n_peaks (self->clusterer), n);
+
+  buffer = gst_buffer_make_writable (buffer);
+  sonar_buffer_add_centroids_meta (buffer, ping, self->centroids, n);
+  if (self->post_messages)
+    gst_element_post_message (GST_ELEMENT (self),
+        gst_message_new_element (GST_OBJECT (self),
+            sonar_centroids_to_structure (ping, GST_BUFFER_PTS (buffer),
+                self->centroids, n)));
+  return gst_sonar_filter_push (filter, buffer);
+}
+
+static void
+gst_ward_cluster_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  GstWardCluster *self = GST_WARD_CLUSTER (object);
+  SonarClusterParams *p = &self->params;
+
+  GST_OBJECT_LOCK (self);
+  switch (prop_id) {
+    case PROP_THRESHOLD:
+      p->threshold_db = g_value_get_double (value);
+      break;
+    case PROP_ABSOLUTE_THRESHOLD:
+      p->absolute_threshold = g_value_get_double (value);
+      break;
+    case PROP_LINKAGE:
+      p->linkage = g_value_get_enum (value);
+      break;
+    case PROP_STOP:
+      p->stop = g_value_get_enum (value);
+      break;
+    case PROP_INCONSISTENCY:
+      p->inconsistency = g_value_get_double (value);
+      break;
+    case PROP_DEPTH:
+      p->depth = g_value_get_uint (value);
+      break;
+    case PROP_DISTANCE:
+      p->distance = g_value_get_double (value);
+      break;
+    case PROP_MAX_PEAKS:
+      p->max_peaks = g_value_get_uint (value);
+      break;
+    case PROP_POST_MESSAGES:
+      self->post_messages = g_value_get_boolean (value);
+      break;
+    case PROP_RANGE_COMPENSATION:
+      self->range_compensation = g_value_get_boolean (value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (self);
+}
+
+static void
+gst_ward_cluster_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  GstWardCluster *self = GST_WARD_CLUSTER (object);
+  const SonarClusterParams *p = &self->params;
+
+  GST_OBJECT_LOCK (self);
+  switch (prop_id) {
+    case PROP_THRESHOLD:
+      g_value_set_double (value, p->threshold_db);
+      break;
+    case PROP_ABSOLUTE_THRESHOLD:
+      g_value_set_double (value, p->absolute_threshold);
+      break;
+    case PROP_LINKAGE:
+      g_value_set_enum (value, p->linkage);
+      break;
+    case PROP_STOP:
+      g_value_set_enum (value, p->stop);
+      break;
+    case PROP_INCONSISTENCY:
+      g_value_set_double (value, p->inconsistency);
+      break;
+    case PROP_DEPTH:
+      g_value_set_uint (value, p->depth);
+      break;
+    case PROP_DISTANCE:
+      g_value_set_double (value, p->distance);
+      break;
+    case PROP_MAX_PEAKS:
+      g_value_set_uint (value, p->max_peaks);
+      break;
+    case PROP_POST_MESSAGES:
+      g_value_set_boolean (value, self->post_messages);
+      break;
+    case PROP_RANGE_COMPENSATION:
+      g_value_set_boolean (value, self->range_compensation);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (self);
+}
+
+static void
+gst_ward_cluster_init (GstWardCluster * self)
+{
+  sonar_cluster_params_init_default (&self->params);
+  self->params.threshold_db = DEFAULT_THRESHOLD;
+  self->post_messages = DEFAULT_POST_MESSAGES;
+  self->range_compensation = DEFAULT_RANGE_COMPENSATION;
+}
+
+static void
+gst_ward_cluster_class_init (GstWardClusterClass * klass)
+{
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+  GstElementClass *element_class = GST_ELEMENT_CLASS (klass);
+  GstSonarFilterClass *filter_class = GST_SONAR_FILTER_CLASS (klass);
+  const GParamFlags flags = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
+      | GST_PARAM_MUTABLE_READY;
+  SonarClusterParams d;
+
+  sonar_cluster_params_init_default (&d);
+  d.threshold_db = DEFAULT_THRESHOLD;
+  gobject_class->set_property = gst_ward_cluster_set_property;
+  gobject_class->get_property = gst_ward_cluster_get_property;
+
+  g_object_class_install_property (gobject_class, PROP_THRESHOLD,
+      g_param_spec_double ("threshold", "Threshold", "Pixels weaker than "
+          "this, in dB relative to the ping's strongest, are no peaks",
+          -200.0, 0.0, d.threshold_db, flags));
+  g_object_class_install_property (gobject_class, PROP_ABSOLUTE_THRESHOLD,
+      g_param_spec_double ("absolute-threshold", "Absolute threshold",
+          "Pixels weaker than this envelope value are no peaks (0: off); "
+          "set it above the noise so that an empty scene yields nothing",
+          0.0, G_MAXDOUBLE, d.absolute_threshold, flags));
+  g_object_class_install_property (gobject_class, PROP_LINKAGE,
+      g_param_spec_enum ("linkage", "Linkage", "How the distance between "
+          "two clusters is measured", GST_TYPE_SONAR_LINKAGE, d.linkage,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_STOP,
+      g_param_spec_enum ("stop", "Stop criterion", "When merging stops",
+          GST_TYPE_SONAR_STOP, d.stop, flags));
+  g_object_class_install_property (gobject_class, PROP_INCONSISTENCY,
+      g_param_spec_double ("inconsistency", "Inconsistency", "stop="
+          "inconsistency: largest inconsistency coefficient of a merge "
+          "(height minus the mean of the levels below, over their standard "
+          "deviation)", 0.0, 100.0, d.inconsistency, flags));
+  g_object_class_install_property (gobject_class, PROP_DEPTH,
+      g_param_spec_uint ("depth", "Depth", "Merge levels in the "
+          "inconsistency coefficient (the paper uses 3 sub-branches)", 1, 64,
+          d.depth, flags));
+  g_object_class_install_property (gobject_class, PROP_DISTANCE,
+      g_param_spec_double ("distance", "Distance", "stop=distance: highest "
+          "merge, in metres (the linkage's own height)", 0.0, 1000.0,
+          d.distance, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_PEAKS,
+      g_param_spec_uint ("max-peaks", "Maximum peaks", "Peaks clustered per "
+          "ping, the strongest kept (memory grows with its square)", 1, 4096,
+          d.max_peaks, flags));
+  g_object_class_install_property (gobject_class, PROP_RANGE_COMPENSATION,
+      g_param_spec_boolean ("range-compensation", "Range compensation",
+          "Threshold and cluster the image times range squared, undoing the "
+          "spreading loss (paper eq. 6), so far objects are kept",
+          DEFAULT_RANGE_COMPENSATION, flags));
+  g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
+      g_param_spec_boolean ("post-messages", "Post messages", "Post a "
+          "\"sonar-centroids\" element message per ping",
+          DEFAULT_POST_MESSAGES, flags));
+
+  gst_element_class_add_static_pad_template (element_class, &sink_template);
+  gst_element_class_add_static_pad_template (element_class, &src_template);
+  gst_element_class_set_static_metadata (element_class,
+      "Sonar reflector clustering", "Filter/Analyzer/Sonar",
+      "Finds the centroids of the reflectors in an energyscape by "
+      "thresholding, peak finding and hierarchical clustering",
+      "gst-sonar-velocity developers");
+
+  filter_class->needs_bank = TRUE;
+  filter_class->configure = GST_DEBUG_FUNCPTR (gst_ward_cluster_configure);
+  filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_ward_cluster_unconfigure);
+  filter_class->process = GST_DEBUG_FUNCPTR (gst_ward_cluster_process);
+
+  gst_type_mark_as_plugin_api (GST_TYPE_SONAR_LINKAGE, 0);
+  gst_type_mark_as_plugin_api (GST_TYPE_SONAR_STOP, 0);
+}

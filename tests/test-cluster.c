@@ -1,0 +1,707 @@
+/* test-cluster.c: the clustering core against SciPy, and on synthetic
+ * sonar images.
+ *
+ * SciPy's results come from tests/data/cluster-fixtures.json, written by
+ * tests/cluster_fixtures.py; /cluster/scipy-live reruns that script with
+ * /usr/bin/python3 and checks against its fresh output too (skipped when
+ * SciPy is missing). */
+#include <gio/gio.h>
+#include <json-glib/json-glib.h>
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#include "sonar-cluster.h"
+#include "sonar-rng.h"
+#include "sonar-test-util.h"
+
+static const char *const method_names[] = {
+  [SONAR_LINKAGE_WARD] = "ward",
+  [SONAR_LINKAGE_SINGLE] = "single",
+  [SONAR_LINKAGE_COMPLETE] = "complete",
+  [SONAR_LINKAGE_AVERAGE] = "average",
+  [SONAR_LINKAGE_CENTROID] = "centroid",
+};
+
+/* SciPy comparison */
+
+static double *
+read_matrix (JsonArray * rows, guint n_rows, guint n_cols)
+{
+  double *m = g_new0 (double, MAX (n_rows * n_cols, 1));
+
+  g_assert_cmpuint (json_array_get_length (rows), ==, n_rows);
+  for (guint i = 0; i < n_rows; i++) {
+    JsonArray *row = json_array_get_array_element (rows, i);
+    g_assert_cmpuint (json_array_get_length (row), ==, n_cols);
+    for (guint j = 0; j < n_cols; j++)
+      m[i * n_cols + j] = json_array_get_double_element (row, j);
+  }
+  return m;
+}
+
+static int *
+read_labels (JsonArray * a, guint n)
+{
+  int *labels = g_new (int, n);
+
+  g_assert_cmpuint (json_array_get_length (a), ==, n);
+  for (guint i = 0; i < n; i++)
+    labels[i] = json_array_get_int_element (a, i);
+  return labels;
+}
+
+/* The same partition, whatever the numbering. */
+static gboolean
+same_partition (const int *a, const int *b, guint n)
+{
+  g_autofree int *a_to_b = g_new0 (int, n + 1);
+  g_autofree int *b_to_a = g_new0 (int, n + 1);
+
+  for (guint i = 0; i < n; i++) {
+    if (a[i] < 1 || a[i] > (int) n || b[i] < 1 || b[i] > (int) n)
+      return FALSE;
+    if ((a_to_b[a[i]] && a_to_b[a[i]] != b[i])
+        || (b_to_a[b[i]] && b_to_a[b[i]] != a[i]))
+      return FALSE;
+    a_to_b[a[i]] = b[i];
+    b_to_a[b[i]] = a[i];
+  }
+  return TRUE;
+}
+
+static guint64
+leaf_hash (guint64 x)
+{
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+/* Per row, a hash of the set of points it joins. */
+static guint64 *
+row_sets (const double *Z, guint n)
+{
+  guint64 *h = g_new (guint64, n - 1);
+
+  for (guint k = 0; k + 1 < n; k++) {
+    h[k] = 0;
+    for (int s = 0; s < 2; s++) {
+      const int id = (int) Z[4 * k + s];
+      h[k] += id < (int) n ? leaf_hash (id) : h[id - n];
+    }
+  }
+  return h;
+}
+
+static int
+compare_guint64 (gconstpointer a, gconstpointer b)
+{
+  const guint64 x = *(const guint64 *) a, y = *(const guint64 *) b;
+  return x < y ? -1 : x > y;
+}
+
+/* Z equals SciPy's: heights within 1e-9 relative, and the same merges:
+ * each run of rows of equal height joins the same sets of points (tied rows
+ * may come in another order, and then their ids differ). Returns the number
+ * of rows whose ids differ. */
+static guint
+check_linkage (const double *Z, const double *ref, guint n, const char *what)
+{
+  g_autofree guint64 *sets = row_sets (Z, n);
+  g_autofree guint64 *ref_sets = row_sets (ref, n);
+  guint differing = 0;
+
+  for (guint k = 0; k + 1 < n; k++) {
+    const double h = Z[4 * k + 2], r = ref[4 * k + 2];
+    if (!(fabs (h - r) <= 1e-9 * fabs (r) + 1e-15))
+      g_error ("%s row %u: height %.17g, SciPy %.17g", what, k, h, r);
+    if (Z[4 * k] != ref[4 * k] || Z[4 * k + 1] != ref[4 * k + 1])
+      differing++;
+  }
+  for (guint k = 0; k + 1 < n;) {
+    guint end = k + 1;
+    while (end + 1 < n && fabs (ref[4 * end + 2] - ref[4 * k + 2]) <=
+        1e-12 * fabs (ref[4 * k + 2]))
+      end++;
+    qsort (sets + k, end - k, sizeof (guint64), compare_guint64);
+    qsort (ref_sets + k, end - k, sizeof (guint64), compare_guint64);
+    if (memcmp (sets + k, ref_sets + k, (end - k) * sizeof (guint64)) != 0)
+      g_error ("%s rows %u-%u: other merges than SciPy's", what, k, end - 1);
+    k = end;
+  }
+  return differing;
+}
+
+typedef struct
+{
+  guint linkages, rows, rows_differing, partitions, skipped;
+  double worst_height_error;
+} Tally;
+
+static void
+check_method (JsonObject * m, const double *points, guint n, guint dims,
+    SonarLinkage method, const char *set_name, Tally * tally)
+{
+  JsonArray *cuts;
+  g_autofree double *ref = read_matrix (json_object_get_array_member (m,
+          "Z"), n - 1, 4);
+  g_autofree double *Z = g_new0 (double, MAX (n - 1, 1) * 4);
+  g_autofree int *labels = g_new (int, n);
+  g_autofree char *what = g_strdup_printf ("%s/%s", set_name,
+      method_names[method]);
+
+  sonar_linkage (points, n, dims, method, Z);
+  if (n >= 2) {
+    tally->rows_differing += check_linkage (Z, ref, n, what);
+    for (guint k = 0; k + 1 < n; k++)
+      tally->worst_height_error = MAX (tally->worst_height_error,
+          fabs (Z[4 * k + 2] - ref[4 * k + 2]) / MAX (ref[4 * k + 2], 1e-300));
+  }
+  tally->linkages++;
+  tally->rows += n - 1;
+
+  cuts = json_object_get_array_member (m, "inconsistent");
+  for (guint i = 0; i < json_array_get_length (cuts); i++) {
+    JsonObject *cut = json_array_get_object_element (cuts, i);
+    const double t = json_object_get_double_member (cut, "t");
+    const guint depth = json_object_get_int_member (cut, "depth");
+    g_autofree int *expected = read_labels (json_object_get_array_member
+        (cut, "labels"), n);
+    /* On SciPy's tree (the criterion alone) and on ours (end to end). */
+    sonar_fcluster_inconsistent (ref, n, t, depth, labels);
+    if (!same_partition (labels, expected, n))
+      g_error ("%s: inconsistent t=%g depth=%u differs from SciPy's", what,
+          t, depth);
+    sonar_fcluster_inconsistent (Z, n, t, depth, labels);
+    g_assert_true (same_partition (labels, expected, n));
+    tally->partitions += 2;
+  }
+  cuts = json_object_get_array_member (m, "distance");
+  for (guint i = 0; i < json_array_get_length (cuts); i++) {
+    JsonObject *cut = json_array_get_object_element (cuts, i);
+    const double t = json_object_get_double_member (cut, "t");
+    g_autofree int *expected = read_labels (json_object_get_array_member
+        (cut, "labels"), n);
+    sonar_fcluster_distance (ref, n, t, labels);
+    if (!same_partition (labels, expected, n))
+      g_error ("%s: distance t=%g differs from SciPy's", what, t);
+    sonar_fcluster_distance (Z, n, t, labels);
+    g_assert_true (same_partition (labels, expected, n));
+    tally->partitions += 2;
+  }
+}
+
+static void
+check_fixtures (const char *path)
+{
+  g_autoptr (JsonParser) parser = json_parser_new ();
+  g_autoptr (GError) error = NULL;
+  JsonObject *root;
+  JsonArray *sets;
+  Tally tally = { 0 };
+
+  g_assert_true (json_parser_load_from_file (parser, path, &error));
+  g_assert_no_error (error);
+  root = json_node_get_object (json_parser_get_root (parser));
+  sets = json_object_get_array_member (root, "sets");
+  for (guint s = 0; s < json_array_get_length (sets); s++) {
+    JsonObject *set = json_array_get_object_element (sets, s);
+    const char *name = json_object_get_string_member (set, "name");
+    const guint dims = json_object_get_int_member (set, "dims");
+    JsonArray *pts = json_object_get_array_member (set, "points");
+    const guint n = json_array_get_length (pts);
+    g_autofree double *points = read_matrix (pts, n, dims);
+    JsonObject *methods = json_object_get_object_member (set, "methods");
+    const gboolean ties = json_object_get_boolean_member (set, "ties");
+
+    for (guint m = 0; m < G_N_ELEMENTS (method_names); m++) {
+      /* Ward and centroid distances come from the clusters' centroids,
+       * SciPy's from Lance-Williams updates: equal to 1e-15, but exact ties
+       * may fall the other way and give another, equally valid tree. */
+      if (ties && (m == SONAR_LINKAGE_WARD || m == SONAR_LINKAGE_CENTROID)) {
+        tally.skipped++;
+        continue;
+      }
+      check_method (json_object_get_object_member (methods,
+              method_names[m]), points, n, dims, m, name, &tally);
+    }
+  }
+  g_test_message ("SciPy %s: %u linkages (%u with exact ties skipped), "
+      "%u rows, worst relative height error %.1e, %u rows with other ids "
+      "(tied heights), %u partitions equal",
+      json_object_get_string_member (root, "scipy"), tally.linkages,
+      tally.skipped, tally.rows, tally.worst_height_error,
+      tally.rows_differing, tally.partitions);
+}
+
+static void
+test_scipy_fixtures (void)
+{
+  g_autofree char *path =
+      sonar_test_source_path ("tests/data/cluster-fixtures.json");
+  check_fixtures (path);
+}
+
+static void
+test_scipy_live (void)
+{
+  g_autofree char *script =
+      sonar_test_source_path ("tests/cluster_fixtures.py");
+  g_autofree char *out = sonar_test_write_temp ("live.json", "");
+  const char *argv[] = { "/usr/bin/python3", script, out, NULL };
+  g_autoptr (GError) error = NULL;
+  int status;
+
+  if (!g_file_test (argv[0], G_FILE_TEST_IS_EXECUTABLE)) {
+    g_test_skip ("no /usr/bin/python3");
+    return;
+  }
+  g_assert_true (g_spawn_sync (NULL, (char **) argv, NULL,
+          G_SPAWN_STDERR_TO_DEV_NULL, NULL, NULL, NULL, NULL, &status,
+          &error));
+  if (!g_spawn_check_wait_status (status, &error)
+      && g_error_matches (error, G_SPAWN_EXIT_ERROR, 77)) {
+    g_test_skip ("no SciPy for /usr/bin/python3");
+    return;
+  }
+  g_assert_no_error (error);
+  check_fixtures (out);
+}
+
+/* Synthetic images */
+
+typedef struct
+{
+  double azimuth, range, elevation;     /* degrees, m */
+  double amplitude;
+  double width;                 /* degrees: Gaussian sigma across */
+} Blob;
+
+/* Sigma in range of the main lobe, m: narrow, as the pulse compresses to
+ * a few millimetres. */
+#define RANGE_SIGMA 0.004
+/* Half-length of the cross-talk ridges, m (physics notes: about one pulse
+ * length). */
+#define RIDGE_HALF_LENGTH 1.0
+
+/* The 2-D fan of the brief: 181 azimuths, 1000 ranges 3 mm apart. */
+static void
+grid_2d (SonarImageGrid * g)
+{
+  g->n_azimuth = 181;
+  g->azimuth_first = -90.0;
+  g->azimuth_step = 1.0;
+  g->n_elevation = 1;
+  g->elevation_first = 0.0;
+  g->elevation_step = 1.0;
+  g->n_range = 1000;
+  g->range_first = 0.3;
+  g->range_step = 0.003;
+}
+
+/* Blobs (the maximum where they overlap) plus complex Gaussian noise of
+ * @noise per component, as an envelope. With @ridge > 0, each blob also
+ * has a cross-talk ridge: at its azimuths (same angular profile), over
+ * +-1 m in range, Rayleigh speckle of mean @ridge relative to the blob. */
+static float *
+render (const SonarImageGrid * g, const Blob * blobs, guint n_blobs,
+    double noise, double ridge, guint64 seed)
+{
+  float *image = g_new (float, sonar_image_grid_size (g));
+  double *speckle = g_new (double, (gsize) n_blobs * g->n_range);
+  SonarRng rng;
+
+  sonar_rng_init (&rng, seed, 0);
+  /* Rayleigh speckle of mean 1, one value per range: at a given range the
+   * ridge has the lobe's angular profile. */
+  for (gsize k = 0; k < (gsize) n_blobs * g->n_range; k++) {
+    const double re = sonar_rng_gaussian (&rng);
+    const double im = sonar_rng_gaussian (&rng);
+    speckle[k] = sqrt (0.5 * (re * re + im * im)) / sqrt (M_PI / 4.0);
+  }
+  for (guint e = 0; e < g->n_elevation; e++)
+    for (guint a = 0; a < g->n_azimuth; a++)
+      for (guint i = 0; i < g->n_range; i++) {
+        const double el = g->elevation_first + e * g->elevation_step;
+        const double az = g->azimuth_first + a * g->azimuth_step;
+        const double r = g->range_first + i * g->range_step;
+        const double re = noise * sonar_rng_gaussian (&rng);
+        const double im = noise * sonar_rng_gaussian (&rng);
+        double v = 0.0;
+        for (guint b = 0; b < n_blobs; b++) {
+          const double daz = (az - blobs[b].azimuth) / blobs[b].width;
+          const double del = (el - blobs[b].elevation) / blobs[b].width;
+          const double dr = (r - blobs[b].range) / RANGE_SIGMA;
+          const double across = blobs[b].amplitude * exp (-0.5 * (daz * daz +
+                  del * del));
+          v = MAX (v, across * exp (-0.5 * dr * dr));
+          if (fabs (r - blobs[b].range) < RIDGE_HALF_LENGTH)
+            v = MAX (v, across * ridge * speckle[b * g->n_range + i]);
+        }
+        /* The envelope of signal plus complex noise. */
+        image[((gsize) e * g->n_azimuth + a) * g->n_range + i] =
+            sqrt ((v + re) * (v + re) + im * im);
+      }
+  g_free (speckle);
+  return image;
+}
+
+static const Blob three_blobs[] = {
+  {0.4, 1.0012, 0.0, 1.0, 2.0},
+  {-35.3, 2.0021, 0.0, 0.6, 2.5},
+  /* The lobe near 90 degrees: 1 / cos(80 deg) wider. */
+  {80.2, 1.4987, 0.0, 0.8, 8.0},
+};
+
+static guint
+run (const SonarImageGrid * g, const SonarClusterParams * p,
+    const float *image, SonarCentroid * out, guint max_out, const char *what)
+{
+  g_autoptr (GError) error = NULL;
+  g_autoptr (SonarClusterer) c = sonar_clusterer_new (g, p, &error);
+  guint n;
+
+  g_assert_no_error (error);
+  n = sonar_clusterer_process (c, image, out, max_out);
+  g_test_message ("%s: %u peaks -> %u centroids", what,
+      sonar_clusterer_n_peaks (c), n);
+  for (guint k = 0; k < MIN (n, 6); k++)
+    g_test_message ("  %.4f m %+6.2f deg %+5.2f deg, peak %.3f, %u peaks",
+        out[k].range, out[k].azimuth, out[k].elevation, out[k].peak_value,
+        out[k].n_members);
+  return n;
+}
+
+/* Each blob has exactly one centroid within 1 degree and 1 cm, among the
+ * n_blobs strongest. */
+static void
+check_blobs (const SonarCentroid * out, guint n, const Blob * blobs,
+    guint n_blobs)
+{
+  g_assert_cmpuint (n, >=, n_blobs);
+  for (guint b = 0; b < n_blobs; b++) {
+    guint found = 0, where = 0;
+    for (guint k = 0; k < n; k++) {
+      const SonarVec3 p = sonar_vec3_scale (sonar_vec3_from_direction
+          (out[k].azimuth, out[k].elevation), out[k].range);
+      if (fabs (out[k].azimuth - blobs[b].azimuth) < 1.0
+          && fabs (out[k].elevation - blobs[b].elevation) < 1.0
+          && fabs (out[k].range - blobs[b].range) < 0.01) {
+        found++;
+        where = k;
+        g_assert_cmpfloat (sonar_vec3_norm (sonar_vec3_sub (p,
+                    out[k].position)), <, 1e-9);
+      }
+    }
+    g_assert_cmpuint (found, ==, 1);
+    g_assert_cmpuint (where, <, n_blobs);
+  }
+}
+
+static void
+test_three_blobs (void)
+{
+  SonarImageGrid g;
+  SonarClusterParams p;
+  SonarCentroid out[32];
+  g_autofree float *image = NULL;
+  guint n;
+
+  grid_2d (&g);
+  image = render (&g, three_blobs, 3, 0.005, 0.0, 1);
+  sonar_cluster_params_init_default (&p);
+  n = run (&g, &p, image, out, 32, "ward, inconsistency");
+  g_assert_cmpuint (n, ==, 3);
+  check_blobs (out, n, three_blobs, 3);
+  /* Strongest first. */
+  for (guint k = 1; k < n; k++)
+    g_assert_cmpfloat (out[k].peak_value, <=, out[k - 1].peak_value);
+
+  p.linkage = SONAR_LINKAGE_SINGLE;
+  run (&g, &p, image, out, 32, "single, inconsistency");
+}
+
+/* Twice the noise: it splits the flat top of the wide lobe at 80 degrees
+ * into several peaks, which must stay one cluster; and no noise peak may
+ * pass the -20 dB threshold. */
+static void
+test_three_blobs_noisier (void)
+{
+  SonarImageGrid g;
+  SonarClusterParams p;
+  SonarCentroid out[32];
+  g_autoptr (SonarClusterer) c = NULL;
+  guint split_tops = 0;
+  double worst = 0.0;
+
+  grid_2d (&g);
+  sonar_cluster_params_init_default (&p);
+  c = sonar_clusterer_new (&g, &p, NULL);
+  for (guint seed = 1; seed <= 20; seed++) {
+    g_autofree float *image = render (&g, three_blobs, 3, 0.01, 0.0, seed);
+    const guint n = sonar_clusterer_process (c, image, out, 32);
+    g_assert_cmpuint (n, ==, 3);
+    for (guint k = 0; k < n; k++) {
+      const Blob *b = &three_blobs[fabs (out[k].azimuth - 80.2) < 5.0 ? 2 :
+          fabs (out[k].azimuth) < 5.0 ? 0 : 1];
+      worst = MAX (worst, fabs (out[k].azimuth - b->azimuth));
+      g_assert_cmpfloat (fabs (out[k].range - b->range), <, 0.01);
+      if (b == &three_blobs[2] && out[k].n_members > 1)
+        split_tops++;
+    }
+  }
+  g_test_message ("20 images: 3 centroids each; the 80 degree lobe had "
+      "several peaks in %u; worst azimuth error %.2f deg", split_tops, worst);
+  g_assert_cmpuint (split_tops, >, 0);
+}
+
+/* The ghosts of physics-notes.md: a cross-talk ridge 20 dB down through
+ * each reflector. The ridges' peaks may form clusters of their own, but no
+ * reflector may absorb them: each keeps its own centroid, within 1 degree
+ * and 1 cm, and the ridge clusters are weaker than every reflector. */
+static void
+test_ridges (void)
+{
+  const double level = 0.1;
+  SonarImageGrid g;
+  SonarClusterParams p;
+  SonarCentroid out[256];
+  g_autofree float *image = NULL;
+  guint n;
+
+  grid_2d (&g);
+  image = render (&g, three_blobs, 3, 0.004, level, 2);
+  sonar_cluster_params_init_default (&p);
+  for (SonarLinkage m = SONAR_LINKAGE_WARD; m <= SONAR_LINKAGE_CENTROID;
+      m++) {
+    g_autofree char *what = g_strdup_printf ("ridges: %s, inconsistency",
+        method_names[m]);
+    p.linkage = m;
+    n = run (&g, &p, image, out, G_N_ELEMENTS (out), what);
+    check_blobs (out, n, three_blobs, 3);
+  }
+}
+
+static void
+test_3d (void)
+{
+  const Blob blobs[] = {
+    {10.3, 1.2013, -5.2, 1.0, 3.0},
+    {-20.4, 0.9021, 12.3, 0.7, 3.0},
+  };
+  SonarImageGrid g = { 61, -30.0, 1.0, 41, -20.0, 1.0, 400, 0.5, 0.003 };
+  SonarClusterParams p;
+  SonarCentroid out[8];
+  g_autofree float *image = render (&g, blobs, 2, 0.004, 0.1, 3);
+  guint n;
+
+  sonar_cluster_params_init_default (&p);
+  n = run (&g, &p, image, out, 8, "3-D");
+  check_blobs (out, n, blobs, 2);
+}
+
+static void
+test_degenerate (void)
+{
+  SonarImageGrid g;
+  SonarClusterParams p;
+  SonarCentroid out[4];
+  g_autoptr (SonarClusterer) c = NULL;
+  const gsize size = 181 * 1000;
+  g_autofree float *image = g_new0 (float, size);
+
+  grid_2d (&g);
+  sonar_cluster_params_init_default (&p);
+  c = sonar_clusterer_new (&g, &p, NULL);
+
+  /* Empty, negative, non-finite. */
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 4), ==, 0);
+  for (gsize i = 0; i < size; i++)
+    image[i] = -1.0f;
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 4), ==, 0);
+  for (gsize i = 0; i < size; i++)
+    image[i] = i % 2 ? NAN : INFINITY;
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 4), ==, 0);
+
+  /* One pixel, among NaN and infinite ones that must not count. */
+  memset (image, 0, size * sizeof (float));
+  image[90 * 1000 + 500] = 1.0f;
+  image[90 * 1000 + 501] = NAN;
+  image[91 * 1000 + 500] = INFINITY;
+  image[10 * 1000 + 10] = -INFINITY;
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 4), ==, 1);
+  g_assert_cmpuint (out[0].n_members, ==, 1);
+  g_assert_cmpuint (out[0].peak_azimuth_index, ==, 90);
+  g_assert_cmpuint (out[0].peak_range_index, ==, 500);
+  g_assert_cmpfloat_with_epsilon (out[0].range, 1.8, 1e-9);
+  g_assert_cmpfloat_with_epsilon (out[0].azimuth, 0.0, 1e-9);
+  g_assert_cmpfloat_with_epsilon (out[0].energy, 1.0, 1e-12);
+
+  /* A plateau of two equal pixels: one peak, the first. */
+  image[90 * 1000 + 501] = 1.0f;
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 4), ==, 1);
+  g_assert_cmpuint (sonar_clusterer_n_peaks (c), ==, 1);
+  g_assert_cmpuint (out[0].peak_range_index, ==, 500);
+
+  /* No room for centroids. */
+  g_assert_cmpuint (sonar_clusterer_process (c, image, NULL, 0), ==, 0);
+}
+
+static void
+test_max_centroids (void)
+{
+  SonarImageGrid g;
+  SonarClusterParams p;
+  SonarCentroid out[2];
+  g_autofree float *image = NULL;
+
+  grid_2d (&g);
+  image = render (&g, three_blobs, 3, 0.004, 0.1, 4);
+  sonar_cluster_params_init_default (&p);
+  g_assert_cmpuint (run (&g, &p, image, out, 2, "two wanted"), ==, 2);
+  g_assert_cmpfloat (fabs (out[0].azimuth - 0.4), <, 1.0);
+  g_assert_cmpfloat (fabs (out[1].azimuth - 80.2), <, 1.0);
+
+  /* Fewer peaks than found: the strongest are kept, the blobs survive. */
+  p.max_peaks = 5;
+  g_assert_cmpuint (run (&g, &p, image, out, 2, "5 peaks kept"), ==, 2);
+  g_assert_cmpfloat (fabs (out[0].azimuth - 0.4), <, 1.0);
+}
+
+/* Spoils one parameter (case @i) of valid ones; FALSE past the last. */
+static gboolean
+spoil (guint i, SonarImageGrid * g, SonarClusterParams * p)
+{
+  switch (i) {
+    case 0:
+      p->threshold_db = 3.0;
+      break;
+    case 1:
+      p->threshold_db = NAN;
+      break;
+    case 2:
+      p->absolute_threshold = -1.0;
+      break;
+    case 3:
+      p->linkage = 17;
+      break;
+    case 4:
+      p->stop = 9;
+      break;
+    case 5:
+      p->inconsistency = INFINITY;
+      break;
+    case 6:
+      p->depth = 0;
+      break;
+    case 7:
+      p->distance = -0.1;
+      break;
+    case 8:
+      p->max_peaks = 0;
+      break;
+    case 9:
+      p->max_peaks = 100000;
+      break;
+    case 10:
+      g->n_range = 0;
+      break;
+    case 11:
+      g->range_step = NAN;
+      break;
+    default:
+      return FALSE;
+  }
+  return TRUE;
+}
+
+static void
+test_bad_params (void)
+{
+  for (guint i = 0;; i++) {
+    SonarImageGrid g;
+    SonarClusterParams p;
+    g_autoptr (GError) error = NULL;
+    grid_2d (&g);
+    sonar_cluster_params_init_default (&p);
+    if (!spoil (i, &g, &p))
+      break;
+    g_assert_null (sonar_clusterer_new (&g, &p, &error));
+    g_assert_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT);
+    g_test_message ("%s", error->message);
+  }
+}
+
+/* Thread CPU time, ms: what the work costs, whatever else the machine
+ * runs. */
+static double
+cpu_ms (void)
+{
+  struct timespec t;
+  clock_gettime (CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
+
+static void
+test_speed (void)
+{
+  SonarImageGrid g;
+  SonarClusterParams p;
+  SonarCentroid out[64];
+  g_autofree float *image = NULL;
+  g_autofree double *points = g_new (double, 2000 * 3);
+  g_autofree double *Z = g_new (double, 1999 * 4);
+  SonarRng rng;
+
+  /* Noise alone, no threshold to speak of: ~20000 local maxima, the 2000
+   * strongest clustered. */
+  grid_2d (&g);
+  image = render (&g, NULL, 0, 1.0, 0.0, 5);
+  sonar_cluster_params_init_default (&p);
+  p.threshold_db = -200.0;
+  for (guint m = 0; m < G_N_ELEMENTS (method_names); m++) {
+    g_autoptr (SonarClusterer) c = NULL;
+    double best = INFINITY;
+    guint n = 0;
+    p.linkage = m;
+    c = sonar_clusterer_new (&g, &p, NULL);
+    for (int rep = 0; rep < 3; rep++) {
+      const double t0 = cpu_ms ();
+      n = sonar_clusterer_process (c, image, out, 64);
+      best = MIN (best, cpu_ms () - t0);
+    }
+    g_test_message ("%s: image of %u peaks, the 2000 strongest clustered "
+        "into %u+ centroids: %.1f ms CPU", method_names[m],
+        sonar_clusterer_n_peaks (c), n, best);
+    g_assert_cmpuint (sonar_clusterer_n_peaks (c), >, 2000);
+  }
+
+  sonar_rng_init (&rng, 6, 0);
+  for (guint i = 0; i < 2000 * 3; i++)
+    points[i] = sonar_rng_uniform (&rng);
+  for (guint m = 0; m < G_N_ELEMENTS (method_names); m++) {
+    const double t0 = cpu_ms ();
+    sonar_linkage (points, 2000, 3, m, Z);
+    g_test_message ("sonar_linkage %s, 2000 random points: %.1f ms CPU",
+        method_names[m], cpu_ms () - t0);
+  }
+}
+
+int
+main (int argc, char **argv)
+{
+  g_test_init (&argc, &argv, NULL);
+  g_test_add_func ("/cluster/scipy-fixtures", test_scipy_fixtures);
+  g_test_add_func ("/cluster/scipy-live", test_scipy_live);
+  g_test_add_func ("/cluster/three-blobs", test_three_blobs);
+  g_test_add_func ("/cluster/three-blobs-noisier", test_three_blobs_noisier);
+  g_test_add_func ("/cluster/ridges", test_ridges);
+  g_test_add_func ("/cluster/3d", test_3d);
+  g_test_add_func ("/cluster/degenerate", test_degenerate);
+  g_test_add_func ("/cluster/max-centroids", test_max_centroids);
+  g_test_add_func ("/cluster/bad-params", test_bad_params);
+  g_test_add_func ("/cluster/speed", test_speed);
+  return g_test_run ();
+}

@@ -1,0 +1,878 @@
+/* test-elements.c: dopplerbank and mimobeamform as users compose them:
+ * caps, records, metas and events; taps through tee and filesink; errors;
+ * extreme inputs; the datacube. */
+#include <gst/app/gstappsink.h>
+#include <gst/check/gstharness.h>
+#include <glib/gstdio.h>
+#include <math.h>
+#include <string.h>
+
+#include "sonar-contracts.h"
+#include "sonar-test-util.h"
+
+#define RECORDING_CAPS "audio/x-raw, format=F32LE, layout=interleaved, " \
+  "rate=450000, channels=32, channel-mask=(bitmask)0"
+
+/* A pipeline run to EOS, its appsink's samples kept. */
+typedef struct
+{
+  GstElement *pipeline;
+  GPtrArray *samples;           /* GstSample */
+  char *error;                  /* NULL, or the first error's text */
+  GPtrArray *warnings;          /* char *: texts of the warnings */
+} Run;
+
+/* Runs @launch (an appsink named "sink", if any) to EOS or the first error.
+ * The pipeline stays in PLAYING for inspection until run_free. */
+static Run *
+run_pipeline (const char *launch)
+{
+  Run *run = g_new0 (Run, 1);
+  GError *error = NULL;
+  GstElement *sink;
+  GstBus *bus;
+  gboolean done = FALSE;
+  gint64 deadline = g_get_monotonic_time () + 300 * G_TIME_SPAN_SECOND;
+
+  run->samples = g_ptr_array_new_with_free_func ((GDestroyNotify)
+      gst_sample_unref);
+  run->warnings = g_ptr_array_new_with_free_func (g_free);
+  run->pipeline = gst_parse_launch (launch, &error);
+  if (error) {
+    run->error = g_strdup_printf ("parse error: %s", error->message);
+    g_error_free (error);
+    return run;
+  }
+  sink = gst_bin_get_by_name (GST_BIN (run->pipeline), "sink");
+  bus = gst_element_get_bus (run->pipeline);
+  gst_element_set_state (run->pipeline, GST_STATE_PLAYING);
+  while (!done && g_get_monotonic_time () < deadline) {
+    GstMessage *msg;
+    if (sink) {
+      GstSample *sample = gst_app_sink_try_pull_sample (GST_APP_SINK (sink),
+          GST_MSECOND * 20);
+      if (sample)
+        g_ptr_array_add (run->samples, sample);
+    }
+    while ((msg = gst_bus_timed_pop_filtered (bus, sink ? 0 : GST_MSECOND *
+                20, GST_MESSAGE_EOS | GST_MESSAGE_ERROR |
+                GST_MESSAGE_WARNING))) {
+      GError *e = NULL;
+      char *debug = NULL;
+      switch (GST_MESSAGE_TYPE (msg)) {
+        case GST_MESSAGE_ERROR:
+          gst_message_parse_error (msg, &e, &debug);
+          run->error = g_strdup_printf ("%s\n%s", e->message,
+              debug ? debug : "");
+          done = TRUE;
+          break;
+        case GST_MESSAGE_WARNING:
+          gst_message_parse_warning (msg, &e, &debug);
+          g_ptr_array_add (run->warnings, g_strdup (e->message));
+          break;
+        default:
+          done = TRUE;          /* EOS */
+          break;
+      }
+      g_clear_error (&e);
+      g_free (debug);
+      gst_message_unref (msg);
+      if (done)
+        break;
+    }
+  }
+  /* Samples queued before EOS. */
+  if (sink && !run->error) {
+    GstSample *sample;
+    while ((sample = gst_app_sink_try_pull_sample (GST_APP_SINK (sink), 0)))
+      g_ptr_array_add (run->samples, sample);
+  }
+  if (!done && !run->error)
+    run->error = g_strdup ("timeout: no EOS within 300 s");
+  gst_object_unref (bus);
+  g_clear_object (&sink);
+  return run;
+}
+
+static void
+run_free (Run * run)
+{
+  if (run->pipeline) {
+    gst_element_set_state (run->pipeline, GST_STATE_NULL);
+    gst_object_unref (run->pipeline);
+  }
+  g_ptr_array_unref (run->samples);
+  g_ptr_array_unref (run->warnings);
+  g_free (run->error);
+  g_free (run);
+}
+
+static GstBuffer *
+run_buffer (Run * run, guint i)
+{
+  g_assert_cmpuint (i, <, run->samples->len);
+  return gst_sample_get_buffer (g_ptr_array_index (run->samples, i));
+}
+
+/* The sticky events on the appsink's pad. */
+static void
+sink_events (Run * run, SonarSetup ** setup, SonarDopplerBank ** bank,
+    SonarBand * band)
+{
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (run->pipeline), "sink");
+  GstPad *pad = gst_element_get_static_pad (sink, "sink");
+  GstEvent *event;
+
+  *setup = NULL;
+  *bank = NULL;
+  for (guint i = 0; (event = gst_pad_get_sticky_event (pad,
+              GST_EVENT_CUSTOM_DOWNSTREAM_STICKY, i)); i++) {
+    if (sonar_event_is_setup (event)) {
+      GError *error = NULL;
+      g_assert_null (*setup);
+      *setup = sonar_setup_from_event (event, &error);
+      g_assert_no_error (error);
+    } else if (sonar_event_is_bank (event)) {
+      g_assert_null (*bank);
+      *bank = sonar_bank_from_event (event, band);
+    }
+    gst_event_unref (event);
+  }
+  gst_object_unref (pad);
+  gst_object_unref (sink);
+}
+
+typedef struct
+{
+  const SonarEnergyscapeHeader *header;
+  const float *pixels;
+} Record;
+
+/* The records of an energyscape buffer (mapped by the caller). */
+static Record
+record_at (const GstMapInfo * map, const SonarImageGrid * grid, guint r)
+{
+  const gsize record_size = sizeof (SonarEnergyscapeHeader) +
+      sizeof (float) * sonar_image_grid_size (grid);
+  Record rec;
+
+  g_assert_cmpuint (map->size, >=, (r + 1) * record_size);
+  rec.header = (const SonarEnergyscapeHeader *) (map->data + r * record_size);
+  rec.pixels = (const float *) (map->data + r * record_size +
+      sizeof (SonarEnergyscapeHeader));
+  return rec;
+}
+
+static void
+assert_grid_equal (const SonarImageGrid * a, const SonarImageGrid * b)
+{
+  g_assert_cmpuint (a->n_azimuth, ==, b->n_azimuth);
+  g_assert_cmpuint (a->n_elevation, ==, b->n_elevation);
+  g_assert_cmpuint (a->n_range, ==, b->n_range);
+  g_assert_cmpfloat (a->azimuth_first, ==, b->azimuth_first);
+  g_assert_cmpfloat (a->azimuth_step, ==, b->azimuth_step);
+  g_assert_cmpfloat (a->elevation_first, ==, b->elevation_first);
+  g_assert_cmpfloat (a->elevation_step, ==, b->elevation_step);
+  g_assert_cmpfloat (a->range_first, ==, b->range_first);
+  g_assert_cmpfloat (a->range_step, ==, b->range_step);
+}
+
+static gsize
+peak_index (const float *x, gsize n)
+{
+  gsize best = 0;
+  for (gsize i = 1; i < n; i++)
+    if (x[i] > x[best])
+      best = i;
+  return best;
+}
+
+/* Bank indices of the detection hypotheses, as mimobeamform documents
+ * them: multiples of @spacing within the bank, plus its ends when they lie
+ * more than half a spacing beyond. */
+static guint
+choose_hypotheses (const SonarDopplerBank * bank, double spacing,
+    guint * out)
+{
+  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
+  const double lo = sonar_doppler_bank_velocity (bank, 0);
+  const double hi = sonar_doppler_bank_velocity (bank, n_bank - 1);
+  guint n = 0;
+
+  if (lo + 0.5 * spacing < ceil (lo / spacing) * spacing)
+    out[n++] = 0;
+  for (double k = ceil (lo / spacing); k * spacing <= hi + 1e-9; k++) {
+    const guint i = sonar_doppler_bank_nearest (bank, k * spacing);
+    if (n == 0 || out[n - 1] != i)
+      out[n++] = i;
+  }
+  if (n == 0 || (out[n - 1] != n_bank - 1
+          && sonar_doppler_bank_velocity (bank, out[n - 1]) + 0.5 * spacing
+          < hi))
+    out[n++] = n_bank - 1;
+  return n;
+}
+
+/* 1. sonarsrc ! dopplerbank ! mimobeamform: caps, records, the image's
+ * peak at the default scene's strongest object, metas and events; the
+ * image is the core imager's over the documented hypotheses. */
+static void
+test_chain_output (void)
+{
+  Run *run = run_pipeline ("sonarsrc num-buffers=2 ! dopplerbank ! "
+      "mimobeamform azimuth-count=61 range-max=3.5 ! "
+      "appsink name=sink sync=false");
+  g_autoptr (SonarSetup) setup = NULL;
+  g_autoptr (SonarDopplerBank) bank = NULL;
+  SonarBand band, expected_band;
+  SonarImageGrid grid, header_grid;
+  guint records;
+  gsize pixels;
+  GstCaps *caps;
+  const GstStructure *s;
+
+  g_assert_null (run->error);
+  g_assert_cmpuint (run->samples->len, ==, 2);
+
+  /* Caps: the grid asked for. */
+  caps = gst_sample_get_caps (g_ptr_array_index (run->samples, 0));
+  s = gst_caps_get_structure (caps, 0);
+  g_assert_true (gst_structure_has_name (s, SONAR_ENERGYSCAPE_MEDIA_TYPE));
+  g_assert_true (sonar_energyscape_caps_parse (caps, &grid, &records));
+  g_assert_cmpuint (records, ==, 1);
+  g_assert_cmpuint (grid.n_azimuth, ==, 61);
+  g_assert_cmpfloat (grid.azimuth_first, ==, -90.0);
+  g_assert_cmpfloat (fabs (grid.azimuth_step - 3.0), <, 1e-12);
+  g_assert_cmpuint (grid.n_elevation, ==, 1);
+  g_assert_cmpfloat (grid.elevation_first, ==, 0.0);
+  g_assert_cmpfloat (grid.range_step, >, 0.0);
+  g_assert_cmpfloat (grid.range_step, <=, 0.005);
+  g_assert_cmpfloat (grid.range_first, >=, 0.3);
+  g_assert_cmpfloat (grid.range_first, <, 0.3 + grid.range_step);
+  g_assert_cmpfloat (grid.range_first + (grid.n_range - 1) * grid.range_step,
+      <=, 3.5 + 1e-9);
+  g_assert_cmpfloat (grid.range_first + grid.n_range * grid.range_step, >,
+      3.5);
+  pixels = sonar_image_grid_size (&grid);
+
+  /* Sticky events: the set-up and the bank (default -7..7 by 0.05). */
+  sink_events (run, &setup, &bank, &band);
+  g_assert_nonnull (setup);
+  g_assert_nonnull (bank);
+  g_assert_cmpuint (setup->geometry.n_microphones, ==, 32);
+  g_assert_cmpuint (setup->geometry.n_emitters, ==, 8);
+  g_assert_cmpuint (sonar_doppler_bank_n_velocities (bank), ==, 281);
+  g_assert_cmpfloat (sonar_doppler_bank_velocity (bank, 0), ==, -7.0);
+  g_assert_cmpfloat (fabs (sonar_doppler_bank_velocity (bank, 280) - 7.0), <,
+      1e-9);
+  /* The band holds a linear correlation of a ping with every template. */
+  sonar_band_init (&expected_band, setup->sample_rate, setup->ping_length +
+      sonar_doppler_bank_max_length (bank), setup->band_low,
+      setup->band_high);
+  g_assert_true (sonar_band_equal (&band, &expected_band));
+
+  for (guint k = 0; k < run->samples->len; k++) {
+    GstBuffer *buffer = run_buffer (run, k);
+    SonarTruthMeta *truth = sonar_buffer_get_truth_meta (buffer);
+    SonarSpectraMeta *spectra = sonar_buffer_get_spectra_meta (buffer);
+    GstMapInfo map;
+    Record rec;
+    gsize peak;
+    double az, r;
+    guint nearest = 0;
+    double nearest_distance = G_MAXDOUBLE;
+
+    g_assert_cmpuint (gst_buffer_get_size (buffer), ==,
+        sizeof (SonarEnergyscapeHeader) + sizeof (float) * pixels);
+    g_assert_cmpuint (GST_BUFFER_PTS (buffer), ==, k * GST_SECOND / 12);
+    gst_buffer_map (buffer, &map, GST_MAP_READ);
+    rec = record_at (&map, &grid, 0);
+    g_assert_cmpmem (rec.header->magic, 8, SONAR_ENERGYSCAPE_MAGIC, 8);
+    g_assert_cmpuint (rec.header->header_size, ==, 96);
+    g_assert_cmpuint (rec.header->ping_index, ==, k);
+    g_assert_true (isnan (rec.header->velocity));
+    g_assert_cmpint (rec.header->emitter, ==, -1);
+    g_assert_true (sonar_energyscape_header_parse (rec.header,
+            &header_grid));
+    assert_grid_equal (&header_grid, &grid);
+    for (gsize i = 0; i < pixels; i++)
+      g_assert_true (isfinite (rec.pixels[i]) && rec.pixels[i] >= 0.0f);
+
+    /* The peak is at the scene's strongest object. */
+    g_assert_nonnull (truth);
+    g_assert_cmpuint (truth->ping_index, ==, k);
+    g_assert_cmpuint (truth->n_truths, ==, 3);
+    peak = peak_index (rec.pixels, pixels);
+    r = grid.range_first + (peak % grid.n_range) * grid.range_step;
+    az = grid.azimuth_first + (peak / grid.n_range) * grid.azimuth_step;
+    for (guint t = 0; t < truth->n_truths; t++) {
+      const double d = fabs (truth->truths[t].azimuth - az) / 3.0 +
+          fabs (truth->truths[t].range - r) / 0.02;
+      if (d < nearest_distance) {
+        nearest_distance = d;
+        nearest = t;
+      }
+    }
+    g_test_message ("ping %u: peak %.4g at %.0f deg %.4f m; nearest truth "
+        "%u at %.1f deg %.4f m", k, rec.pixels[peak], az, r, nearest,
+        truth->truths[nearest].azimuth, truth->truths[nearest].range);
+    g_assert_cmpuint (nearest, ==, 0);
+    g_assert_cmpfloat (fabs (truth->truths[0].azimuth - az), <=,
+        grid.azimuth_step + 1e-9);
+    g_assert_cmpfloat (fabs (truth->truths[0].range - r), <=, 0.02);
+
+    /* The ping's spectra, on the bank's band. */
+    g_assert_nonnull (spectra);
+    g_assert_cmpuint (spectra->channels, ==, 32);
+    g_assert_true (sonar_band_equal (&spectra->band, &band));
+    g_assert_cmpuint (gst_buffer_get_size (spectra->spectra), ==,
+        sizeof (SonarComplex) * 32 * band.n_bins);
+
+    /* The image is the core imager's over the hypotheses spaced 0.3 m/s. */
+    if (k == 0) {
+      SonarImagerParams p;
+      SonarImager *imager;
+      guint *hyps = g_new (guint, 283);
+      const guint n_hyps = choose_hypotheses (bank, 0.3, hyps);
+      const SonarComplex **templates = g_new (const SonarComplex *, n_hyps);
+      double *velocities = g_new (double, n_hyps);
+      float *image = g_new (float, pixels);
+      GstMapInfo smap;
+      GError *error = NULL;
+
+      g_assert_cmpuint (n_hyps, ==, 47);
+      sonar_imager_params_init_default (&p);
+      p.n_azimuth = 61;
+      p.range_max = 3.5;
+      imager = sonar_imager_new (setup, &band, &p, &error);
+      g_assert_no_error (error);
+      assert_grid_equal (sonar_imager_grid (imager), &grid);
+      for (guint h = 0; h < n_hyps; h++) {
+        templates[h] = sonar_doppler_bank_spectra (bank, hyps[h]);
+        velocities[h] = sonar_doppler_bank_velocity (bank, hyps[h]);
+      }
+      gst_buffer_map (spectra->spectra, &smap, GST_MAP_READ);
+      sonar_imager_process (imager, (const SonarComplex *) smap.data,
+          n_hyps, templates, velocities, -1, image);
+      gst_buffer_unmap (spectra->spectra, &smap);
+      g_assert_cmpmem (image, sizeof (float) * pixels, rec.pixels,
+          sizeof (float) * pixels);
+      sonar_imager_free (imager);
+      g_free (image);
+      g_free (velocities);
+      g_free (templates);
+      g_free (hyps);
+    }
+    gst_buffer_unmap (buffer, &map);
+  }
+  run_free (run);
+}
+
+static gboolean
+have_matplotlib (void)
+{
+  const char *argv[] = { "/usr/bin/python3", "-c", "import matplotlib",
+    NULL
+  };
+  int status = 1;
+
+  if (!g_spawn_sync (NULL, (char **) argv, NULL, G_SPAWN_STDOUT_TO_DEV_NULL |
+          G_SPAWN_STDERR_TO_DEV_NULL, NULL, NULL, NULL, NULL, &status, NULL))
+    return FALSE;
+  return g_spawn_check_wait_status (status, NULL);
+}
+
+/* 2. Taps: the images and the spectra through tee into files, record for
+ * record what the appsink gets; the plotting tool reads the file. */
+static void
+test_taps (void)
+{
+  g_autofree char *dir = g_dir_make_tmp ("sonar-taps-XXXXXX", NULL);
+  g_autofree char *images = g_build_filename (dir, "images.es", NULL);
+  g_autofree char *spectra = g_build_filename (dir, "spectra.bin", NULL);
+  g_autofree char *png = g_build_filename (dir, "image.png", NULL);
+  const char *chain = "dopplerbank velocity-min=-0.6 velocity-max=0.6 ";
+  const char *imaging = "mimobeamform azimuth-count=31 range-max=3 ";
+  g_autofree char *launch1 = g_strdup_printf ("sonarsrc num-buffers=3 ! %s ! "
+      "%s ! tee name=t t. ! queue ! filesink location=%s t. ! queue ! "
+      "appsink name=sink sync=false", chain, imaging, images);
+  g_autofree char *launch2 = g_strdup_printf ("sonarsrc num-buffers=3 ! %s ! "
+      "tee name=t t. ! queue ! filesink location=%s t. ! queue ! %s ! "
+      "appsink name=sink sync=false", chain, spectra, imaging);
+  Run *run;
+  g_autofree char *contents = NULL;
+  gsize length, offset = 0;
+
+  /* Images. */
+  run = run_pipeline (launch1);
+  g_assert_null (run->error);
+  g_assert_cmpuint (run->samples->len, ==, 3);
+  g_assert_true (g_file_get_contents (images, &contents, &length, NULL));
+  {
+    SonarImageGrid grid;
+    guint records;
+    g_assert_true (sonar_energyscape_caps_parse (gst_sample_get_caps
+            (g_ptr_array_index (run->samples, 0)), &grid, &records));
+    g_test_message ("energyscape file: %" G_GSIZE_FORMAT " bytes, 3 records "
+        "of %" G_GSIZE_FORMAT, length, sizeof (SonarEnergyscapeHeader) +
+        sizeof (float) * sonar_image_grid_size (&grid));
+    g_assert_cmpuint (length, ==, 3 * (sizeof (SonarEnergyscapeHeader) +
+            sizeof (float) * sonar_image_grid_size (&grid)));
+  }
+  for (guint k = 0; k < 3; k++) {
+    GstMapInfo map;
+    gst_buffer_map (run_buffer (run, k), &map, GST_MAP_READ);
+    g_assert_cmpmem (contents + offset, map.size, map.data, map.size);
+    offset += map.size;
+    gst_buffer_unmap (run_buffer (run, k), &map);
+  }
+  run_free (run);
+  g_clear_pointer (&contents, g_free);
+
+  /* Spectra: the file holds, ping for ping, what the image's meta holds. */
+  run = run_pipeline (launch2);
+  g_assert_null (run->error);
+  g_assert_cmpuint (run->samples->len, ==, 3);
+  g_assert_true (g_file_get_contents (spectra, &contents, &length, NULL));
+  offset = 0;
+  for (guint k = 0; k < 3; k++) {
+    SonarSpectraMeta *meta = sonar_buffer_get_spectra_meta (run_buffer (run,
+            k));
+    GstMapInfo map;
+    g_assert_nonnull (meta);
+    if (k == 0) {
+      g_test_message ("spectra file: %" G_GSIZE_FORMAT " bytes, 3 pings of "
+          "32 x %u bins", length, meta->band.n_bins);
+      g_assert_cmpuint (length, ==, 3 * sizeof (SonarComplex) * 32 *
+          meta->band.n_bins);
+    }
+    gst_buffer_map (meta->spectra, &map, GST_MAP_READ);
+    g_assert_cmpuint (map.size, ==, sizeof (SonarComplex) * 32 *
+        meta->band.n_bins);
+    g_assert_cmpmem (contents + offset, map.size, map.data, map.size);
+    offset += map.size;
+    gst_buffer_unmap (meta->spectra, &map);
+  }
+  run_free (run);
+
+  /* The plotting tool draws the saved images. */
+  if (have_matplotlib ()) {
+    g_autofree char *tool = sonar_test_source_path
+        ("tools/plot-energyscape.py");
+    const char *argv[] = { "/usr/bin/python3", tool, images, "-o", png,
+      NULL
+    };
+    g_autofree char *out = NULL, *err = NULL, *image = NULL;
+    GError *error = NULL;
+    int status;
+    gsize size;
+
+    g_assert_true (g_spawn_sync (NULL, (char **) argv, NULL, 0, NULL, NULL,
+            &out, &err, &status, &error));
+    g_assert_no_error (error);
+    if (!g_spawn_check_wait_status (status, NULL))
+      g_error ("plot-energyscape.py failed: %s%s", out, err);
+    g_assert_true (g_file_get_contents (png, &image, &size, NULL));
+    g_assert_cmpuint (size, >, 1000);
+    g_assert_cmpmem (image, 8, "\x89PNG\r\n\x1a\n", 8);
+    g_unlink (png);
+  } else {
+    g_test_skip ("/usr/bin/python3 has no matplotlib: the plot is not "
+        "checked");
+  }
+  g_unlink (images);
+  g_unlink (spectra);
+  g_rmdir (dir);
+}
+
+/* 3. Bad settings and inputs end in errors that say what is wrong. */
+static void
+test_errors_are_clear (void)
+{
+  const struct
+  {
+    const char *launch;
+    const char *expected, *alternative;
+  } cases[] = {
+    {"sonarsrc num-buffers=1 ! dopplerbank velocity-min=-0.4 "
+          "velocity-max=0.4 ! mimobeamform mode=fixed velocity=0.5 ! fakesink",
+        "velocity 0.5 m/s is outside the Doppler bank", NULL},
+    {"sonarsrc num-buffers=1 ! dopplerbank velocity-min=0 velocity-max=0 ! "
+          "mimobeamform emitter=9 ! fakesink", "emitter 9 does not exist",
+        NULL},
+    {"sonarsrc num-buffers=1 ! dopplerbank velocity-min=0 velocity-max=0 ! "
+          "mimobeamform range-max=50 ! fakesink",
+        "beyond what one ping records", NULL},
+    {"audiotestsrc num-buffers=1 ! audio/x-raw,format=F32LE,channels=32,"
+          "rate=450000,layout=interleaved,channel-mask=(bitmask)0 ! "
+          "dopplerbank ! fakesink",
+        "No sonar set-up arrived before the data", NULL},
+    {"sonarsrc num-buffers=1 ! mimobeamform ! fakesink", "link",
+        "negotiat"},
+    {"sonarsrc num-buffers=1 ! dopplerbank velocity-step=1 velocity-min=0.5 "
+          "velocity-max=0.2 ! fakesink", "min <= max", NULL},
+  };
+
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
+    g_autofree char *error = sonar_test_run_pipeline (cases[i].launch, NULL);
+    g_test_message ("%s -> %s", cases[i].launch, error);
+    g_assert_nonnull (error);
+    if (!strstr (error, cases[i].expected) && !(cases[i].alternative
+            && strstr (error, cases[i].alternative)))
+      g_error ("\"%s\" does not say \"%s\"", error, cases[i].expected);
+  }
+}
+
+/* A ping of sonarsrc's default scene (interleaved) and its set-up. */
+static GstBuffer *
+sonarsrc_ping (const char *launch, guint index, SonarSetup ** setup)
+{
+  GstHarness *h = gst_harness_new_parse (launch);
+  GstBuffer *buffer = NULL;
+  GstEvent *event;
+
+  gst_harness_play (h);
+  for (guint k = 0; k <= index; k++) {
+    if (buffer)
+      gst_buffer_unref (buffer);
+    buffer = gst_harness_pull (h);
+    g_assert_nonnull (buffer);
+  }
+  *setup = NULL;
+  while ((event = gst_harness_try_pull_event (h))) {
+    if (sonar_event_is_setup (event) && !*setup)
+      *setup = sonar_setup_from_event (event, NULL);
+    gst_event_unref (event);
+  }
+  g_assert_nonnull (*setup);
+  gst_harness_teardown (h);
+  return buffer;
+}
+
+/* A harness around @launch fed like sonarsrc feeds it: caps, the set-up
+ * event; @bus receives its messages. */
+static GstHarness *
+fed_harness (const char *launch, const SonarSetup * setup, GstBus ** bus)
+{
+  GstHarness *h = gst_harness_new_parse (launch);
+
+  *bus = gst_bus_new ();
+  gst_element_set_bus (h->element, *bus);
+  gst_harness_play (h);
+  gst_harness_set_src_caps_str (h, RECORDING_CAPS);
+  g_assert_true (gst_harness_push_event (h, sonar_setup_event_new (setup)));
+  return h;
+}
+
+/* The text of the first warning on @bus, or NULL. */
+static char *
+pop_warning (GstBus * bus)
+{
+  GstMessage *msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING);
+  GError *error = NULL;
+  char *text;
+
+  if (!msg)
+    return NULL;
+  gst_message_parse_warning (msg, &error, NULL);
+  text = g_strdup (error->message);
+  g_error_free (error);
+  gst_message_unref (msg);
+  return text;
+}
+
+static GstBuffer *
+buffer_from (const float *data, gsize n)
+{
+  return gst_buffer_new_memdup (data, sizeof (float) * n);
+}
+
+/* Pushes one ping through the imaging harness and returns its image
+ * (g_free). */
+static float *
+image_of (GstHarness * h, const float *ping, gsize n, gsize * pixels)
+{
+  GstBuffer *out;
+  GstMapInfo map;
+  float *image;
+
+  g_assert_cmpint (gst_harness_push (h, buffer_from (ping, n)), ==,
+      GST_FLOW_OK);
+  out = gst_harness_pull (h);
+  g_assert_nonnull (out);
+  gst_buffer_map (out, &map, GST_MAP_READ);
+  g_assert_cmpuint (map.size, >, sizeof (SonarEnergyscapeHeader));
+  *pixels = (map.size - sizeof (SonarEnergyscapeHeader)) / sizeof (float);
+  image = g_memdup2 (map.data + sizeof (SonarEnergyscapeHeader),
+      sizeof (float) * *pixels);
+  gst_buffer_unmap (out, &map);
+  gst_buffer_unref (out);
+  return image;
+}
+
+static gboolean
+all_finite (const float *x, gsize n)
+{
+  for (gsize i = 0; i < n; i++)
+    if (!isfinite (x[i]))
+      return FALSE;
+  return TRUE;
+}
+
+/* 4a. Extreme sample values through dopplerbank ! mimobeamform. */
+static void
+test_extreme_inputs (void)
+{
+  g_autoptr (SonarSetup) setup = NULL;
+  GstBuffer *ping = sonarsrc_ping ("sonarsrc", 0, &setup);
+  const gsize n = (gsize) setup->ping_length * 32;
+  float *data = g_new (float, n), *work = g_new (float, n);
+  GstBus *bus;
+  GstHarness *h = fed_harness ("dopplerbank velocity-min=-0.3 "
+      "velocity-max=0.3 ! mimobeamform azimuth-count=61 range-max=3", setup,
+      &bus);
+  float *normal, *image;
+  gsize pixels, peak;
+  g_autofree char *warning = NULL;
+
+  g_assert_cmpuint (gst_buffer_get_size (ping), ==, sizeof (float) * n);
+  gst_buffer_extract (ping, 0, data, sizeof (float) * n);
+  gst_buffer_unref (ping);
+
+  normal = image_of (h, data, n, &pixels);
+  g_assert_true (all_finite (normal, pixels));
+  peak = peak_index (normal, pixels);
+  g_assert_cmpfloat (normal[peak], >, 0.0f);
+  g_assert_null (pop_warning (bus));
+
+  /* Silence: exact zeros. */
+  memset (work, 0, sizeof (float) * n);
+  image = image_of (h, work, n, &pixels);
+  for (gsize i = 0; i < pixels; i++)
+    g_assert_cmpfloat (image[i], ==, 0.0f);
+  g_free (image);
+
+  /* NaN and infinities: a warning, and the image of the ping with zeros
+   * there. */
+  memcpy (work, data, sizeof (float) * n);
+  work[1000 * 32 + 3] = NAN;
+  work[5000 * 32 + 17] = INFINITY;
+  work[9000 * 32 + 31] = -INFINITY;
+  image = image_of (h, work, n, &pixels);
+  g_assert_true (all_finite (image, pixels));
+  warning = pop_warning (bus);
+  g_test_message ("NaN / Inf ping: warning \"%s\"", warning);
+  g_assert_nonnull (warning);
+  g_assert_nonnull (strstr (warning, "NaN or infinite"));
+  g_assert_nonnull (strstr (warning, "(3 in ping 2)"));
+  {
+    float *zeroed;
+    work[1000 * 32 + 3] = work[5000 * 32 + 17] = work[9000 * 32 + 31] = 0;
+    zeroed = image_of (h, work, n, &pixels);
+    g_assert_cmpmem (image, sizeof (float) * pixels, zeroed,
+        sizeof (float) * pixels);
+    g_free (zeroed);
+  }
+  g_free (image);
+
+  /* Huge samples: finite. */
+  memcpy (work, data, sizeof (float) * n);
+  for (guint j = 0; j < 32; j += 3)
+    work[(gsize) (2000 + 37 * j) * 32 + j] = 1e30f;
+  image = image_of (h, work, n, &pixels);
+  g_test_message ("samples of 1e30: image peak %.4g",
+      image[peak_index (image, pixels)]);
+  g_assert_true (all_finite (image, pixels));
+  g_free (image);
+
+  /* Tiny: the same image scaled, the peak in the same place. */
+  for (gsize i = 0; i < n; i++)
+    work[i] = data[i] * 1e-30f;
+  image = image_of (h, work, n, &pixels);
+  g_assert_true (all_finite (image, pixels));
+  g_test_message ("ping x 1e-30: peak %.4g at pixel %" G_GSIZE_FORMAT
+      " (normal ping: %.4g at %" G_GSIZE_FORMAT ")",
+      image[peak_index (image, pixels)], peak_index (image, pixels),
+      normal[peak], peak);
+  g_assert_cmpuint (peak_index (image, pixels), ==, peak);
+  g_assert_cmpfloat (fabs (image[peak] / (normal[peak] * 1e-30) - 1.0), <,
+      1e-3);
+  g_free (image);
+
+  g_assert_null (pop_warning (bus));
+  gst_harness_teardown (h);
+  gst_object_unref (bus);
+  g_free (normal);
+  g_free (data);
+  g_free (work);
+}
+
+/* 4b. A recording cut anywhere gives the spectra of whole pings; a ping
+ * cut short by the end of the stream is reported. */
+static void
+test_chunked_recording (void)
+{
+  g_autoptr (SonarSetup) setup = NULL;
+  g_autoptr (SonarSetup) setup1 = NULL;
+  GstBuffer *pings[2];
+  GstBus *bus_whole, *bus_chunks;
+  GstHarness *whole, *chunks;
+  const char *launch = "dopplerbank velocity-min=0 velocity-max=0";
+  gsize n, total, frame = 32 * sizeof (float);
+  guint8 *stream;
+  guint outputs = 0;
+  g_autofree char *warning = NULL;
+
+  pings[0] = sonarsrc_ping ("sonarsrc scene=fig9", 0, &setup);
+  pings[1] = sonarsrc_ping ("sonarsrc scene=fig9", 1, &setup1);
+  g_assert_true (sonar_setup_equal (setup, setup1));
+  n = gst_buffer_get_size (pings[0]);
+  g_assert_cmpuint (n, ==, frame * setup->ping_length);
+  /* Two pings and 500 samples of a third. */
+  total = 2 * n + 500 * frame;
+  stream = g_malloc0 (total);
+  gst_buffer_extract (pings[0], 0, stream, n);
+  gst_buffer_extract (pings[1], 0, stream + n, n);
+  memcpy (stream + 2 * n, stream, 500 * frame);
+
+  whole = fed_harness (launch, setup, &bus_whole);
+  chunks = fed_harness (launch, setup, &bus_chunks);
+  for (guint k = 0; k < 2; k++)
+    g_assert_cmpint (gst_harness_push (whole, pings[k]), ==, GST_FLOW_OK);
+  for (gsize offset = 0; offset < total; offset += 1000 * frame) {
+    const gsize size = MIN (1000 * frame, total - offset);
+    g_assert_cmpint (gst_harness_push (chunks,
+            gst_buffer_new_memdup (stream + offset, size)), ==, GST_FLOW_OK);
+  }
+  g_assert_true (gst_harness_push_event (chunks, gst_event_new_eos ()));
+
+  for (guint k = 0; k < 2; k++) {
+    GstBuffer *a = gst_harness_pull (whole), *b = gst_harness_pull (chunks);
+    GstMapInfo ma, mb;
+    double worst = 0, largest = 0;
+
+    g_assert_nonnull (a);
+    g_assert_nonnull (b);
+    g_assert_cmpuint (GST_BUFFER_OFFSET (b), ==, k);
+    gst_buffer_map (a, &ma, GST_MAP_READ);
+    gst_buffer_map (b, &mb, GST_MAP_READ);
+    g_assert_cmpuint (ma.size, ==, mb.size);
+    for (gsize i = 0; i < ma.size / sizeof (float); i++) {
+      const float x = ((const float *) ma.data)[i];
+      const float y = ((const float *) mb.data)[i];
+      worst = MAX (worst, fabs (x - y));
+      largest = MAX (largest, fabs (x));
+    }
+    g_test_message ("ping %u: chunked spectra differ by %.3g (largest value "
+        "%.3g)", k, worst, largest);
+    g_assert_cmpfloat (worst, <=, 1e-6 * largest);
+    gst_buffer_unmap (a, &ma);
+    gst_buffer_unmap (b, &mb);
+    gst_buffer_unref (a);
+    gst_buffer_unref (b);
+    outputs++;
+  }
+  /* No third output from the partial ping, and a warning about it. */
+  g_assert_cmpuint (gst_harness_buffers_in_queue (chunks), ==, 0);
+  g_assert_cmpuint (outputs, ==, 2);
+  warning = pop_warning (bus_chunks);
+  g_test_message ("partial ping: warning \"%s\"", warning);
+  g_assert_nonnull (warning);
+  g_assert_nonnull (strstr (warning, "ended inside a ping"));
+  g_assert_nonnull (strstr (warning, "500 of"));
+  g_assert_null (pop_warning (bus_whole));
+
+  gst_harness_teardown (whole);
+  gst_harness_teardown (chunks);
+  gst_object_unref (bus_whole);
+  gst_object_unref (bus_chunks);
+  g_free (stream);
+}
+
+/* 5. The datacube: one record per bank velocity, in order; their maximum
+ * is the detection image over the same hypotheses, and the record at 0 m/s
+ * is the fixed-mode image. */
+static void
+test_datacube (void)
+{
+  const char *source = "sonarsrc num-buffers=1 ! dopplerbank "
+      "velocity-min=-0.1 velocity-max=0.1 velocity-step=0.05 ! mimobeamform "
+      "azimuth-count=31 range-max=3";
+  g_autofree char *cube_launch = g_strdup_printf ("%s mode=datacube ! "
+      "appsink name=sink sync=false", source);
+  g_autofree char *det_launch = g_strdup_printf ("%s mode=detection "
+      "hypothesis-spacing=0.05 ! appsink name=sink sync=false", source);
+  g_autofree char *fixed_launch = g_strdup_printf ("%s mode=fixed "
+      "velocity=0 ! appsink name=sink sync=false", source);
+  Run *cube = run_pipeline (cube_launch);
+  Run *det = run_pipeline (det_launch);
+  Run *fixed = run_pipeline (fixed_launch);
+  SonarImageGrid grid;
+  guint records;
+  gsize pixels;
+  GstMapInfo cmap, dmap, fmap;
+  float *maximum;
+
+  g_assert_null (cube->error);
+  g_assert_null (det->error);
+  g_assert_null (fixed->error);
+  g_assert_cmpuint (cube->samples->len, ==, 1);
+  g_assert_true (sonar_energyscape_caps_parse (gst_sample_get_caps
+          (g_ptr_array_index (cube->samples, 0)), &grid, &records));
+  g_assert_cmpuint (records, ==, 5);
+  pixels = sonar_image_grid_size (&grid);
+  gst_buffer_map (run_buffer (cube, 0), &cmap, GST_MAP_READ);
+  gst_buffer_map (run_buffer (det, 0), &dmap, GST_MAP_READ);
+  gst_buffer_map (run_buffer (fixed, 0), &fmap, GST_MAP_READ);
+  g_assert_cmpuint (cmap.size, ==, 5 * (sizeof (SonarEnergyscapeHeader) +
+          sizeof (float) * pixels));
+  maximum = g_new0 (float, pixels);
+  for (guint r = 0; r < 5; r++) {
+    const Record rec = record_at (&cmap, &grid, r);
+    SonarImageGrid header_grid;
+    g_assert_cmpmem (rec.header->magic, 8, SONAR_ENERGYSCAPE_MAGIC, 8);
+    g_assert_true (sonar_energyscape_header_parse (rec.header,
+            &header_grid));
+    assert_grid_equal (&header_grid, &grid);
+    g_assert_cmpuint (rec.header->ping_index, ==, 0);
+    g_assert_cmpint (rec.header->emitter, ==, -1);
+    g_test_message ("record %u: velocity %+.2f m/s", r,
+        rec.header->velocity);
+    g_assert_cmpfloat (fabs (rec.header->velocity - (-0.1 + 0.05 * r)), <,
+        1e-9);
+    for (gsize i = 0; i < pixels; i++)
+      maximum[i] = MAX (maximum[i], rec.pixels[i]);
+    if (r == 2) {
+      const Record f = record_at (&fmap, &grid, 0);
+      g_assert_cmpfloat (fabs (f.header->velocity), <, 1e-9);
+      g_assert_cmpmem (rec.pixels, sizeof (float) * pixels, f.pixels,
+          sizeof (float) * pixels);
+    }
+  }
+  {
+    const Record d = record_at (&dmap, &grid, 0);
+    g_assert_true (isnan (d.header->velocity));
+    g_assert_cmpmem (maximum, sizeof (float) * pixels, d.pixels,
+        sizeof (float) * pixels);
+  }
+  g_free (maximum);
+  gst_buffer_unmap (run_buffer (cube, 0), &cmap);
+  gst_buffer_unmap (run_buffer (det, 0), &dmap);
+  gst_buffer_unmap (run_buffer (fixed, 0), &fmap);
+  run_free (cube);
+  run_free (det);
+  run_free (fixed);
+}
+
+int
+main (int argc, char **argv)
+{
+  sonar_test_init_gst (&argc, &argv);
+  g_test_add_func ("/elements/chain-output", test_chain_output);
+  g_test_add_func ("/elements/taps", test_taps);
+  g_test_add_func ("/elements/errors-are-clear", test_errors_are_clear);
+  g_test_add_func ("/elements/extreme-inputs", test_extreme_inputs);
+  g_test_add_func ("/elements/chunked-recording", test_chunked_recording);
+  g_test_add_func ("/elements/datacube", test_datacube);
+  return g_test_run ();
+}

@@ -350,7 +350,8 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           d.distance, flags));
   g_object_class_install_property (gobject_class, PROP_MAX_PEAKS,
       g_param_spec_uint ("max-peaks", "Maximum peaks", "Peaks clustered per "
-          "ping, the strongest kept (memory grows with its square)", 1, 4096,
+          "ping, the strongest kept (complete and average linkage keep a "
+          "distance matrix of 8 x max-peaks^2 bytes)", 1, 4096,
           d.max_peaks, flags));
   g_object_class_install_property (gobject_class, PROP_RANGE_COMPENSATION,
       g_param_spec_boolean ("range-compensation", "Range compensation",

@@ -124,7 +124,7 @@ squared_distance (const double *a, const double *b, guint dims)
 {
   double s = 0.0;
 
-  /* The sensor frame, unrolled: the hot loop of the linkage. */
+  /* The sensor frame, unrolled. */
   if (dims == 3) {
     const double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
     return d0 * d0 + d1 * d1 + d2 * d2;
@@ -162,19 +162,64 @@ cluster_distance (const Work * w, guint n, SonarLinkage method, int a, int b)
   return sqrt (s);
 }
 
-/* The distance between slots a and b if it may be below @bound, else
- * INFINITY: a Ward or centroid distance is at least |ca - cb|, so most
- * clusters are dismissed without the division and the square root (the
- * margin dwarfs their rounding errors). */
+/* Ward and centroid distances are at least the centroids' distance, so a
+ * cluster whose squared centroid distance exceeds this bound cannot be
+ * nearer than @d: most are dismissed without the division and the square
+ * root (the margin dwarfs the rounding errors). */
 static inline double
-cluster_distance_below (const Work * w, guint n, SonarLinkage method, int a,
-    int b, double bound)
+q_bound (double d)
 {
-  if (!uses_matrix (method) && squared_distance (w->centre + (gsize) a *
-          w->dims, w->centre + (gsize) b * w->dims, w->dims) >
-      bound * bound * (1.0 + 1e-9))
-    return INFINITY;
-  return cluster_distance (w, n, method, a, b);
+  return d * d * (1.0 + 1e-9);
+}
+
+/* The slot nearest to slot x among the live slots from live[from] on
+ * (other than x), if strictly nearer than *dist, else @best: the first of
+ * equals wins, as in SciPy's scans. */
+static int
+nearest (Work * w, guint n, SonarLinkage method, int x, guint from,
+    int best, double *dist)
+{
+  const int *live = w->live;
+  const guint dims = w->dims;
+  const double *cx = w->centre + (gsize) x * dims;
+  const double x0 = cx[0], x1 = dims > 1 ? cx[1] : 0.0;
+  const double x2 = dims > 2 ? cx[2] : 0.0;
+  double bound = q_bound (*dist);
+
+  if (uses_matrix (method)) {
+    const double *row = w->dist + (gsize) x * n;
+    for (guint j = from; j < w->n_live; j++) {
+      const int i = live[j];
+      if (i != x && row[i] < *dist) {
+        *dist = row[i];
+        best = i;
+      }
+    }
+    return best;
+  }
+  for (guint j = from; j < w->n_live; j++) {
+    const int i = live[j];
+    const double *ci = w->centre + (gsize) i * dims;
+    double d;
+    /* The sensor frame unrolled, with x's centroid in registers: the hot
+     * loop of the clustering. */
+    if (dims == 3) {
+      const double d0 = ci[0] - x0, d1 = ci[1] - x1, d2 = ci[2] - x2;
+      if (d0 * d0 + d1 * d1 + d2 * d2 > bound)
+        continue;
+    } else if (squared_distance (ci, cx, dims) > bound) {
+      continue;
+    }
+    if (i == x)
+      continue;
+    d = cluster_distance (w, n, method, x, i);
+    if (d < *dist) {
+      *dist = d;
+      best = i;
+      bound = q_bound (d);
+    }
+  }
+  return best;
 }
 
 /* Lance-Williams update of the matrix methods, in SciPy's operation order:
@@ -360,17 +405,7 @@ linkage_nn_chain (Work * w, guint n, SonarLinkage method, double *Z)
       } else {
         current = INFINITY;
       }
-      for (guint j = 0; j < w->n_live; j++) {
-        const int i = w->live[j];
-        double d;
-        if (i == x)
-          continue;
-        d = cluster_distance_below (w, n, method, x, i, current);
-        if (d < current) {
-          current = d;
-          y = i;
-        }
-      }
+      y = nearest (w, n, method, x, 0, y, &current);
       if (length > 1 && y == chain[length - 2])
         break;
       chain[length++] = y;
@@ -451,18 +486,8 @@ live_above (const Work * w, int x)
 static int
 nearest_above (Work * w, guint n, SonarLinkage method, int x, double *dist)
 {
-  int y = -1;
-
   *dist = INFINITY;
-  for (guint j = live_above (w, x); j < w->n_live; j++) {
-    const double d = cluster_distance_below (w, n, method, x, w->live[j],
-        *dist);
-    if (d < *dist) {
-      *dist = d;
-      y = w->live[j];
-    }
-  }
-  return y;
+  return nearest (w, n, method, x, live_above (w, x), -1, dist);
 }
 
 /* Muellner's generic algorithm: a heap of lower bounds of each slot's
@@ -511,8 +536,11 @@ linkage_generic (Work * w, guint n, SonarLinkage method, double *Z)
         neighbor[w->live[j]] = y;
     for (guint j = 0; j < w->n_live && w->live[j] < y; j++) {
       const int z = w->live[j];
-      const double d = cluster_distance_below (w, n, method, z, y,
-          w->min_dist[z]);
+      double d;
+      if (squared_distance (w->centre + (gsize) z * w->dims, w->centre +
+              (gsize) y * w->dims, w->dims) > q_bound (w->min_dist[z]))
+        continue;
+      d = cluster_distance (w, n, method, z, y);
       if (d < w->min_dist[z]) {
         neighbor[z] = y;
         w->min_dist[z] = d;
@@ -646,6 +674,7 @@ sonar_linkage (const double *points, guint n, guint dims,
   Work *w;
 
   g_return_if_fail (n == 0 || points);
+  g_return_if_fail (dims >= 1);
   for (gsize i = 0; i < (gsize) n * dims; i++)
     g_return_if_fail (isfinite (points[i]));
   if (n < 2)

@@ -448,23 +448,18 @@ render_reflector (SonarSimulator * sim, const SonarReflector * r,
     const double path = m->c * echo_delay;
     for (guint k = 0; k < sim->n_bins; k++)
       sim->gains[k] = (float) exp (-sim->absorption[k] * path);
+    for (guint n = 0; n < n_e; n++)
+      sonar_interp_filter (sim->waveforms[n], sim->gains);
   }
 
-  /* Emitter by emitter, so that its table stays in the cache (and is
-   * rebuilt only if it is read, just before). */
+  /* Emitter by emitter, so that its table stays in the cache. */
   for (guint n = 0; n < n_e; n++) {
-    gboolean filtered = !sim->absorption;
-
     for (guint j = 0; j < n_m; j++) {
       const gsize pair = (gsize) j * n_e + n;
       const guint i0 = sim->spans[2 * pair], i1 = sim->spans[2 * pair + 1];
 
       if (i1 == i0)
         continue;
-      if (!filtered) {
-        sonar_interp_filter (sim->waveforms[n], sim->gains);
-        filtered = TRUE;
-      }
       solve_nodes (sim, m, g->emitters[n], g->microphones[j],
           sim->heights[pair], r->strength, i0,
           (i1 - i0 + NODE_SPACING - 1) / NODE_SPACING + 3);

@@ -1,0 +1,258 @@
+/* test-pipeline.c: the whole chain, sonarsrc ! dopplerbank ! mimobeamform !
+ * wardcluster ! velocityest, as users launch it, scored against the
+ * simulator's ground truth. */
+#include <gst/app/gstappsink.h>
+#include <glib/gstdio.h>
+#include <json-glib/json-glib.h>
+#include <math.h>
+#include <string.h>
+
+#include "sonar-contracts.h"
+#include "sonar-test-util.h"
+
+#define FIG10_BANK "velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02"
+
+typedef struct
+{
+  guint n_truth, matched, false_positives;
+  double sum_error, max_error;
+  guint n_pings;
+} Score;
+
+/* Runs @launch (ending in "appsink name=sink") and scores every ping's
+ * detections meta against its truth meta: a detection within 5 cm of a
+ * true object matches it; any other detection is a false positive. */
+static Score
+score_pipeline (const char *launch, GString * json_out)
+{
+  GstElement *pipeline = gst_parse_launch (launch, NULL);
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstSample *sample;
+  Score s = { 0 };
+
+  g_assert_nonnull (sink);
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    GstBuffer *buffer = gst_sample_get_buffer (sample);
+    SonarTruthMeta *truth = sonar_buffer_get_truth_meta (buffer);
+    SonarDetectionsMeta *dets = sonar_buffer_get_detections_meta (buffer);
+    GstMapInfo map;
+
+    g_assert_nonnull (truth);
+    g_assert_nonnull (dets);
+    g_assert_cmpuint (truth->ping_index, ==, dets->ping_index);
+    if (json_out) {
+      gst_buffer_map (buffer, &map, GST_MAP_READ);
+      g_string_append_len (json_out, (const char *) map.data, map.size);
+      gst_buffer_unmap (buffer, &map);
+    }
+    for (guint k = 0; k < truth->n_truths; k++) {
+      const SonarTruth *t = &truth->truths[k];
+      gboolean found = FALSE;
+      for (guint d = 0; d < dets->n_detections && !found; d++) {
+        const SonarDetection *x = &dets->detections[d];
+        if (sonar_vec3_norm (sonar_vec3_sub (x->position, t->position)) <
+            0.05) {
+          const double err = fabs (x->radial_velocity - t->radial_velocity);
+          g_test_message ("ping %" G_GUINT64_FORMAT ": %.2f m %+.1f deg "
+              "truth %+.4f, estimate %+.4f m/s", truth->ping_index,
+              t->range, t->azimuth, t->radial_velocity, x->radial_velocity);
+          s.sum_error += err;
+          s.max_error = MAX (s.max_error, err);
+          found = TRUE;
+        }
+      }
+      s.matched += found;
+      if (!found)
+        g_test_message ("ping %" G_GUINT64_FORMAT ": missed %.2f m %+.1f "
+            "deg", truth->ping_index, t->range, t->azimuth);
+    }
+    for (guint d = 0; d < dets->n_detections; d++) {
+      gboolean real = FALSE;
+      for (guint k = 0; k < truth->n_truths; k++)
+        real |= sonar_vec3_norm (sonar_vec3_sub
+            (dets->detections[d].position, truth->truths[k].position)) < 0.05;
+      if (!real) {
+        g_test_message ("false positive at %.2f m %+.1f deg",
+            dets->detections[d].range, dets->detections[d].azimuth);
+        s.false_positives++;
+      }
+    }
+    s.n_truth += truth->n_truths;
+    s.n_pings++;
+    gst_sample_unref (sample);
+  }
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+  return s;
+}
+
+/* The paper's Fig. 10 drive: the goals of the velocity issue. */
+static void
+test_fig10_drive (void)
+{
+  Score s = score_pipeline ("sonarsrc scene=fig10 num-buffers=2 ! "
+      "dopplerbank " FIG10_BANK " ! mimobeamform ! wardcluster ! "
+      "velocityest ! appsink name=sink sync=false", NULL);
+
+  g_test_message ("%u pings: %u of %u objects, %u false positives, mean "
+      "error %.4f m/s, worst %.4f m/s", s.n_pings, s.matched, s.n_truth,
+      s.false_positives, s.sum_error / MAX (s.matched, 1), s.max_error);
+  g_assert_cmpuint (s.n_pings, ==, 2);
+  g_assert_cmpuint (s.matched, ==, s.n_truth);
+  g_assert_cmpuint (s.false_positives, ==, 0);
+  g_assert_cmpfloat (s.sum_error / s.matched, <=, 0.005);
+  g_assert_cmpfloat (s.max_error, <=, 0.02);
+}
+
+/* Noise only: nothing is reported. */
+static void
+test_empty_scene (void)
+{
+  Score s = score_pipeline ("sonarsrc scene=empty num-buffers=1 ! "
+      "dopplerbank " FIG10_BANK " ! mimobeamform ! wardcluster ! "
+      "velocityest ! appsink name=sink sync=false", NULL);
+
+  g_assert_cmpuint (s.n_pings, ==, 1);
+  g_assert_cmpuint (s.false_positives, ==, 0);
+}
+
+/* A WAV recording of pings, with the waveforms file, gives exactly the
+ * live pings' JSON. */
+static void
+test_wav_recording_identical (void)
+{
+  g_autofree char *dir = g_dir_make_tmp ("sonar-pipe-XXXXXX", NULL);
+  g_autofree char *wav = g_build_filename (dir, "pings.wav", NULL);
+  g_autofree char *waves = g_build_filename (dir, "waveforms.json", NULL);
+  g_autofree char *tool = g_build_filename (g_getenv ("SONAR_BUILD_DIR"),
+      "tools", "sonar-waveforms", NULL);
+  g_autofree char *save = g_strdup_printf ("sonarsrc num-buffers=2 ! wavenc "
+      "! filesink location=%s", wav);
+  g_autofree char *load = g_strdup_printf ("filesrc location=%s ! wavparse ! "
+      "dopplerbank waveforms-file=%s ping-length=17262 velocity-min=-1.2 "
+      "velocity-max=1.2 velocity-step=0.05 ! mimobeamform ! wardcluster ! "
+      "velocityest ! appsink name=sink sync=false", wav, waves);
+  const char *argv[] = { tool, "-o", waves, NULL };
+  GString *live = g_string_new (NULL), *recorded = g_string_new (NULL);
+  GstElement *pipeline;
+  GstElement *sink;
+  GstSample *sample;
+  char *error;
+  int status;
+
+  g_assert_true (g_spawn_sync (NULL, (char **) argv, NULL, 0, NULL, NULL,
+          NULL, NULL, &status, NULL));
+  g_assert_true (g_spawn_check_wait_status (status, NULL));
+  error = sonar_test_run_pipeline (save, NULL);
+  g_assert_null (error);
+  score_pipeline ("sonarsrc num-buffers=2 ! dopplerbank velocity-min=-1.2 "
+      "velocity-max=1.2 velocity-step=0.05 ! mimobeamform ! wardcluster ! "
+      "velocityest ! appsink name=sink sync=false", live);
+
+  /* The recording has no ground truth: collect its JSON directly. */
+  pipeline = gst_parse_launch (load, NULL);
+  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    GstMapInfo map;
+    gst_buffer_map (gst_sample_get_buffer (sample), &map, GST_MAP_READ);
+    g_string_append_len (recorded, (const char *) map.data, map.size);
+    gst_buffer_unmap (gst_sample_get_buffer (sample), &map);
+    gst_sample_unref (sample);
+  }
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+
+  g_test_message ("%s", recorded->str);
+  g_assert_nonnull (strstr (live->str, "\"radial_velocity\""));
+  /* Timestamps: the WAV's pings are back to back, the live ones 1/12 s
+   * apart; everything else must be equal. */
+  {
+    g_auto (GStrv) a = g_strsplit (live->str, "\n", -1);
+    g_auto (GStrv) b = g_strsplit (recorded->str, "\n", -1);
+    g_assert_cmpuint (g_strv_length (a), ==, g_strv_length (b));
+    for (guint i = 0; a[i]; i++) {
+      const char *da = strstr (a[i], "\"detections\"");
+      const char *db = strstr (b[i], "\"detections\"");
+      g_assert_cmpstr (da, ==, db);
+    }
+  }
+  g_string_free (live, TRUE);
+  g_string_free (recorded, TRUE);
+  g_unlink (wav);
+  g_unlink (waves);
+  g_rmdir (dir);
+}
+
+/* The JSON line parses and agrees with the meta and the bus message. */
+static void
+test_three_outputs_agree (void)
+{
+  GstElement *pipeline = gst_parse_launch ("sonarsrc num-buffers=1 ! "
+      "dopplerbank velocity-min=-1.2 velocity-max=1.2 ! mimobeamform ! "
+      "wardcluster ! velocityest ! appsink name=sink sync=false", NULL);
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstBus *bus = gst_element_get_bus (pipeline);
+  GstSample *sample;
+  GstMessage *msg;
+  SonarDetectionsMeta *meta;
+  GstMapInfo map;
+  g_autoptr (JsonParser) parser = json_parser_new ();
+  JsonArray *dets;
+  const GValue *list = NULL;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  sample = gst_app_sink_pull_sample (GST_APP_SINK (sink));
+  g_assert_nonnull (sample);
+  meta = sonar_buffer_get_detections_meta (gst_sample_get_buffer (sample));
+  g_assert_nonnull (meta);
+  g_assert_cmpuint (meta->n_detections, ==, 3);
+  gst_buffer_map (gst_sample_get_buffer (sample), &map, GST_MAP_READ);
+  g_assert_cmpint (map.data[map.size - 1], ==, '\n');
+  g_assert_true (json_parser_load_from_data (parser, (const char *) map.data,
+          map.size, NULL));
+  gst_buffer_unmap (gst_sample_get_buffer (sample), &map);
+  dets = json_object_get_array_member (json_node_get_object
+      (json_parser_get_root (parser)), "detections");
+  g_assert_cmpuint (json_array_get_length (dets), ==, 3);
+  for (guint d = 0; d < 3; d++) {
+    JsonObject *o = json_array_get_object_element (dets, d);
+    g_assert_cmpfloat (fabs (json_object_get_double_member (o,
+                "radial_velocity") - meta->detections[d].radial_velocity), <,
+        1e-4);
+    g_assert_cmpint (json_object_get_boolean_member (o, "approaching"), ==,
+        meta->detections[d].radial_velocity < 0);
+  }
+  while ((msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ELEMENT))) {
+    if (gst_message_has_name (msg, SONAR_DETECTIONS_MESSAGE_NAME))
+      list = gst_structure_get_value (gst_message_get_structure (msg),
+          "detections");
+    if (list) {
+      g_assert_cmpuint (gst_value_array_get_size (list), ==, 3);
+      gst_message_unref (msg);
+      break;
+    }
+    gst_message_unref (msg);
+  }
+  g_assert_nonnull (list);
+  gst_sample_unref (sample);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
+int
+main (int argc, char **argv)
+{
+  sonar_test_init_gst (&argc, &argv);
+  g_test_add_func ("/pipeline/fig10-drive", test_fig10_drive);
+  g_test_add_func ("/pipeline/empty-scene", test_empty_scene);
+  g_test_add_func ("/pipeline/wav-recording-identical",
+      test_wav_recording_identical);
+  g_test_add_func ("/pipeline/three-outputs-agree", test_three_outputs_agree);
+  return g_test_run ();
+}

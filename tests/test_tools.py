@@ -88,11 +88,13 @@ def default_output():
 
 @test
 def waveforms_default_file():
-    """sonar-waveforms: default file is 8 x 4000 at 450 kHz, finite, unit
-    peak"""
+    """sonar-waveforms: default file is 8 x 4000 at 450 kHz, 20-80 kHz,
+    finite, unit peak"""
     doc = json.loads(default_output())
-    assert set(doc) == {"description", "sample-rate", "waveforms"}, doc.keys()
+    assert set(doc) == {"description", "sample-rate", "band", "waveforms"}, \
+        doc.keys()
     assert doc["sample-rate"] == 450000, doc["sample-rate"]
+    assert doc["band"] == [20000, 80000], doc["band"]
     rows = np.array(doc["waveforms"], dtype=np.float64)
     assert rows.shape == (8, 4000), rows.shape
     assert np.all(np.isfinite(rows))

@@ -111,31 +111,6 @@ static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
 
-/* Bank indices of the detection hypotheses: multiples of @spacing within
- * the bank, plus its ends when they lie more than half a spacing beyond. */
-static guint
-choose_hypotheses (const SonarDopplerBank * bank, double spacing,
-    guint * out)
-{
-  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
-  const double lo = sonar_doppler_bank_velocity (bank, 0);
-  const double hi = sonar_doppler_bank_velocity (bank, n_bank - 1);
-  guint n = 0;
-
-  if (lo + 0.5 * spacing < ceil (lo / spacing) * spacing)
-    out[n++] = 0;
-  for (double k = ceil (lo / spacing); k * spacing <= hi + 1e-9; k++) {
-    const guint i = sonar_doppler_bank_nearest (bank, k * spacing);
-    if (n == 0 || out[n - 1] != i)
-      out[n++] = i;
-  }
-  if (n == 0 || (out[n - 1] != n_bank - 1
-          && sonar_doppler_bank_velocity (bank, out[n - 1]) + 0.5 * spacing
-          < hi))
-    out[n++] = n_bank - 1;
-  return n;
-}
-
 static GstCaps *
 gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
@@ -178,7 +153,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->hypotheses = g_new (guint, n_bank + 2);
   switch (self->active_mode) {
     case IMAGE_MODE_DETECTION:
-      self->n_hypotheses = choose_hypotheses (bank, spacing,
+      self->n_hypotheses = sonar_doppler_bank_hypotheses (bank, spacing,
           self->hypotheses);
       break;
     case IMAGE_MODE_FIXED:{

@@ -135,6 +135,29 @@ sonar_doppler_bank_nearest (const SonarDopplerBank * bank, double v)
 }
 
 guint
+sonar_doppler_bank_hypotheses (const SonarDopplerBank * bank, double spacing,
+    guint * out)
+{
+  const guint n_bank = bank->n_velocities;
+  const double lo = sonar_doppler_bank_velocity (bank, 0);
+  const double hi = sonar_doppler_bank_velocity (bank, n_bank - 1);
+  guint n = 0;
+
+  if (lo + 0.5 * spacing < ceil (lo / spacing) * spacing)
+    out[n++] = 0;
+  for (double k = ceil (lo / spacing); k * spacing <= hi + 1e-9; k++) {
+    const guint i = sonar_doppler_bank_nearest (bank, k * spacing);
+    if (n == 0 || out[n - 1] != i)
+      out[n++] = i;
+  }
+  if (n == 0 || (out[n - 1] != n_bank - 1
+          && sonar_doppler_bank_velocity (bank, out[n - 1]) + 0.5 * spacing
+          < hi))
+    out[n++] = n_bank - 1;
+  return n;
+}
+
+guint
 sonar_doppler_bank_max_length (const SonarDopplerBank * bank)
 {
   return bank->max_length;

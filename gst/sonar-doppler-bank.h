@@ -38,6 +38,13 @@ guint sonar_doppler_bank_nearest (const SonarDopplerBank * bank, double v);
 /* Longest template, samples. */
 guint sonar_doppler_bank_max_length (const SonarDopplerBank * bank);
 
+/* The Doppler hypotheses of a detection image: indices of the bank
+ * velocities nearest the multiples of @spacing (m/s) within the bank, plus
+ * the bank's ends where they lie more than half a spacing beyond those.
+ * Writes at most n_velocities + 2 indices into @out; returns their count. */
+guint sonar_doppler_bank_hypotheses (const SonarDopplerBank * bank,
+    double spacing, guint * out);
+
 /* Doppler scale alpha = (c - v) / (c + v). */
 double sonar_doppler_scale (double speed_of_sound, double v);
 

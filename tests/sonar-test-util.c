@@ -1,6 +1,7 @@
 /* sonar-test-util.c: see sonar-test-util.h. Uses double-precision FFTW so
  * that the measurement is far more accurate than what it measures. */
 #include "sonar-test-util.h"
+#include "sonar-waveform.h"
 
 #include <fftw3.h>
 #include <glib/gstdio.h>
@@ -222,4 +223,24 @@ sonar_test_init_gst (int *argc, char ***argv)
 {
   g_test_init (argc, argv, NULL);
   gst_init (argc, argv);
+}
+
+SonarSetup *
+sonar_test_default_setup (guint ping_length)
+{
+  SonarWaveformParams wp;
+  SonarGeometry g;
+  float *w;
+  SonarSetup *setup;
+
+  sonar_waveform_params_init_default (&wp);
+  sonar_geometry_init_default (&g);
+  w = g_new (float, wp.n_emitters * wp.length);
+  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
+  setup = sonar_setup_new (wp.sample_rate, SONAR_DEFAULT_SPEED_OF_SOUND,
+      wp.band_low, wp.band_high, &g, wp.length, w, ping_length, NULL);
+  g_assert_nonnull (setup);
+  g_free (w);
+  sonar_geometry_clear (&g);
+  return setup;
 }

@@ -34,8 +34,13 @@ G_END_DECLS
 #endif
 
 #include <gst/gst.h>
+#include "sonar-setup.h"
 
 G_BEGIN_DECLS
+
+/* The default sensor (eRTIS array, 8 default noise emissions, 450 kHz,
+ * c = 343 m/s) with @ping_length samples per ping. */
+SonarSetup *sonar_test_default_setup (guint ping_length);
 
 /* Runs a gst-launch style pipeline to EOS (or the first error). Returns
  * NULL on success, else the error message (and its debug text after a

@@ -11,26 +11,6 @@
 #include "sonar-test-util.h"
 #include "sonar-waveform.h"
 
-/* The default sensor with a window long enough for 5 m. */
-static SonarSetup *
-default_setup (void)
-{
-  SonarWaveformParams wp;
-  SonarGeometry g;
-  float *w;
-  SonarSetup *setup;
-
-  sonar_waveform_params_init_default (&wp);
-  sonar_geometry_init_default (&g);
-  w = g_new (float, wp.n_emitters * wp.length);
-  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
-  setup = sonar_setup_new (wp.sample_rate, 343.0, wp.band_low, wp.band_high,
-      &g, wp.length, w, 17500, NULL);
-  g_free (w);
-  sonar_geometry_clear (&g);
-  return setup;
-}
-
 /* Set-up, bank, and the band the bank's spectra are on (chosen like
  * dopplerbank does: linear correlation of a ping with the longest
  * template). */
@@ -49,7 +29,7 @@ chain_init (Chain * c, double v_min, double v_max, double v_step)
 {
   GError *error = NULL;
 
-  c->setup = default_setup ();
+  c->setup = sonar_test_default_setup (17500);
   c->bank = sonar_doppler_bank_new (c->setup, v_min, v_max, v_step, &error);
   g_assert_no_error (error);
   sonar_band_init (&c->band, c->setup->sample_rate, c->setup->ping_length +
@@ -268,32 +248,6 @@ test_bank_peak (void)
   g_free (curve);
 }
 
-/* Bank indices of the detection hypotheses, as mimobeamform chooses them:
- * multiples of @spacing within the bank, plus its ends when they lie more
- * than half a spacing beyond. */
-static guint
-choose_hypotheses (const SonarDopplerBank * bank, double spacing,
-    guint * out)
-{
-  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
-  const double lo = sonar_doppler_bank_velocity (bank, 0);
-  const double hi = sonar_doppler_bank_velocity (bank, n_bank - 1);
-  guint n = 0;
-
-  if (lo + 0.5 * spacing < ceil (lo / spacing) * spacing)
-    out[n++] = 0;
-  for (double k = ceil (lo / spacing); k * spacing <= hi + 1e-9; k++) {
-    const guint i = sonar_doppler_bank_nearest (bank, k * spacing);
-    if (n == 0 || out[n - 1] != i)
-      out[n++] = i;
-  }
-  if (n == 0 || (out[n - 1] != n_bank - 1
-          && sonar_doppler_bank_velocity (bank, out[n - 1]) + 0.5 * spacing
-          < hi))
-    out[n++] = n_bank - 1;
-  return n;
-}
-
 /* 2. Movers in the detection image: as strong (within 3 dB) as a still
  * reflector at the same place, and where the truth says; the image at
  * 0 m/s alone loses them. */
@@ -304,7 +258,7 @@ test_movers_detection_image (void)
   const double speeds[] = { 0.5, -0.5, 1, -1, 3, -3, 7, -7 };
   const guint n_bank = sonar_doppler_bank_n_velocities (c->bank);
   guint *hyps = g_new (guint, n_bank + 2);
-  const guint n_hyps = choose_hypotheses (c->bank, 0.3, hyps);
+  const guint n_hyps = sonar_doppler_bank_hypotheses (c->bank, 0.3, hyps);
   const guint zero = sonar_doppler_bank_nearest (c->bank, 0.0);
   SonarImagerParams p;
   SonarImager *imager;

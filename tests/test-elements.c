@@ -187,32 +187,6 @@ peak_index (const float *x, gsize n)
   return best;
 }
 
-/* Bank indices of the detection hypotheses, as mimobeamform documents
- * them: multiples of @spacing within the bank, plus its ends when they lie
- * more than half a spacing beyond. */
-static guint
-choose_hypotheses (const SonarDopplerBank * bank, double spacing,
-    guint * out)
-{
-  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
-  const double lo = sonar_doppler_bank_velocity (bank, 0);
-  const double hi = sonar_doppler_bank_velocity (bank, n_bank - 1);
-  guint n = 0;
-
-  if (lo + 0.5 * spacing < ceil (lo / spacing) * spacing)
-    out[n++] = 0;
-  for (double k = ceil (lo / spacing); k * spacing <= hi + 1e-9; k++) {
-    const guint i = sonar_doppler_bank_nearest (bank, k * spacing);
-    if (n == 0 || out[n - 1] != i)
-      out[n++] = i;
-  }
-  if (n == 0 || (out[n - 1] != n_bank - 1
-          && sonar_doppler_bank_velocity (bank, out[n - 1]) + 0.5 * spacing
-          < hi))
-    out[n++] = n_bank - 1;
-  return n;
-}
-
 /* 1. sonarsrc ! dopplerbank ! mimobeamform: caps, records, the image's
  * peak at the default scene's strongest object, metas and events; the
  * image is the core imager's over the documented hypotheses. */
@@ -333,7 +307,7 @@ test_chain_output (void)
       SonarImagerParams p;
       SonarImager *imager;
       guint *hyps = g_new (guint, 283);
-      const guint n_hyps = choose_hypotheses (bank, 0.3, hyps);
+      const guint n_hyps = sonar_doppler_bank_hypotheses (bank, 0.3, hyps);
       const SonarComplex **templates = g_new (const SonarComplex *, n_hyps);
       double *velocities = g_new (double, n_hyps);
       float *image = g_new (float, pixels);

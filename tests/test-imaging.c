@@ -10,26 +10,6 @@
 #include "sonar-test-util.h"
 #include "sonar-waveform.h"
 
-/* The default sensor with a window long enough for 5 m. */
-static SonarSetup *
-default_setup (void)
-{
-  SonarWaveformParams wp;
-  SonarGeometry g;
-  float *w;
-  SonarSetup *setup;
-
-  sonar_waveform_params_init_default (&wp);
-  sonar_geometry_init_default (&g);
-  w = g_new (float, wp.n_emitters * wp.length);
-  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
-  setup = sonar_setup_new (wp.sample_rate, 343.0, wp.band_low, wp.band_high,
-      &g, wp.length, w, 17500, NULL);
-  g_free (w);
-  sonar_geometry_clear (&g);
-  return setup;
-}
-
 typedef struct
 {
   SonarSetup *setup;
@@ -42,7 +22,7 @@ typedef struct
 static void
 chain_init (Chain * c, guint max_template)
 {
-  c->setup = default_setup ();
+  c->setup = sonar_test_default_setup (17500);
   sonar_band_init (&c->band, c->setup->sample_rate,
       c->setup->ping_length + max_template, c->setup->band_low,
       c->setup->band_high);
@@ -139,7 +119,7 @@ image_peak (const float *image, const SonarImageGrid * grid, double *azimuth,
 static void
 test_bank_templates_exact (void)
 {
-  g_autoptr (SonarSetup) setup = default_setup ();
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17500);
   g_autoptr (SonarDopplerBank) bank = NULL;
   const guint L = setup->waveform_length, N = 8192;
   const float *w = sonar_setup_waveform (setup, 3);
@@ -191,7 +171,7 @@ test_bank_templates_exact (void)
 static void
 test_bank_errors (void)
 {
-  g_autoptr (SonarSetup) setup = default_setup ();
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17500);
   GError *error = NULL;
 
   g_assert_null (sonar_doppler_bank_new (setup, 1, -1, 0.1, &error));

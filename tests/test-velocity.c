@@ -24,22 +24,12 @@ typedef struct
 static void
 fixture_init (Fixture * f, double v_min, double v_max, double v_step)
 {
-  SonarWaveformParams wp;
-  SonarGeometry g;
-  float *w;
   SonarBand band;
   SonarImagerParams ip;
   SonarVelocityParams vp;
   SonarImager *imager;
 
-  sonar_waveform_params_init_default (&wp);
-  sonar_geometry_init_default (&g);
-  w = g_new (float, wp.n_emitters * wp.length);
-  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
-  f->setup = sonar_setup_new (wp.sample_rate, 343.0, wp.band_low,
-      wp.band_high, &g, wp.length, w, 17500, NULL);
-  g_free (w);
-  sonar_geometry_clear (&g);
+  f->setup = sonar_test_default_setup (17500);
   f->bank = sonar_doppler_bank_new (f->setup, v_min, v_max, v_step, NULL);
   sonar_band_init (&band, f->setup->sample_rate, f->setup->ping_length +
       sonar_doppler_bank_max_length (f->bank), f->setup->band_low,

@@ -10,6 +10,9 @@
  * flat curve, not -inf. */
 #define ACF_FLOOR 1e-30
 
+/* -3 dB in amplitude. */
+#define AGREEMENT_RATIO 0.7071067811865476
+
 struct _SonarVelocityEstimator
 {
   SonarDopplerBank *bank;
@@ -321,14 +324,21 @@ describe_peak (SonarVelocityEstimator * est, const SonarComplex * spectra,
   mean /= nv;
   out->variance = mean2 / nv - mean * mean;
 
+  /* Emitter n agrees when its own curve, within half a main lobe of the
+   * product's peak, comes within 3 dB of its maximum: with two reflectors
+   * of different speeds in one centroid every emitter has two peaks of
+   * about the same height, and either may be the larger. */
   for (guint n = 0; n < est->n_emitters; n++) {
     const double *acf = est->acf + (gsize) n * nv;
-    guint best = 0;
-    for (guint i = 1; i < nv; i++)
-      if (acf[i] > acf[best])
-        best = i;
-    agree += fabs (sonar_doppler_bank_velocity (est->bank, best) -
-        sonar_doppler_bank_velocity (est->bank, p)) <= 0.5 * est->main_lobe;
+    const double vp = sonar_doppler_bank_velocity (est->bank, p);
+    double global = 0.0, near = 0.0;
+    for (guint i = 0; i < nv; i++) {
+      global = MAX (global, acf[i]);
+      if (fabs (sonar_doppler_bank_velocity (est->bank, i) - vp) <=
+          0.5 * est->main_lobe)
+        near = MAX (near, acf[i]);
+    }
+    agree += near >= AGREEMENT_RATIO * global;
   }
   out->agreeing_emitters = agree;
   out->coherence = coherence_at (est, spectra, out->range, out->azimuth,

@@ -124,6 +124,44 @@ test_fig9_world (void)
   g_assert_cmpfloat (s.max_error, <=, 0.02);
 }
 
+/* The paper's motivation: one seemingly single object that is really two
+ * with different speeds (4 mm apart: one centroid) gives two detections. */
+static void
+test_two_speeds_one_centroid (void)
+{
+  g_autofree char *scene = sonar_test_write_temp ("twin.json",
+      "{\"dimensions\": 2, \"reflectors\": ["
+      " {\"range\": 2.0, \"azimuth\": 20, \"radial-velocity\": 0.0},"
+      " {\"range\": 2.004, \"azimuth\": 20, \"radial-velocity\": -1.0}]}");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
+      "num-buffers=1 ! dopplerbank velocity-min=-1.5 velocity-max=1.5 ! "
+      "mimobeamform ! wardcluster ! velocityest ! appsink name=sink "
+      "sync=false", scene);
+  GstElement *pipeline = gst_parse_launch (launch, NULL);
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstSample *sample;
+  SonarDetectionsMeta *dets;
+  gboolean still = FALSE, mover = FALSE;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  sample = gst_app_sink_pull_sample (GST_APP_SINK (sink));
+  dets = sonar_buffer_get_detections_meta (gst_sample_get_buffer (sample));
+  g_assert_cmpuint (dets->n_detections, ==, 2);
+  g_assert_cmpuint (dets->detections[0].centroid, ==,
+      dets->detections[1].centroid);
+  for (guint d = 0; d < 2; d++) {
+    const double v = dets->detections[d].radial_velocity;
+    g_test_message ("detection %u: %+.4f m/s", d, v);
+    still |= fabs (v - 0.0) < 0.03;
+    mover |= fabs (v + 1.0) < 0.03;
+  }
+  g_assert_true (still && mover);
+  gst_sample_unref (sample);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
 /* Noise only: nothing is reported. */
 static void
 test_empty_scene (void)
@@ -269,6 +307,8 @@ main (int argc, char **argv)
   sonar_test_init_gst (&argc, &argv);
   g_test_add_func ("/pipeline/fig10-drive", test_fig10_drive);
   g_test_add_func ("/pipeline/fig9-world", test_fig9_world);
+  g_test_add_func ("/pipeline/two-speeds-one-centroid",
+      test_two_speeds_one_centroid);
   g_test_add_func ("/pipeline/empty-scene", test_empty_scene);
   g_test_add_func ("/pipeline/wav-recording-identical",
       test_wav_recording_identical);

@@ -9,11 +9,8 @@
  * passes through unchanged with a SonarCentroidsMeta; each ping's centroids
  * are also posted as a "sonar-centroids" element message.
  *
- * Echoes weaken as 1 / (2 r)^2 (paper eq. 6): with range-compensation (the
- * default) the thresholds and the clustering see the image times r^2, so
- * that a far object is not lost below a near one's relative threshold. The
- * cross-talk ridges this lifts behind near objects are velocityest's to
- * reject (they fail its coherence and agreement tests).
+ * With range-compensation (the default) the thresholds and the clustering
+ * see the image times r^2 (sonar-cluster.h).
  */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
@@ -26,10 +23,6 @@ GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
 
 #define MAX_CENTROIDS 256
 #define DEFAULT_POST_MESSAGES TRUE
-#define DEFAULT_RANGE_COMPENSATION TRUE
-/* With range compensation the objects of a scene come out at similar
- * levels and cross-talk ridges 10-20 dB below them (physics notes). */
-#define DEFAULT_THRESHOLD -10.0
 
 #define GST_TYPE_SONAR_LINKAGE (sonar_linkage_get_type ())
 static GType
@@ -90,10 +83,8 @@ struct _GstWardCluster
 
   SonarClusterParams params;    /* protected by the object lock */
   gboolean post_messages;
-  gboolean range_compensation;
 
   SonarClusterer *clusterer;
-  float *compensated;           /* the image times r^2 */
   SonarImageGrid grid;
   SonarCentroid centroids[MAX_CENTROIDS];
 };
@@ -130,36 +121,14 @@ gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->clusterer = sonar_clusterer_new (&self->grid, &params, error);
   if (!self->clusterer)
     return NULL;
-  if (self->range_compensation)
-    self->compensated = g_new (float, sonar_image_grid_size (&self->grid));
   return gst_caps_ref (in_caps);
 }
 
 static void
 gst_ward_cluster_unconfigure (GstSonarFilter * filter)
 {
-  GstWardCluster *self = GST_WARD_CLUSTER (filter);
-
-  g_clear_pointer (&self->clusterer, sonar_clusterer_free);
-  g_clear_pointer (&self->compensated, g_free);
-}
-
-/* The image times r^2: every range bin scaled by its range squared. */
-static const float *
-compensate (GstWardCluster * self, const float *image)
-{
-  const SonarImageGrid *g = &self->grid;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-
-  for (gsize d = 0; d < n_dirs; d++) {
-    const float *in = image + d * g->n_range;
-    float *out = self->compensated + d * g->n_range;
-    for (guint i = 0; i < g->n_range; i++) {
-      const float r = (float) (g->range_first + i * g->range_step);
-      out[i] = in[i] * r * r;
-    }
-  }
-  return self->compensated;
+  g_clear_pointer (&GST_WARD_CLUSTER (filter)->clusterer,
+      sonar_clusterer_free);
 }
 
 static GstFlowReturn
@@ -183,12 +152,9 @@ gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
   gst_buffer_map (buffer, &map, GST_MAP_READ);
   header = (const SonarEnergyscapeHeader *) map.data;
   ping = header->ping_index;
-  {
-    const float *image = (const float *) (map.data +
-        sizeof (SonarEnergyscapeHeader));
-    n = sonar_clusterer_process (self->clusterer, self->compensated ?
-        compensate (self, image) : image, self->centroids, MAX_CENTROIDS);
-  }
+  n = sonar_clusterer_process (self->clusterer,
+      (const float *) (map.data + sizeof (SonarEnergyscapeHeader)),
+      self->centroids, MAX_CENTROIDS);
   gst_buffer_unmap (buffer, &map);
   GST_LOG_OBJECT (self, "ping %" G_GUINT64_FORMAT ": %u peaks, %u centroids",
       ping, sonar_clusterer_n_peaks (self->clusterer), n);
@@ -240,7 +206,7 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
       self->post_messages = g_value_get_boolean (value);
       break;
     case PROP_RANGE_COMPENSATION:
-      self->range_compensation = g_value_get_boolean (value);
+      p->range_compensation = g_value_get_boolean (value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -286,7 +252,7 @@ gst_ward_cluster_get_property (GObject * object, guint prop_id,
       g_value_set_boolean (value, self->post_messages);
       break;
     case PROP_RANGE_COMPENSATION:
-      g_value_set_boolean (value, self->range_compensation);
+      g_value_set_boolean (value, p->range_compensation);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -299,9 +265,7 @@ static void
 gst_ward_cluster_init (GstWardCluster * self)
 {
   sonar_cluster_params_init_default (&self->params);
-  self->params.threshold_db = DEFAULT_THRESHOLD;
   self->post_messages = DEFAULT_POST_MESSAGES;
-  self->range_compensation = DEFAULT_RANGE_COMPENSATION;
 }
 
 static void
@@ -315,7 +279,6 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
   SonarClusterParams d;
 
   sonar_cluster_params_init_default (&d);
-  d.threshold_db = DEFAULT_THRESHOLD;
   gobject_class->set_property = gst_ward_cluster_set_property;
   gobject_class->get_property = gst_ward_cluster_get_property;
 
@@ -357,7 +320,7 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
       g_param_spec_boolean ("range-compensation", "Range compensation",
           "Threshold and cluster the image times range squared, undoing the "
           "spreading loss (paper eq. 6), so far objects are kept",
-          DEFAULT_RANGE_COMPENSATION, flags));
+          d.range_compensation, flags));
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-centroids\" element message per ping",

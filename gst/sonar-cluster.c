@@ -729,12 +729,14 @@ struct _SonarClusterer
   SonarVec3 *peak_direction;    /* unit */
   int *labels;
   int *slot;                    /* per label: output index, or -1 */
+  float *compensated;           /* the image times r^2, with range_compensation */
 };
 
 void
 sonar_cluster_params_init_default (SonarClusterParams * p)
 {
-  p->threshold_db = -20.0;
+  p->range_compensation = TRUE;
+  p->threshold_db = -10.0;
   p->absolute_threshold = 0.0;
   p->linkage = SONAR_LINKAGE_WARD;
   p->stop = SONAR_STOP_INCONSISTENCY;
@@ -801,6 +803,8 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->peak_direction = g_new (SonarVec3, m);
   c->labels = g_new (int, m);
   c->slot = g_new (int, m + 1);
+  if (params->range_compensation)
+    c->compensated = g_new (float, sonar_image_grid_size (grid));
   return c;
 }
 
@@ -817,6 +821,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->peak_direction);
   g_free (c->labels);
   g_free (c->slot);
+  g_free (c->compensated);
   g_free (c);
 }
 
@@ -1023,6 +1028,15 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   g = &c->grid;
   n_pixels = sonar_image_grid_size (g);
   w = c->work;
+  if (c->compensated) {
+    for (gsize d = 0; d < n_pixels / g->n_range; d++) {
+      for (guint i = 0; i < g->n_range; i++) {
+        const float r = (float) (g->range_first + i * g->range_step);
+        c->compensated[d * g->n_range + i] = image[d * g->n_range + i] * r * r;
+      }
+    }
+    image = c->compensated;
+  }
 
   for (gsize p = 0; p < n_pixels; p++)
     if (image[p] > max && isfinite (image[p]))

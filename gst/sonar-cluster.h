@@ -68,7 +68,15 @@ typedef enum
 
 typedef struct
 {
-  /* dB relative to the image's maximum (<= 0): weaker pixels are no peaks. */
+  /* Threshold and cluster the image times r^2: echoes weaken as
+   * 1 / (2 r)^2 (paper eq. 6), so without it a far object falls below a
+   * near one's relative threshold. Peak values and energies are then of the
+   * compensated image. The cross-talk ridges it lifts behind near objects
+   * are velocityest's to reject. */
+  gboolean range_compensation;
+  /* dB relative to the image's maximum (<= 0): weaker pixels are no peaks.
+   * With range compensation the objects of a scene come out at similar
+   * levels and cross-talk ridges 10-20 dB below them: -10 dB. */
   double threshold_db;
   /* Linear envelope value: weaker pixels are no peaks; 0 turns it off. */
   double absolute_threshold;

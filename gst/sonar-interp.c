@@ -17,7 +17,6 @@ interp_new (const float *signal, guint length, gboolean filterable)
   float *padded = fftwf_alloc_real (n);
   fftwf_plan forward;
 
-  in->length = length;
   in->fft_size = n;
   /* up_n > table_points: the last step's end point is in the transform. */
   in->table_points = SONAR_INTERP_OVERSAMPLE * (length - 1 +

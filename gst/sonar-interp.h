@@ -5,23 +5,23 @@
  * zero-extended signal), computed with its exact derivative (the spectrum
  * times i omega), and read as one cubic Hermite polynomial per table step.
  * The error is below h^4 max|w''''| / 384, h the step: -96 dB of a unit
- * component at 80 kHz sampled at 450 kHz. Measured against exact references
- * (test-interp.c): -95.9 dB for a unit 80 kHz tone, -104.5 dB of the peak
- * for five tones of 21 to 79 kHz, -105 dB of the peak for the default
- * waveforms.
+ * component at 80 kHz sampled at 450 kHz. Measured (test-interp.c, exact
+ * analytic references, random positions): -96.0 dB for a unit 80 kHz tone,
+ * -104.5 dB of the peak for five tones of 21 to 79 kHz.
  *
- * This design was measured against 8x oversampling read by 4-point
- * Lagrange interpolation: that one is 5 dB more accurate (-100.8 dB,
- * -109.2 dB, -110 dB) in half the memory (8 floats per sample instead of
- * 16), but takes 8.2 ns per read against 5.1 ns here; reads dominate the
- * simulator's render time, and both are far below the -80 dB the imaging
- * chain needs.
+ * Why this design: 8x oversampling read by 4-point Lagrange interpolation,
+ * measured on the same references, is 5 dB more accurate (-100.7 dB,
+ * -109.2 dB) in half the memory (8 floats per sample instead of 16), but a
+ * read costs 8.2 ns against 5.1 ns here (Horner, no weights to compute).
+ * Reads dominate the simulator's render time; both are far below what the
+ * float recordings and the imaging chain (-80 dB) resolve.
  *
  * The band-limited signal reaches SONAR_INTERP_PAD samples beyond each end
  * (its interpolation tails) and is zero further out.
  *
- * Both the simulator (echo synthesis) and the Doppler bank (time-scaled
- * templates) read waveforms through this one interpolator.
+ * Both the simulator (echo synthesis, filtered per reflector for air
+ * absorption) and the Doppler bank (time-scaled templates) read waveforms
+ * through this one interpolator.
  */
 #ifndef SONAR_INTERP_H
 #define SONAR_INTERP_H
@@ -36,7 +36,6 @@ G_BEGIN_DECLS
 typedef struct
 {
   /*< private >*/
-  guint length;                 /* samples of the signal */
   guint table_points;
   float *table;                 /* entries 4 m to 4 m + 3: the cubic of step m */
   guint fft_size;
@@ -89,7 +88,8 @@ sonar_interp_at_table (const SonarInterp * interp, double x)
   return ((c[3] * f + c[2]) * f + c[1]) * f + c[0];
 }
 
-/* The signal at @position samples (any real number; 0 where not finite). */
+/* The signal at @position samples: 0 outside the support, NaN and
+ * infinities included. */
 static inline float
 sonar_interp_at (const SonarInterp * interp, double position)
 {

@@ -3,11 +3,17 @@
  * Every emitter sends its waveform at the ping instant; every reflector
  * sends back what reaches it; every microphone records the sum plus noise.
  * The echo of a moving reflector is computed from the exact time-varying
- * geometry: for each recorded sample the reflection and emission instants
- * are solved in closed form (straight-line motion, air at rest), so the
- * wideband Doppler time-scaling is exact. The waveform is read between its
- * samples with a band-limited interpolator. Amplitude follows the paper's
- * eq. 6: strength / (r_emitter + r_microphone)^2.
+ * geometry: the reflection and emission instants are solved in closed form
+ * (straight-line motion, air at rest) every 64 recorded samples and
+ * interpolated in between by cubics through the nearest four solutions.
+ * Measured at 10 m/s in random directions, the emission instant of every
+ * sample is within 5e-6 samples of the exact one while the reflector stays
+ * 5 cm or more from every element, 1e-6 beyond 10 cm, 3e-8 beyond 30 cm
+ * and 1e-9 beyond 1 m, far below what the float recording resolves; the
+ * error grows as 1 / distance^3 closer in (0.05 samples within 2 cm).
+ * The waveform is read between its samples with the band-limited
+ * interpolator of sonar-interp.h. Amplitude follows the paper's eq. 6:
+ * strength / (r_emitter + r_microphone)^2.
  *
  * Cost grows with reflectors x emitters x microphones x echo length, never
  * with the recording window: samples outside every echo are never visited.

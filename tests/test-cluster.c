@@ -15,6 +15,15 @@
 #include "sonar-rng.h"
 #include "sonar-test-util.h"
 
+/* The synthetic images are not sonar echoes: no spreading loss to undo. */
+static void
+synthetic_params (SonarClusterParams * p)
+{
+  sonar_cluster_params_init_default (p);
+  p->range_compensation = FALSE;
+  p->threshold_db = -20.0;
+}
+
 static const char *const method_names[] = {
   [SONAR_LINKAGE_WARD] = "ward",
   [SONAR_LINKAGE_SINGLE] = "single",
@@ -411,7 +420,7 @@ test_three_blobs (void)
 
   grid_2d (&g);
   image = render (&g, three_blobs, 3, 0.005, 0.0, 1);
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   n = run (&g, &p, image, out, 32, "ward, inconsistency");
   g_assert_cmpuint (n, ==, 3);
   check_blobs (out, n, three_blobs, 3);
@@ -437,7 +446,7 @@ test_three_blobs_noisier (void)
   double worst = 0.0;
 
   grid_2d (&g);
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   c = sonar_clusterer_new (&g, &p, NULL);
   for (guint seed = 1; seed <= 20; seed++) {
     g_autofree float *image = render (&g, three_blobs, 3, 0.01, 0.0, seed);
@@ -473,7 +482,7 @@ test_ridges (void)
 
   grid_2d (&g);
   image = render (&g, three_blobs, 3, 0.004, level, 2);
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   for (SonarLinkage m = SONAR_LINKAGE_WARD; m <= SONAR_LINKAGE_CENTROID;
       m++) {
     g_autofree char *what = g_strdup_printf ("ridges: %s, inconsistency",
@@ -497,7 +506,7 @@ test_3d (void)
   g_autofree float *image = render (&g, blobs, 2, 0.004, 0.1, 3);
   guint n;
 
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   n = run (&g, &p, image, out, 8, "3-D");
   check_blobs (out, n, blobs, 2);
 }
@@ -513,7 +522,7 @@ test_degenerate (void)
   g_autofree float *image = g_new0 (float, size);
 
   grid_2d (&g);
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   c = sonar_clusterer_new (&g, &p, NULL);
 
   /* Empty, negative, non-finite. */
@@ -559,7 +568,7 @@ test_max_centroids (void)
 
   grid_2d (&g);
   image = render (&g, three_blobs, 3, 0.004, 0.1, 4);
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   g_assert_cmpuint (run (&g, &p, image, out, 2, "two wanted"), ==, 2);
   g_assert_cmpfloat (fabs (out[0].azimuth - 0.4), <, 1.0);
   g_assert_cmpfloat (fabs (out[1].azimuth - 80.2), <, 1.0);
@@ -625,7 +634,7 @@ test_bad_params (void)
     SonarClusterParams p;
     g_autoptr (GError) error = NULL;
     grid_2d (&g);
-    sonar_cluster_params_init_default (&p);
+    synthetic_params (&p);
     if (!spoil (i, &g, &p))
       break;
     g_assert_null (sonar_clusterer_new (&g, &p, &error));
@@ -659,7 +668,7 @@ test_speed (void)
    * strongest clustered. */
   grid_2d (&g);
   image = render (&g, NULL, 0, 1.0, 0.0, 5);
-  sonar_cluster_params_init_default (&p);
+  synthetic_params (&p);
   p.threshold_db = -200.0;
   for (guint m = 0; m < G_N_ELEMENTS (method_names); m++) {
     g_autoptr (SonarClusterer) c = NULL;

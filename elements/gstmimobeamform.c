@@ -226,19 +226,22 @@ gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
   out = gst_buffer_new_allocate (NULL, record_size * records, NULL);
   gst_buffer_map (buffer, &in_map, GST_MAP_READ);
   gst_buffer_map (out, &out_map, GST_MAP_WRITE);
-  for (guint r = 0; r < records; r++) {
-    guint8 *record = out_map.data + r * record_size;
-    const guint first = datacube ? r : 0;
-    const guint count = datacube ? 1 : self->n_hypotheses;
-    const double velocity = count == 1 ? self->velocities[first] : NAN;
-
-    sonar_energyscape_header_init ((SonarEnergyscapeHeader *) record, grid,
-        GST_BUFFER_OFFSET (buffer), velocity, self->active_emitter);
+  for (guint r = 0; r < records; r++)
+    sonar_energyscape_header_init ((SonarEnergyscapeHeader *) (out_map.data +
+            r * record_size), grid, GST_BUFFER_OFFSET (buffer),
+        datacube || self->n_hypotheses == 1 ? self->velocities[r] : NAN,
+        self->active_emitter);
+  if (datacube)
+    sonar_imager_process_each (self->imager,
+        (const SonarComplex *) in_map.data, self->n_hypotheses,
+        self->templates, self->velocities, self->active_emitter,
+        (float *) (out_map.data + sizeof (SonarEnergyscapeHeader)),
+        record_size / sizeof (float));
+  else
     sonar_imager_process (self->imager, (const SonarComplex *) in_map.data,
-        count, self->templates + first, self->velocities + first,
-        self->active_emitter, (float *) (record +
-            sizeof (SonarEnergyscapeHeader)));
-  }
+        self->n_hypotheses, self->templates, self->velocities,
+        self->active_emitter,
+        (float *) (out_map.data + sizeof (SonarEnergyscapeHeader)));
   gst_buffer_unmap (out, &out_map);
   gst_buffer_unmap (buffer, &in_map);
 

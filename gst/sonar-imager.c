@@ -236,10 +236,13 @@ data_exponent (const SonarComplex * x, gsize n)
   return exponent;
 }
 
-void
-sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
+/* The images of every hypothesis: their maximum into @image (stride 0),
+ * or hypothesis h into image + h * stride. The receive sum, the costly
+ * half, is made once per direction and zone for all of them. */
+static void
+image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
     guint n_hypotheses, const SonarComplex * const *templates,
-    const double *velocities, int emitter, float *image)
+    const double *velocities, int emitter, float *image, gsize stride)
 {
   const SonarGeometry *g = &im->setup->geometry;
   const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
@@ -277,7 +280,7 @@ sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
       const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
       const double *emitter_path = zone->emitter_path +
           (gsize) d * g->n_emitters;
-      float *pixels = image + (gsize) d * n_range + first;
+      const gsize pixels = (gsize) d * n_range + first;
 
       /* Receive side: once per direction for every hypothesis. */
       memset (im->receive, 0, sizeof (SonarComplex) * n_bins);
@@ -302,9 +305,29 @@ sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
         memset (im->baseband + n_bins, 0, sizeof (SonarComplex) *
             (im->ifft_size - n_bins));
         fftwf_execute (im->inverse);
-        sonar_kernel_envelope (pixels, im->baseband + im->first_lag + first,
-            count, scale, h > 0);
+        sonar_kernel_envelope (image + h * stride + pixels,
+            im->baseband + im->first_lag + first, count, scale,
+            stride == 0 && h > 0);
       }
     }
   }
+}
+
+void
+sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
+    guint n_hypotheses, const SonarComplex * const *templates,
+    const double *velocities, int emitter, float *image)
+{
+  image_hypotheses (im, mic_spectra, n_hypotheses, templates, velocities,
+      emitter, image, 0);
+}
+
+void
+sonar_imager_process_each (SonarImager * im,
+    const SonarComplex * mic_spectra, guint n_hypotheses,
+    const SonarComplex * const *templates, const double *velocities,
+    int emitter, float *images, gsize stride)
+{
+  image_hypotheses (im, mic_spectra, n_hypotheses, templates, velocities,
+      emitter, images, stride);
 }

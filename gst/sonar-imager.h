@@ -76,6 +76,13 @@ void sonar_imager_process (SonarImager * imager,
     const SonarComplex * const *templates, const double *velocities,
     int emitter, float *image);
 
+/* Same, but one image per hypothesis: hypothesis h's at images + h *
+ * stride (stride >= the grid's size, in floats): the datacube. */
+void sonar_imager_process_each (SonarImager * imager,
+    const SonarComplex * mic_spectra, guint n_hypotheses,
+    const SonarComplex * const *templates, const double *velocities,
+    int emitter, float *images, gsize stride);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarImager, sonar_imager_free)
 
 G_END_DECLS

@@ -9,6 +9,10 @@
  * dropped (keep-rejected=true keeps them, marked "valid": false). Two
  * separate peaks in one centroid give two detections.
  *
+ * Centroids are independent: they are shared out between `threads` workers
+ * (each with its own estimator), and the results gathered in centroid
+ * order, so the output does not depend on the number of threads.
+ *
  * Results, per ping, three ways (docs/CONTRACTS.md): a line of JSON as the
  * output buffer (text/x-raw, utf8: fdsink or filesink write it), a
  * SonarDetectionsMeta on that buffer (appsink), and a "sonar-detections"
@@ -32,6 +36,8 @@ GST_DEBUG_CATEGORY_STATIC (velocity_est_debug);
 #define GST_CAT_DEFAULT velocity_est_debug
 
 #define DEFAULT_KEEP_REJECTED FALSE
+#define DEFAULT_THREADS 0
+#define MAX_THREADS 64
 #define DEFAULT_POST_MESSAGES TRUE
 
 enum
@@ -45,6 +51,7 @@ enum
   PROP_MIN_COHERENCE,
   PROP_SECOND_PEAK,
   PROP_KEEP_REJECTED,
+  PROP_THREADS,
   PROP_POST_MESSAGES,
 };
 
@@ -57,10 +64,25 @@ struct _GstVelocityEst
   gboolean keep_rejected;
   gboolean post_messages;
 
-  SonarVelocityEstimator *estimator;
+  guint threads;
+
+  /* Configured state: one estimator per worker. */
+  guint n_workers;
+  SonarVelocityEstimator *estimators[MAX_THREADS];
+  GThreadPool *pool;            /* workers 1 .. n_workers - 1 */
   SonarImageGrid grid;
   guint n_emitters;
   GArray *detections;           /* SonarDetection, reused every ping */
+
+  /* The ping being processed, shared with the workers. */
+  const SonarComplex *spectra;
+  const SonarCentroidsMeta *centroids;
+  SonarVelocityEstimate *results;       /* 2 per centroid */
+  guint *counts;                /* estimates per centroid */
+  guint capacity;               /* centroids results and counts can hold */
+  GMutex lock;
+  GCond done;
+  guint pending;                /* workers still running */
 };
 
 G_DEFINE_TYPE (GstVelocityEst, gst_velocity_est, GST_TYPE_SONAR_FILTER);
@@ -73,6 +95,51 @@ static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
     GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_DETECTIONS_CAPS));
+
+/* Worker @w estimates centroids w, w + n_workers, ... */
+static void
+estimate_share (GstVelocityEst * self, guint w)
+{
+  for (guint k = w; k < self->centroids->n_centroids; k += self->n_workers) {
+    const SonarCentroid *c = &self->centroids->centroids[k];
+    self->counts[k] = sonar_velocity_estimate (self->estimators[w],
+        self->spectra, c->range, c->azimuth, c->elevation,
+        &self->results[2 * k], NULL);
+  }
+}
+
+static void
+run_pool_task (gpointer data, gpointer user_data)
+{
+  GstVelocityEst *self = user_data;
+
+  estimate_share (self, GPOINTER_TO_UINT (data));
+  g_mutex_lock (&self->lock);
+  if (--self->pending == 0)
+    g_cond_signal (&self->done);
+  g_mutex_unlock (&self->lock);
+}
+
+/* Every centroid's estimates, the work shared out between the workers. */
+static void
+estimate_all (GstVelocityEst * self)
+{
+  const guint n = self->centroids->n_centroids;
+
+  if (n > self->capacity) {
+    self->capacity = n;
+    self->results = g_renew (SonarVelocityEstimate, self->results, 2 * n);
+    self->counts = g_renew (guint, self->counts, n);
+  }
+  self->pending = self->pool ? self->n_workers - 1 : 0;
+  for (guint w = 1; self->pool && w < self->n_workers; w++)
+    g_thread_pool_push (self->pool, GUINT_TO_POINTER (w), NULL);
+  estimate_share (self, 0);
+  g_mutex_lock (&self->lock);
+  while (self->pending > 0)
+    g_cond_wait (&self->done, &self->lock);
+  g_mutex_unlock (&self->lock);
+}
 
 static GstCaps *
 gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
@@ -91,11 +158,21 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   }
   GST_OBJECT_LOCK (self);
   params = self->params;
+  self->n_workers = self->threads ? self->threads : g_get_num_processors ();
   GST_OBJECT_UNLOCK (self);
-  self->estimator = sonar_velocity_estimator_new (gst_sonar_filter_get_bank
-      (filter), &self->grid, &params, error);
-  if (!self->estimator)
-    return NULL;
+  self->n_workers = CLAMP (self->n_workers, 1, MAX_THREADS);
+  for (guint w = 0; w < self->n_workers; w++) {
+    self->estimators[w] = sonar_velocity_estimator_new
+        (gst_sonar_filter_get_bank (filter), &self->grid, &params, error);
+    if (!self->estimators[w])
+      return NULL;
+  }
+  if (self->n_workers > 1) {
+    self->pool = g_thread_pool_new (run_pool_task, self, self->n_workers - 1,
+        TRUE, error);
+    if (!self->pool)
+      return NULL;
+  }
   self->n_emitters = gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }
@@ -103,8 +180,14 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
 static void
 gst_velocity_est_unconfigure (GstSonarFilter * filter)
 {
-  g_clear_pointer (&GST_VELOCITY_EST (filter)->estimator,
-      sonar_velocity_estimator_free);
+  GstVelocityEst *self = GST_VELOCITY_EST (filter);
+
+  if (self->pool) {
+    g_thread_pool_free (self->pool, FALSE, TRUE);
+    self->pool = NULL;
+  }
+  for (guint w = 0; w < MAX_THREADS; w++)
+    g_clear_pointer (&self->estimators[w], sonar_velocity_estimator_free);
 }
 
 static void
@@ -151,17 +234,14 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   ping = centroids->ping_index;
   g_array_set_size (self->detections, 0);
   gst_buffer_map (spectra->spectra, &map, GST_MAP_READ);
-  for (guint k = 0; k < centroids->n_centroids; k++) {
-    const SonarCentroid *c = &centroids->centroids[k];
-    SonarVelocityEstimate e[2];
-    const guint n = sonar_velocity_estimate (self->estimator,
-        (const SonarComplex *) map.data, c->range, c->azimuth, c->elevation,
-        e, NULL);
-    for (guint i = 0; i < n; i++)
-      if (e[i].valid || self->keep_rejected)
-        add_detection (self, k, &e[i]);
-  }
+  self->spectra = (const SonarComplex *) map.data;
+  self->centroids = centroids;
+  estimate_all (self);
   gst_buffer_unmap (spectra->spectra, &map);
+  for (guint k = 0; k < centroids->n_centroids; k++)
+    for (guint i = 0; i < self->counts[k]; i++)
+      if (self->results[2 * k + i].valid || self->keep_rejected)
+        add_detection (self, k, &self->results[2 * k + i]);
 
   json = sonar_detections_to_json (ping, GST_BUFFER_PTS (buffer),
       (SonarDetection *) self->detections->data, self->detections->len);
@@ -213,6 +293,9 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
     case PROP_KEEP_REJECTED:
       self->keep_rejected = g_value_get_boolean (value);
       break;
+    case PROP_THREADS:
+      self->threads = g_value_get_uint (value);
+      break;
     case PROP_POST_MESSAGES:
       self->post_messages = g_value_get_boolean (value);
       break;
@@ -256,6 +339,9 @@ gst_velocity_est_get_property (GObject * object, guint prop_id,
     case PROP_KEEP_REJECTED:
       g_value_set_boolean (value, self->keep_rejected);
       break;
+    case PROP_THREADS:
+      g_value_set_uint (value, self->threads);
+      break;
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, self->post_messages);
       break;
@@ -269,7 +355,13 @@ gst_velocity_est_get_property (GObject * object, guint prop_id,
 static void
 gst_velocity_est_finalize (GObject * object)
 {
-  g_array_unref (GST_VELOCITY_EST (object)->detections);
+  GstVelocityEst *self = GST_VELOCITY_EST (object);
+
+  g_array_unref (self->detections);
+  g_free (self->results);
+  g_free (self->counts);
+  g_mutex_clear (&self->lock);
+  g_cond_clear (&self->done);
   G_OBJECT_CLASS (gst_velocity_est_parent_class)->finalize (object);
 }
 
@@ -279,7 +371,10 @@ gst_velocity_est_init (GstVelocityEst * self)
   sonar_velocity_params_init_default (&self->params);
   self->keep_rejected = DEFAULT_KEEP_REJECTED;
   self->post_messages = DEFAULT_POST_MESSAGES;
+  self->threads = DEFAULT_THREADS;
   self->detections = g_array_new (FALSE, FALSE, sizeof (SonarDetection));
+  g_mutex_init (&self->lock);
+  g_cond_init (&self->done);
 }
 
 static void
@@ -334,6 +429,10 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
       g_param_spec_boolean ("keep-rejected", "Keep rejected", "Report the "
           "centroids that fail the false-positive tests too, with "
           "\"valid\": false", DEFAULT_KEEP_REJECTED, flags));
+  g_object_class_install_property (gobject_class, PROP_THREADS,
+      g_param_spec_uint ("threads", "Threads", "Workers sharing the "
+          "centroids of a ping (0: one per processor); the results do not "
+          "depend on it", 0, MAX_THREADS, DEFAULT_THREADS, flags));
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-detections\" element message per ping",

@@ -10,6 +10,10 @@
  * flat curve, not -inf. */
 #define ACF_FLOOR 1e-30
 
+/* Doppler hypotheses of the prescreen, m/s apart: within one emitter's
+ * Doppler main lobe (about 0.33 m/s at -3 dB), like the detection image. */
+#define PRESCREEN_SPACING 0.3
+
 /* -3 dB in amplitude. */
 #define AGREEMENT_RATIO 0.7071067811865476
 
@@ -26,6 +30,8 @@ struct _SonarVelocityEstimator
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
   double *scratch;              /* [velocity] */
+  guint n_hypotheses;           /* the prescreen's Doppler hypotheses */
+  guint *hypotheses;
 };
 
 void
@@ -79,6 +85,9 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
+  est->hypotheses = g_new (guint, est->n_velocities + 2);
+  est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
+      PRESCREEN_SPACING, est->hypotheses);
   return est;
 }
 
@@ -92,6 +101,7 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->acf);
   g_free (est->log_product);
   g_free (est->scratch);
+  g_free (est->hypotheses);
   g_free (est);
 }
 
@@ -140,11 +150,13 @@ emitter_output (SonarVelocityEstimator * est, guint n, guint v,
       k0 * path, dk * path) * (2.0f / est->band.fft_size);
 }
 
-/* Coherence factor of the emitters' outputs at velocity index @v: the
- * largest over the window of |sum|^2 / (N sum |.|^2). */
+/* Coherence factor |sum|^2 / (N sum |.|^2) of the emitters' outputs at
+ * the window pixel and velocity (of the @n_v indices @vs) where their sum
+ * is largest. */
 static double
-coherence_at (SonarVelocityEstimator * est, const SonarComplex * spectra,
-    double range, double azimuth, double elevation, guint v)
+coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    double range, double azimuth, double elevation, const guint * vs,
+    guint n_v)
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
@@ -158,18 +170,20 @@ coherence_at (SonarVelocityEstimator * est, const SonarComplex * spectra,
           (CLAMP (azimuth + da * grid->azimuth_step, -90, 90),
               CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
       receive_beam (est, spectra, point, range);
-      for (int dr = -wr; dr <= wr; dr++) {
-        SonarComplex sum = 0.0f;
-        double power = 0.0;
-        for (guint n = 0; n < est->n_emitters; n++) {
-          const SonarComplex y = emitter_output (est, n, v, point, range,
-              range + dr * grid->range_step);
-          sum += y;
-          power += crealf (y * conjf (y));
-        }
-        if (crealf (sum * conjf (sum)) > best_sum) {
-          best_sum = crealf (sum * conjf (sum));
-          best = power > 0.0 ? best_sum / (est->n_emitters * power) : 0.0;
+      for (guint i = 0; i < n_v; i++) {
+        for (int dr = -wr; dr <= wr; dr++) {
+          SonarComplex sum = 0.0f;
+          double power = 0.0;
+          for (guint n = 0; n < est->n_emitters; n++) {
+            const SonarComplex y = emitter_output (est, n, vs[i], point,
+                range, range + dr * grid->range_step);
+            sum += y;
+            power += crealf (y * conjf (y));
+          }
+          if (crealf (sum * conjf (sum)) > best_sum) {
+            best_sum = crealf (sum * conjf (sum));
+            best = power > 0.0 ? best_sum / (est->n_emitters * power) : 0.0;
+          }
         }
       }
     }
@@ -341,8 +355,8 @@ describe_peak (SonarVelocityEstimator * est, const SonarComplex * spectra,
     agree += near >= AGREEMENT_RATIO * global;
   }
   out->agreeing_emitters = agree;
-  out->coherence = coherence_at (est, spectra, out->range, out->azimuth,
-      out->elevation, p);
+  out->coherence = coherence_over (est, spectra, out->range, out->azimuth,
+      out->elevation, &p, 1);
   out->valid = agree >= MIN (est->params.min_agreeing_emitters,
       est->n_emitters) && out->variance >= est->params.min_variance
       && out->coherence >= est->params.min_coherence;
@@ -360,6 +374,28 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   guint peak = 0, count = 1;
   int second = -1;
 
+  out[0].range = range;
+  out[0].azimuth = azimuth;
+  out[0].elevation = elevation;
+
+  /* Prescreen: a centroid whose emitters do not add up coherently at any
+   * detection hypothesis is a ghost (measured: objects 0.95 and more,
+   * cross-talk ridges 0.65 and less). Rejecting it here spares the whole
+   * bank's evaluation, most of the work of a ping. */
+  out[0].coherence = coherence_over (est, mic_spectra, range, azimuth,
+      elevation, est->hypotheses, est->n_hypotheses);
+  if (out[0].coherence < est->params.min_coherence) {
+    out[0].radial_velocity = NAN;
+    out[0].bank_index = 0;
+    out[0].peak_db = out[0].variance = 0.0;
+    out[0].agreeing_emitters = 0;
+    out[0].at_bank_edge = out[0].valid = out[0].second = FALSE;
+    if (curves)
+      for (gsize i = 0; i < (gsize) (est->n_emitters + 1) * nv; i++)
+        curves[i] = NAN;
+    return 1;
+  }
+
   evaluate_window (est, mic_spectra, range, azimuth, elevation);
   for (guint v = 0; v < nv; v++) {
     lp[v] = 0.0;
@@ -372,9 +408,6 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   qsort (est->scratch, nv, sizeof (double), compare_doubles);
   median = est->scratch[nv / 2];
 
-  out[0].range = range;
-  out[0].azimuth = azimuth;
-  out[0].elevation = elevation;
   describe_peak (est, mic_spectra, peak, median, &out[0]);
 
   /* A second local maximum beyond the first's main lobe, nearly as high:

@@ -14,7 +14,10 @@
  * is flagged: its normalised product has a small variance (the paper's
  * test, Fig. 8), the emitters' own peaks disagree, and the emitters'
  * outputs at the estimated velocity do not add up coherently (a true echo
- * has a coherence factor above 0.9, a cross-talk ridge 0.4-0.7).
+ * has a coherence factor above 0.9, a cross-talk ridge 0.4-0.7). The
+ * coherence is checked first at a few Doppler hypotheses: a centroid that
+ * fails it is rejected before the bank is evaluated (its estimate has a
+ * NaN velocity).
  */
 #ifndef SONAR_VELOCITY_H
 #define SONAR_VELOCITY_H

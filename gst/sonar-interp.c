@@ -8,47 +8,83 @@
 #include <math.h>
 #include <string.h>
 
+struct _SonarInterpRebuild
+{
+  gint ref_count;
+  guint fft_size;
+  /* Zero-padded spectra, transformed in place into the oversampled signal
+   * and its derivative: fftwf_complex[fft_size * OVERSAMPLE / 2 + 1]. */
+  fftwf_complex *up[2];
+  fftwf_plan plan;
+};
+
+static SonarInterpRebuild *
+rebuild_new (guint n)
+{
+  SonarInterpRebuild *r = g_new0 (SonarInterpRebuild, 1);
+  const guint up_n = n * SONAR_INTERP_OVERSAMPLE;
+
+  r->ref_count = 1;
+  r->fft_size = n;
+  r->up[0] = fftwf_alloc_complex (up_n / 2 + 1);
+  r->up[1] = fftwf_alloc_complex (up_n / 2 + 1);
+  sonar_fftw_lock ();
+  r->plan = fftwf_plan_dft_c2r_1d (up_n, r->up[0], (float *) r->up[0],
+      FFTW_ESTIMATE);
+  sonar_fftw_unlock ();
+  return r;
+}
+
+static void
+rebuild_unref (SonarInterpRebuild * r)
+{
+  if (!r || !g_atomic_int_dec_and_test (&r->ref_count))
+    return;
+  sonar_fftw_lock ();
+  fftwf_destroy_plan (r->plan);
+  sonar_fftw_unlock ();
+  fftwf_free (r->up[0]);
+  fftwf_free (r->up[1]);
+  g_free (r);
+}
+
 static SonarInterp *
-interp_new (const float *signal, guint length, gboolean filterable)
+interp_new (const float *signal, guint length, gboolean filterable,
+    SonarInterp * share)
 {
   SonarInterp *in = g_new0 (SonarInterp, 1);
   const guint n = sonar_fft_good_size (length + 2 * SONAR_INTERP_PAD);
-  const guint up_n = n * SONAR_INTERP_OVERSAMPLE;
   float *padded = fftwf_alloc_real (n);
   fftwf_plan forward;
 
   in->fft_size = n;
-  /* up_n > table_points: the last step's end point is in the transform. */
+  /* The transform reaches one point further: the end of the last step. */
   in->table_points = SONAR_INTERP_OVERSAMPLE * (length - 1 +
       2 * SONAR_INTERP_PAD) + 1;
   in->table = g_new (float, 4 * (gsize) in->table_points);
   in->spectrum = fftwf_alloc_complex (n / 2 + 1);
-  in->up[0] = fftwf_alloc_complex (up_n / 2 + 1);
-  in->up[1] = fftwf_alloc_complex (up_n / 2 + 1);
+  if (share) {
+    in->rebuild = share->rebuild;
+    g_atomic_int_inc (&in->rebuild->ref_count);
+  } else {
+    in->rebuild = rebuild_new (n);
+  }
 
   sonar_fftw_lock ();
   forward = fftwf_plan_dft_r2c_1d (n, padded, in->spectrum, FFTW_ESTIMATE);
-  in->up_plan = fftwf_plan_dft_c2r_1d (up_n, in->up[0], in->up[0],
-      FFTW_ESTIMATE);
   sonar_fftw_unlock ();
-
   memset (padded, 0, sizeof (float) * n);
   memcpy (padded + SONAR_INTERP_PAD, signal, sizeof (float) * length);
   fftwf_execute (forward);
-  sonar_interp_filter (in, NULL);
-
   sonar_fftw_lock ();
   fftwf_destroy_plan (forward);
-  if (!filterable) {
-    fftwf_destroy_plan (in->up_plan);
-    in->up_plan = NULL;
-  }
   sonar_fftw_unlock ();
   fftwf_free (padded);
+
+  sonar_interp_filter (in, NULL);
   if (!filterable) {
     g_clear_pointer (&in->spectrum, fftwf_free);
-    g_clear_pointer (&in->up[0], fftwf_free);
-    g_clear_pointer (&in->up[1], fftwf_free);
+    g_clear_pointer (&in->rebuild, rebuild_unref);
   }
   return in;
 }
@@ -56,13 +92,16 @@ interp_new (const float *signal, guint length, gboolean filterable)
 SonarInterp *
 sonar_interp_new (const float *signal, guint length)
 {
-  return interp_new (signal, length, FALSE);
+  return interp_new (signal, length, FALSE, NULL);
 }
 
 SonarInterp *
-sonar_interp_new_filterable (const float *signal, guint length)
+sonar_interp_new_filterable (const float *signal, guint length,
+    SonarInterp * share)
 {
-  return interp_new (signal, length, TRUE);
+  g_return_val_if_fail (!share || (share->rebuild && share->fft_size ==
+          sonar_fft_good_size (length + 2 * SONAR_INTERP_PAD)), NULL);
+  return interp_new (signal, length, TRUE, share);
 }
 
 void
@@ -70,14 +109,8 @@ sonar_interp_free (SonarInterp * in)
 {
   if (!in)
     return;
-  if (in->up_plan) {
-    sonar_fftw_lock ();
-    fftwf_destroy_plan (in->up_plan);
-    sonar_fftw_unlock ();
-  }
+  rebuild_unref (in->rebuild);
   fftwf_free (in->spectrum);
-  fftwf_free (in->up[0]);
-  fftwf_free (in->up[1]);
   g_free (in->table);
   g_free (in);
 }
@@ -101,12 +134,13 @@ sonar_interp_filter (SonarInterp * in, const float *gains)
   /* The derivative per table step, not per sample. */
   const double omega = 2.0 * M_PI / up_n;
   const fftwf_complex *spectrum = in->spectrum;
-  const float *y = in->up[0], *d = in->up[1];
+  SonarInterpRebuild *r = in->rebuild;
+  const float *y, *d;
 
-  g_return_if_fail (in->up_plan != NULL);
+  g_return_if_fail (r != NULL);
 
   for (int pass = 0; pass < 2; pass++) {
-    fftwf_complex *up = in->up[pass];
+    fftwf_complex *up = r->up[pass];
 
     memset (up, 0, sizeof (fftwf_complex) * (up_n / 2 + 1));
     for (guint k = 0; k <= n / 2; k++) {
@@ -119,8 +153,10 @@ sonar_interp_filter (SonarInterp * in, const float *gains)
       up[k] = pass ? CMPLXF (-im * omega * k, re * omega * k) :
           CMPLXF (re, im);
     }
-    fftwf_execute_dft_c2r (in->up_plan, up, (float *) up);
+    fftwf_execute_dft_c2r (r->plan, up, (float *) up);
   }
+  y = (const float *) r->up[0];
+  d = (const float *) r->up[1];
   for (guint m = 0; m < in->table_points; m++) {
     float *c = in->table + 4 * (gsize) m;
     c[0] = y[m];

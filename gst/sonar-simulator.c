@@ -134,8 +134,10 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
   sim->waveforms = g_new (SonarInterp *, n_emitters);
   for (guint e = 0; e < n_emitters; e++) {
     const float *w = sonar_setup_waveform (setup, e);
+    /* Rendering is sequential: one set of rebuild buffers serves all. */
     sim->waveforms[e] = params->air_absorption ?
-        sonar_interp_new_filterable (w, length) : sonar_interp_new (w, length);
+        sonar_interp_new_filterable (w, length, e ? sim->waveforms[0] : NULL)
+        : sonar_interp_new (w, length);
   }
 
   if (params->air_absorption) {

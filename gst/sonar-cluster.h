@@ -32,7 +32,7 @@
  * cut instead (sonar_fcluster_inconsistent () itself stays SciPy's).
  *
  * The threshold, 1.0: on simulated MIMO images (tests and the fig9, fig10
- * and default scenes) every reflector above the -20 dB threshold keeps its
+ * and default scenes) every reflector above a -20 dB threshold keeps its
  * own centroid (median error 1.4 mm) for 0.8 to 1.5. Above 1.0 the
  * reflectors start absorbing peaks of their cross-talk ridges (median
  * error 1.8 mm) while the ridges still break into many clusters. Evenly
@@ -100,8 +100,8 @@ typedef struct
   guint max_peaks;
 } SonarClusterParams;
 
-/* Thresholds -20 dB and off; Ward, inconsistency 1.0 over depth 3;
- * distance 0.1 m; 2000 peaks. */
+/* Range compensation on; thresholds -10 dB and off; Ward, inconsistency
+ * 1.0 over depth 3; distance 0.1 m; 2000 peaks. */
 void sonar_cluster_params_init_default (SonarClusterParams * params);
 
 typedef struct

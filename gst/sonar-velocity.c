@@ -227,7 +227,8 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
     const double la = log (fine[best - 1]), lb = log (fine[best]);
     const double lc = log (fine[best + 1]);
     const double x = parabola_offset (la, lb, lc);
-    return exp (lb + 0.25 * (la - lc) * x);
+    /* The vertex's height: lb - (la - lc) x / 4, at least lb. */
+    return exp (lb - 0.25 * (la - lc) * x);
   }
   return fine[best];
 }

@@ -22,8 +22,9 @@ with open(sys.argv[1]) as log:
             continue
         for case in cases:
             if case.startswith("not ok"):
+                # A known, documented failure (TAP TODO) is not a pass.
                 if "# TODO" in case:
-                    passed += 1
+                    skipped += 1
                 else:
                     failed += 1
             elif "# SKIP" in case:

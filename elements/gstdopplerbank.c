@@ -125,6 +125,7 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   SonarSetup *setup = gst_sonar_filter_get_setup (filter);
   g_autoptr (SonarDopplerBank) bank = NULL;
   GstAudioInfo info;
+  GstCaps *out_caps;
   double v_min, v_max, v_step;
 
   if (!in_caps || !gst_audio_info_from_caps (&info, in_caps)) {
@@ -164,7 +165,15 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GST_INFO_OBJECT (self, "%u velocities, FFT %u, %u band bins",
       sonar_doppler_bank_n_velocities (bank), self->band.fft_size,
       self->band.n_bins);
-  return sonar_spectra_caps_new (self->channels, &self->band);
+  out_caps = sonar_spectra_caps_new (self->channels, &self->band);
+  if (!gst_sonar_filter_use_pool (filter, out_caps, sizeof (SonarComplex) *
+          self->band.n_bins * self->channels)) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_FAILED,
+        "dopplerbank: could not make its buffer pool");
+    gst_caps_unref (out_caps);
+    return NULL;
+  }
+  return out_caps;
 }
 
 static void
@@ -181,10 +190,13 @@ static GstBuffer *
 analyse_ping (GstDopplerBank * self, const float *samples)
 {
   const gsize bins = self->band.n_bins;
-  GstBuffer *out = gst_buffer_new_allocate (NULL, sizeof (SonarComplex) *
-      bins * self->channels, NULL);
+  GstBuffer *out = gst_sonar_filter_new_buffer (GST_SONAR_FILTER (self),
+      sizeof (SonarComplex) * bins * self->channels);
   GstMapInfo map;
   guint n_bad = 0;
+
+  if (!out)
+    return NULL;
 
   gst_buffer_map (out, &map, GST_MAP_WRITE);
   for (guint j = 0; j < self->channels; j++)
@@ -217,6 +229,10 @@ gst_doppler_bank_process (GstSonarFilter * filter, GstBuffer * buffer)
     gst_buffer_map (buffer, &map, GST_MAP_READ);
     out = analyse_ping (self, (const float *) map.data);
     gst_buffer_unmap (buffer, &map);
+    if (!out) {
+      gst_buffer_unref (buffer);
+      return GST_FLOW_FLUSHING;
+    }
     gst_buffer_copy_into (out, buffer, GST_BUFFER_COPY_TIMESTAMPS |
         GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_META, 0, -1);
     GST_BUFFER_OFFSET (out) = self->ping_index++;
@@ -234,6 +250,8 @@ gst_doppler_bank_process (GstSonarFilter * filter, GstBuffer * buffer)
     GstBuffer *out = analyse_ping (self, samples);
 
     gst_adapter_unmap (self->adapter);
+    if (!out)
+      return GST_FLOW_FLUSHING;
     gst_adapter_flush (self->adapter, ping_bytes);
     if (GST_CLOCK_TIME_IS_VALID (pts))
       pts += gst_util_uint64_scale_int (distance / (sizeof (float) *

@@ -122,6 +122,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   SonarImagerParams params;
   SonarBand band;
   double velocity, spacing;
+  GstCaps *out_caps;
   guint records;
 
   if (!in_caps || !sonar_spectra_caps_parse (in_caps, &self->channels, &band)
@@ -186,8 +187,17 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   }
   GST_INFO_OBJECT (self, "%u Doppler hypotheses", self->n_hypotheses);
   records = self->active_mode == IMAGE_MODE_DATACUBE ? self->n_hypotheses : 1;
-  return sonar_energyscape_caps_new (sonar_imager_grid (self->imager),
+  out_caps = sonar_energyscape_caps_new (sonar_imager_grid (self->imager),
       records);
+  if (!gst_sonar_filter_use_pool (filter, out_caps, records *
+          (sizeof (SonarEnergyscapeHeader) + sizeof (float) *
+              sonar_image_grid_size (sonar_imager_grid (self->imager))))) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_FAILED,
+        "mimobeamform: could not make its buffer pool");
+    gst_caps_unref (out_caps);
+    return NULL;
+  }
+  return out_caps;
 }
 
 static void
@@ -223,7 +233,11 @@ gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
     gst_buffer_unref (buffer);
     return GST_FLOW_ERROR;
   }
-  out = gst_buffer_new_allocate (NULL, record_size * records, NULL);
+  out = gst_sonar_filter_new_buffer (filter, record_size * records);
+  if (!out) {
+    gst_buffer_unref (buffer);
+    return GST_FLOW_FLUSHING;
+  }
   gst_buffer_map (buffer, &in_map, GST_MAP_READ);
   gst_buffer_map (out, &out_map, GST_MAP_WRITE);
   for (guint r = 0; r < records; r++)

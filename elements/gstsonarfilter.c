@@ -20,6 +20,7 @@ typedef struct
   SonarBand band;
   GstEvent *bank_event;
   gboolean configured;
+  GstBufferPool *pool;          /* output buffers, when the subclass asked */
 } GstSonarFilterPrivate;
 
 G_DEFINE_ABSTRACT_TYPE_WITH_CODE (GstSonarFilter, gst_sonar_filter,
@@ -67,6 +68,39 @@ gst_sonar_filter_set_bank (GstSonarFilter * filter, SonarDopplerBank * bank,
   priv->bank_event = sonar_bank_event_new (bank, band);
 }
 
+gboolean
+gst_sonar_filter_use_pool (GstSonarFilter * filter, GstCaps * caps,
+    gsize size)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  GstBufferPool *pool = gst_buffer_pool_new ();
+  GstStructure *config = gst_buffer_pool_get_config (pool);
+
+  /* No upper bound: a tee or queue downstream may hold several pings. */
+  gst_buffer_pool_config_set_params (config, caps, size, 2, 0);
+  if (!gst_buffer_pool_set_config (pool, config)
+      || !gst_buffer_pool_set_active (pool, TRUE)) {
+    gst_object_unref (pool);
+    return FALSE;
+  }
+  priv->pool = pool;
+  return TRUE;
+}
+
+GstBuffer *
+gst_sonar_filter_new_buffer (GstSonarFilter * filter, gsize size)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  GstBuffer *buffer = NULL;
+
+  if (!priv->pool)
+    return gst_buffer_new_allocate (NULL, size, NULL);
+  if (gst_buffer_pool_acquire_buffer (priv->pool, &buffer, NULL) !=
+      GST_FLOW_OK)
+    return NULL;
+  return buffer;
+}
+
 GstFlowReturn
 gst_sonar_filter_push (GstSonarFilter * filter, GstBuffer * buffer)
 {
@@ -82,6 +116,10 @@ unconfigure (GstSonarFilter * filter)
   if (priv->configured && klass->unconfigure)
     klass->unconfigure (filter);
   priv->configured = FALSE;
+  if (priv->pool) {
+    gst_buffer_pool_set_active (priv->pool, FALSE);
+    gst_clear_object (&priv->pool);
+  }
 }
 
 static void

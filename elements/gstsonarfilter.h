@@ -58,6 +58,14 @@ const SonarBand *gst_sonar_filter_get_band (GstSonarFilter * filter);
 void gst_sonar_filter_set_bank (GstSonarFilter * filter,
     SonarDopplerBank * bank, const SonarBand * band);
 
+/* In configure(): output buffers of @size bytes come from a pool made now,
+ * so that steady streaming allocates nothing per ping. */
+gboolean gst_sonar_filter_use_pool (GstSonarFilter * filter, GstCaps * caps,
+    gsize size);
+/* A buffer of the pool's size (or a new one of @size when there is no
+ * pool); NULL only when the pool is flushing. */
+GstBuffer *gst_sonar_filter_new_buffer (GstSonarFilter * filter, gsize size);
+
 GstFlowReturn gst_sonar_filter_push (GstSonarFilter * filter,
     GstBuffer * buffer);
 GstPad *gst_sonar_filter_get_srcpad (GstSonarFilter * filter);

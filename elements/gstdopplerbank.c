@@ -155,11 +155,8 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
     return NULL;
   self->channels = setup->geometry.n_microphones;
   self->ping_length = setup->ping_length;
-  /* Linear correlation over the whole ping with the longest template. */
-  sonar_band_init (&self->band, setup->sample_rate, setup->ping_length +
-      sonar_doppler_bank_max_length (bank), setup->band_low,
-      setup->band_high);
-  sonar_doppler_bank_prepare_band (bank, &self->band);
+  sonar_doppler_bank_prepare_ping_band (bank);
+  self->band = *sonar_doppler_bank_band (bank);
   self->analyzer = sonar_spectrum_new (&self->band);
   gst_sonar_filter_set_bank (filter, bank, &self->band);
   GST_INFO_OBJECT (self, "%u velocities, FFT %u, %u band bins",

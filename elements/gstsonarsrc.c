@@ -352,17 +352,6 @@ settings_clear (SonarSrcSettings * s)
   g_clear_pointer (&s->waveforms_file, g_free);
 }
 
-static double
-max_element_offset (const SonarGeometry * g)
-{
-  double offset = 0.0;
-  for (guint j = 0; j < g->n_microphones; j++)
-    offset = MAX (offset, sonar_vec3_norm (g->microphones[j]));
-  for (guint n = 0; n < g->n_emitters; n++)
-    offset = MAX (offset, sonar_vec3_norm (g->emitters[n]));
-  return offset;
-}
-
 /* Builds the sensor the settings describe. */
 static SonarSetup *
 make_setup (const SonarSrcSettings * s, GError ** error)
@@ -372,7 +361,6 @@ make_setup (const SonarSrcSettings * s, GError ** error)
   SonarWaveformParams wp = s->waveform;
   SonarSetup *setup = NULL;
   guint ping_length;
-  double window;
 
   if (s->geometry_file) {
     if (!sonar_geometry_load_file (&geometry, s->geometry_file, error))
@@ -402,17 +390,14 @@ make_setup (const SonarSrcSettings * s, GError ** error)
       goto done;
   }
 
-  /* The window holds the whole echo of an object at max-range, seen from
-   * the farthest element. */
-  window = (2.0 * (s->max_range + max_element_offset (&geometry))
-      / s->speed_of_sound) * wp.sample_rate + wp.length;
-  if (window > SONAR_MAX_PING_LENGTH) {
+  ping_length = sonar_ping_length_for_range (&geometry, s->speed_of_sound,
+      wp.sample_rate, wp.length, s->max_range);
+  if (ping_length > SONAR_MAX_PING_LENGTH) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
-        "max-range %g m needs a recording window of %.0f samples, more than "
-        "the %u supported", s->max_range, window, SONAR_MAX_PING_LENGTH);
+        "max-range %g m needs a recording window longer than the %u "
+        "samples supported", s->max_range, SONAR_MAX_PING_LENGTH);
     goto done;
   }
-  ping_length = (guint) ceil (window);
   if (ping_length / wp.sample_rate > 1.0 / s->ping_rate) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
         "ping-rate %g Hz is too fast for max-range %g m: the %.1f ms "

@@ -9,9 +9,8 @@
  * dropped (keep-rejected=true keeps them, marked "valid": false). Two
  * separate peaks in one centroid give two detections.
  *
- * Centroids are independent: they are shared out between `threads` workers
- * (each with its own estimator), and the results gathered in centroid
- * order, so the output does not depend on the number of threads.
+ * The centroids are shared out between `threads` workers
+ * (SonarVelocityPool); the output does not depend on their number.
  *
  * Results, per ping, three ways (docs/CONTRACTS.md): a line of JSON as the
  * output buffer (text/x-raw, utf8: fdsink or filesink write it), a
@@ -37,7 +36,7 @@ GST_DEBUG_CATEGORY_STATIC (velocity_est_debug);
 
 #define DEFAULT_KEEP_REJECTED FALSE
 #define DEFAULT_THREADS 0
-#define MAX_THREADS 64
+#define MAX_THREADS SONAR_VELOCITY_MAX_THREADS
 #define DEFAULT_POST_MESSAGES TRUE
 
 enum
@@ -66,23 +65,14 @@ struct _GstVelocityEst
 
   guint threads;
 
-  /* Configured state: one estimator per worker. */
-  guint n_workers;
-  SonarVelocityEstimator *estimators[MAX_THREADS];
-  GThreadPool *pool;            /* workers 1 .. n_workers - 1 */
+  /* Configured state. */
+  SonarVelocityPool *pool;
   SonarImageGrid grid;
   guint n_emitters;
   GArray *detections;           /* SonarDetection, reused every ping */
-
-  /* The ping being processed, shared with the workers. */
-  const SonarComplex *spectra;
-  const SonarCentroidsMeta *centroids;
-  SonarVelocityEstimate *results;       /* 2 per centroid */
+  SonarVelocityEstimate *results;       /* 2 per centroid, reused */
   guint *counts;                /* estimates per centroid */
   guint capacity;               /* centroids results and counts can hold */
-  GMutex lock;
-  GCond done;
-  guint pending;                /* workers still running */
 };
 
 G_DEFINE_TYPE (GstVelocityEst, gst_velocity_est, GST_TYPE_SONAR_FILTER);
@@ -96,58 +86,13 @@ static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_DETECTIONS_CAPS));
 
-/* Worker @w estimates centroids w, w + n_workers, ... */
-static void
-estimate_share (GstVelocityEst * self, guint w)
-{
-  for (guint k = w; k < self->centroids->n_centroids; k += self->n_workers) {
-    const SonarCentroid *c = &self->centroids->centroids[k];
-    self->counts[k] = sonar_velocity_estimate (self->estimators[w],
-        self->spectra, c->range, c->azimuth, c->elevation,
-        &self->results[2 * k], NULL);
-  }
-}
-
-static void
-run_pool_task (gpointer data, gpointer user_data)
-{
-  GstVelocityEst *self = user_data;
-
-  estimate_share (self, GPOINTER_TO_UINT (data));
-  g_mutex_lock (&self->lock);
-  if (--self->pending == 0)
-    g_cond_signal (&self->done);
-  g_mutex_unlock (&self->lock);
-}
-
-/* Every centroid's estimates, the work shared out between the workers. */
-static void
-estimate_all (GstVelocityEst * self)
-{
-  const guint n = self->centroids->n_centroids;
-
-  if (n > self->capacity) {
-    self->capacity = n;
-    self->results = g_renew (SonarVelocityEstimate, self->results, 2 * n);
-    self->counts = g_renew (guint, self->counts, n);
-  }
-  self->pending = self->pool ? self->n_workers - 1 : 0;
-  for (guint w = 1; self->pool && w < self->n_workers; w++)
-    g_thread_pool_push (self->pool, GUINT_TO_POINTER (w), NULL);
-  estimate_share (self, 0);
-  g_mutex_lock (&self->lock);
-  while (self->pending > 0)
-    g_cond_wait (&self->done, &self->lock);
-  g_mutex_unlock (&self->lock);
-}
-
 static GstCaps *
 gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
 {
   GstVelocityEst *self = GST_VELOCITY_EST (filter);
   SonarVelocityParams params;
-  guint records;
+  guint records, threads;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
           &records) || records != 1) {
@@ -158,21 +103,12 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   }
   GST_OBJECT_LOCK (self);
   params = self->params;
-  self->n_workers = self->threads ? self->threads : g_get_num_processors ();
+  threads = self->threads;
   GST_OBJECT_UNLOCK (self);
-  self->n_workers = CLAMP (self->n_workers, 1, MAX_THREADS);
-  for (guint w = 0; w < self->n_workers; w++) {
-    self->estimators[w] = sonar_velocity_estimator_new
-        (gst_sonar_filter_get_bank (filter), &self->grid, &params, error);
-    if (!self->estimators[w])
-      return NULL;
-  }
-  if (self->n_workers > 1) {
-    self->pool = g_thread_pool_new (run_pool_task, self, self->n_workers - 1,
-        TRUE, error);
-    if (!self->pool)
-      return NULL;
-  }
+  self->pool = sonar_velocity_pool_new (gst_sonar_filter_get_bank (filter),
+      &self->grid, &params, threads, error);
+  if (!self->pool)
+    return NULL;
   self->n_emitters = gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }
@@ -180,14 +116,8 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
 static void
 gst_velocity_est_unconfigure (GstSonarFilter * filter)
 {
-  GstVelocityEst *self = GST_VELOCITY_EST (filter);
-
-  if (self->pool) {
-    g_thread_pool_free (self->pool, FALSE, TRUE);
-    self->pool = NULL;
-  }
-  for (guint w = 0; w < MAX_THREADS; w++)
-    g_clear_pointer (&self->estimators[w], sonar_velocity_estimator_free);
+  g_clear_pointer (&GST_VELOCITY_EST (filter)->pool,
+      sonar_velocity_pool_free);
 }
 
 static void
@@ -233,10 +163,16 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   }
   ping = centroids->ping_index;
   g_array_set_size (self->detections, 0);
+  if (centroids->n_centroids > self->capacity) {
+    self->capacity = centroids->n_centroids;
+    self->results = g_renew (SonarVelocityEstimate, self->results,
+        2 * self->capacity);
+    self->counts = g_renew (guint, self->counts, self->capacity);
+  }
   gst_buffer_map (spectra->spectra, &map, GST_MAP_READ);
-  self->spectra = (const SonarComplex *) map.data;
-  self->centroids = centroids;
-  estimate_all (self);
+  sonar_velocity_pool_estimate (self->pool, (const SonarComplex *) map.data,
+      centroids->centroids, centroids->n_centroids, self->results,
+      self->counts);
   gst_buffer_unmap (spectra->spectra, &map);
   for (guint k = 0; k < centroids->n_centroids; k++)
     for (guint i = 0; i < self->counts[k]; i++)
@@ -360,8 +296,6 @@ gst_velocity_est_finalize (GObject * object)
   g_array_unref (self->detections);
   g_free (self->results);
   g_free (self->counts);
-  g_mutex_clear (&self->lock);
-  g_cond_clear (&self->done);
   G_OBJECT_CLASS (gst_velocity_est_parent_class)->finalize (object);
 }
 
@@ -373,8 +307,6 @@ gst_velocity_est_init (GstVelocityEst * self)
   self->post_messages = DEFAULT_POST_MESSAGES;
   self->threads = DEFAULT_THREADS;
   self->detections = g_array_new (FALSE, FALSE, sizeof (SonarDetection));
-  g_mutex_init (&self->lock);
-  g_cond_init (&self->done);
 }
 
 static void

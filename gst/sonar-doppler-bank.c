@@ -195,6 +195,17 @@ sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
   }
 }
 
+void
+sonar_doppler_bank_prepare_ping_band (SonarDopplerBank * bank)
+{
+  const SonarSetup *setup = bank->setup;
+  SonarBand band;
+
+  sonar_band_init (&band, setup->sample_rate, setup->ping_length +
+      bank->max_length, setup->band_low, setup->band_high);
+  sonar_doppler_bank_prepare_band (bank, &band);
+}
+
 const SonarBand *
 sonar_doppler_bank_band (const SonarDopplerBank * bank)
 {

@@ -57,6 +57,11 @@ const float *sonar_doppler_bank_template (const SonarDopplerBank * bank,
  * filters downstream: call it while the bank is not shared yet. */
 void sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
     const SonarBand * band);
+/* prepare_band on the band dopplerbank uses: an FFT long enough for the
+ * linear correlation of a whole ping with the longest template, and the
+ * set-up's band. */
+void sonar_doppler_bank_prepare_ping_band (SonarDopplerBank * bank);
+
 /* The band the spectra are on (NULL before prepare_band). */
 const SonarBand *sonar_doppler_bank_band (const SonarDopplerBank * bank);
 /* Spectra of all emitters' templates at velocity index @i:

@@ -256,6 +256,22 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
   return waveforms;
 }
 
+guint
+sonar_ping_length_for_range (const SonarGeometry * g, double speed_of_sound,
+    double sample_rate, guint waveform_length, double max_range)
+{
+  double offset = 0.0, window;
+
+  for (guint j = 0; j < g->n_microphones; j++)
+    offset = MAX (offset, sonar_vec3_norm (g->microphones[j]));
+  for (guint n = 0; n < g->n_emitters; n++)
+    offset = MAX (offset, sonar_vec3_norm (g->emitters[n]));
+  window = 2.0 * (max_range + offset) / speed_of_sound * sample_rate +
+      waveform_length;
+  return window < SONAR_MAX_PING_LENGTH ? (guint) ceil (window) :
+      SONAR_MAX_PING_LENGTH + 1;
+}
+
 SonarSetup *
 sonar_setup_new_from_files (const char *geometry_file,
     const char *waveforms_file, double speed_of_sound, guint ping_length,

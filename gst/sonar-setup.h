@@ -82,6 +82,12 @@ SonarSetup *sonar_setup_new (double sample_rate, double speed_of_sound,
     guint waveform_length, const float *waveforms, guint ping_length,
     GError ** error);
 
+/* Samples per ping that hold the whole echo of an object at @max_range m,
+ * seen from the array's farthest element (sonarsrc's recording window). */
+guint sonar_ping_length_for_range (const SonarGeometry * geometry,
+    double speed_of_sound, double sample_rate, guint waveform_length,
+    double max_range);
+
 /* The set-up of a recording made elsewhere: the geometry file (NULL: the
  * built-in array), the waveforms file, the speed of sound and the samples
  * per ping. Every error names the file and the problem. */

@@ -22,6 +22,7 @@
 #ifndef SONAR_VELOCITY_H
 #define SONAR_VELOCITY_H
 
+#include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-imager.h"
 
@@ -74,8 +75,28 @@ guint sonar_velocity_estimate (SonarVelocityEstimator * est,
     const SonarComplex * mic_spectra, double range, double azimuth,
     double elevation, SonarVelocityEstimate * out, float *curves);
 
+/* A ping's centroids are independent: a pool of estimators shares them out
+ * between threads and gathers the results in centroid order, so they do
+ * not depend on the number of threads. */
+typedef struct _SonarVelocityPool SonarVelocityPool;
+
+#define SONAR_VELOCITY_MAX_THREADS 64
+
+/* @n_threads: 0 for one per processor. The threads are made here, once. */
+SonarVelocityPool *sonar_velocity_pool_new (SonarDopplerBank * bank,
+    const SonarImageGrid * grid, const SonarVelocityParams * params,
+    guint n_threads, GError ** error);
+void sonar_velocity_pool_free (SonarVelocityPool * pool);
+
+/* Estimates at every centroid: results[2 k ..] receive counts[k] (1 or 2)
+ * estimates of centroid k. Returns after all are done. */
+void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
+    const SonarComplex * mic_spectra, const SonarCentroid * centroids,
+    guint n_centroids, SonarVelocityEstimate * results, guint * counts);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
     sonar_velocity_estimator_free)
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityPool, sonar_velocity_pool_free)
 
 G_END_DECLS
 

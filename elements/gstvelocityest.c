@@ -327,10 +327,12 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
   g_object_class_install_property (gobject_class, PROP_WINDOW_DIRECTIONS,
       g_param_spec_uint ("window-directions", "Window directions", "Half "
           "width of the Doppler-ACF window (eq. 15) in image direction steps "
-          "(1: 3 directions)", 0, 32, d.window_directions, flags));
+          "(0: the centroid's direction only; 1: 3 directions, 3x the "
+          "work)", 0, 32, d.window_directions, flags));
   g_object_class_install_property (gobject_class, PROP_WINDOW_RANGES,
       g_param_spec_uint ("window-ranges", "Window ranges", "Half width of "
-          "the Doppler-ACF window in image range steps (2: 5 ranges)", 0,
+          "the Doppler-ACF window in image range steps (1: 3 ranges, each "
+          "refined on a 4x finer grid)", 0,
           256, d.window_ranges, flags));
   g_object_class_install_property (gobject_class, PROP_REFINE,
       g_param_spec_boolean ("refine", "Refine", "Refine the peak below the "

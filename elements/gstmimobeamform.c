@@ -76,6 +76,7 @@ enum
   PROP_VELOCITY,
   PROP_HYPOTHESIS_SPACING,
   PROP_EMITTER,
+  PROP_THREADS,
 };
 
 struct _GstMimoBeamform
@@ -318,6 +319,9 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
     case PROP_EMITTER:
       self->emitter = g_value_get_int (value);
       break;
+    case PROP_THREADS:
+      p->threads = g_value_get_uint (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -375,6 +379,9 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
       break;
     case PROP_EMITTER:
       g_value_set_int (value, self->emitter);
+      break;
+    case PROP_THREADS:
+      g_value_set_uint (value, p->threads);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -462,6 +469,11 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
       g_param_spec_int ("emitter", "Emitter", "-1: the MIMO image of all "
           "emitters; n: the image of emitter n alone", -1, 63,
           DEFAULT_EMITTER, flags));
+
+  g_object_class_install_property (gobject_class, PROP_THREADS,
+      g_param_spec_uint ("threads", "Threads", "Workers sharing the "
+          "directions of an image (0: one per processor); the image does not "
+          "depend on it", 0, SONAR_MAX_WORKERS, d.threads, flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

@@ -2,6 +2,7 @@
 #include "sonar-imager.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
+#include "sonar-workers.h"
 
 #include <fftw3.h>
 #include <gio/gio.h>
@@ -19,6 +20,27 @@ typedef struct
   double *emitter_path;         /* [direction][emitter] e_n, m */
 } FocusZone;
 
+/* Delay and sum output of one direction, then its inverse transform. */
+typedef struct
+{
+  SonarComplex *receive;        /* K: sum over microphones */
+  SonarComplex *transmit;       /* K: sum over emitters */
+  SonarComplex *baseband;       /* M */
+} Scratch;
+
+/* One call's arguments, for the workers. */
+typedef struct
+{
+  const SonarComplex *mic_spectra;
+  guint n_hypotheses;
+  const SonarComplex *const *templates;
+  const double *velocities;
+  int emitter;
+  float *image;
+  gsize stride;
+  float scale;
+} ImageJob;
+
 struct _SonarImager
 {
   SonarSetup *setup;
@@ -29,14 +51,14 @@ struct _SonarImager
   guint n_zones;
   FocusZone *zones;
 
-  /* Delay and sum output of one direction, then its inverse transform. */
   guint ifft_size;              /* M */
   guint first_lag;              /* IFFT sample of range bin 0 */
-  SonarComplex *receive;        /* K: sum over microphones */
-  SonarComplex *transmit;       /* K: sum over emitters */
-  SonarComplex *baseband;       /* M */
-  fftwf_plan inverse;
+  fftwf_plan inverse;           /* made on scratch[0], run on every worker's */
   SonarComplex *rescaled;       /* microphones x K: see data_exponent () */
+  /* Directions are shared out between workers, each with its scratch. */
+  SonarWorkers *workers;
+  Scratch scratch[SONAR_MAX_WORKERS];
+  ImageJob job;
 };
 
 void
@@ -52,6 +74,7 @@ sonar_imager_params_init_default (SonarImagerParams * p)
   p->range_max = 5.0;
   p->range_resolution = 0.005;
   p->focus_zones = 4;
+  p->threads = 0;
 }
 
 static gboolean
@@ -181,14 +204,23 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
 
   init_zones (im, p);
 
-  im->receive = fftwf_alloc_complex (band->n_bins);
-  im->transmit = fftwf_alloc_complex (band->n_bins);
-  im->baseband = fftwf_alloc_complex (im->ifft_size);
   im->rescaled = g_new (SonarComplex, (gsize) band->n_bins *
       setup->geometry.n_microphones);
+  im->workers = sonar_workers_new (p->threads, error);
+  if (!im->workers) {
+    sonar_imager_free (im);
+    return NULL;
+  }
+  for (guint w = 0; w < sonar_workers_count (im->workers); w++) {
+    im->scratch[w].receive = fftwf_alloc_complex (band->n_bins);
+    im->scratch[w].transmit = fftwf_alloc_complex (band->n_bins);
+    im->scratch[w].baseband = fftwf_alloc_complex (im->ifft_size);
+  }
   sonar_fftw_lock ();
-  im->inverse = fftwf_plan_dft_1d (im->ifft_size, im->baseband, im->baseband,
-      FFTW_BACKWARD, SONAR_FFTW_PLANNING);
+  /* FFTW's allocator aligns every array alike: the plan runs on each
+   * worker's baseband with fftwf_execute_dft. */
+  im->inverse = fftwf_plan_dft_1d (im->ifft_size, im->scratch[0].baseband,
+      im->scratch[0].baseband, FFTW_BACKWARD, SONAR_FFTW_PLANNING);
   sonar_fftw_unlock ();
   return im;
 }
@@ -204,12 +236,17 @@ sonar_imager_free (SonarImager * im)
   }
   g_free (im->zones);
   g_free (im->directions);
-  sonar_fftw_lock ();
-  fftwf_destroy_plan (im->inverse);
-  sonar_fftw_unlock ();
-  fftwf_free (im->receive);
-  fftwf_free (im->transmit);
-  fftwf_free (im->baseband);
+  if (im->inverse) {
+    sonar_fftw_lock ();
+    fftwf_destroy_plan (im->inverse);
+    sonar_fftw_unlock ();
+  }
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
+    fftwf_free (im->scratch[w].receive);
+    fftwf_free (im->scratch[w].transmit);
+    fftwf_free (im->scratch[w].baseband);
+  }
+  sonar_workers_free (im->workers);
   g_free (im->rescaled);
   sonar_setup_unref (im->setup);
   g_free (im);
@@ -236,6 +273,68 @@ data_exponent (const SonarComplex * x, gsize n)
   return exponent;
 }
 
+/* Worker @w's share of a call: directions w, w + n, ... */
+static void
+image_directions (gpointer data, guint w, guint n_workers)
+{
+  SonarImager *im = data;
+  const ImageJob *job = &im->job;
+  const Scratch *scratch = &im->scratch[w];
+  const SonarGeometry *g = &im->setup->geometry;
+  const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
+  const double c = im->setup->speed_of_sound;
+  /* Phase of a path difference of one metre, at the first bin and per bin. */
+  const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
+  const double dk = 2.0 * M_PI * im->setup->sample_rate /
+      im->band.fft_size / c;
+  const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
+  const guint n_end = job->emitter < 0 ? g->n_emitters :
+      (guint) job->emitter + 1;
+
+  for (guint z = 0; z < im->n_zones; z++) {
+    const FocusZone *zone = &im->zones[z];
+    const guint first = zone->first_range;
+    const guint count = zone->end_range - zone->first_range;
+    if (count == 0)
+      continue;
+    for (guint d = w; d < im->n_directions; d += n_workers) {
+      const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
+      const double *emitter_path = zone->emitter_path +
+          (gsize) d * g->n_emitters;
+      const gsize pixels = (gsize) d * n_range + first;
+
+      /* Receive side: once per direction for every hypothesis. */
+      memset (scratch->receive, 0, sizeof (SonarComplex) * n_bins);
+      for (guint j = 0; j < g->n_microphones; j++)
+        sonar_kernel_steer_accumulate (scratch->receive,
+            job->mic_spectra + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
+            dk * mic_path[j]);
+
+      for (guint h = 0; h < job->n_hypotheses; h++) {
+        const double v = job->velocities[h];
+        const double stretch = (c + v) / (c - v);       /* 1 / alpha */
+
+        memset (scratch->transmit, 0, sizeof (SonarComplex) * n_bins);
+        for (guint n = n_first; n < n_end; n++) {
+          const double path = emitter_path[n] * stretch;
+          sonar_kernel_steer_accumulate_conj (scratch->transmit,
+              job->templates[h] + (gsize) n * n_bins, n_bins, k0 * path,
+              dk * path);
+        }
+        sonar_kernel_multiply (scratch->baseband, scratch->receive,
+            scratch->transmit, n_bins);
+        memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
+            (im->ifft_size - n_bins));
+        fftwf_execute_dft (im->inverse, scratch->baseband,
+            scratch->baseband);
+        sonar_kernel_envelope (job->image + h * job->stride + pixels,
+            scratch->baseband + im->first_lag + first, count, job->scale,
+            job->stride == 0 && h > 0);
+      }
+    }
+  }
+}
+
 /* The images of every hypothesis: their maximum into @image (stride 0),
  * or hypothesis h into image + h * stride. The receive sum, the costly
  * half, is made once per direction and zone for all of them. */
@@ -244,16 +343,8 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
     guint n_hypotheses, const SonarComplex * const *templates,
     const double *velocities, int emitter, float *image, gsize stride)
 {
-  const SonarGeometry *g = &im->setup->geometry;
-  const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
-  const double c = im->setup->speed_of_sound;
-  /* Phase of a path difference of one metre, at the first bin and per bin. */
-  const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
-  const double dk = 2.0 * M_PI * im->setup->sample_rate /
-      im->band.fft_size / c;
-  const guint n_first = emitter < 0 ? 0 : (guint) emitter;
-  const guint n_end = emitter < 0 ? g->n_emitters : (guint) emitter + 1;
-  const gsize n_data = (gsize) g->n_microphones * n_bins;
+  const gsize n_data = (gsize) im->setup->geometry.n_microphones *
+      im->band.n_bins;
   /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
   float scale = 2.0f / im->band.fft_size;
   /* The envelope squares float sums of up to N J K products: far from
@@ -269,48 +360,15 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
     mic_spectra = im->rescaled;
     scale = ldexpf (scale, exponent);
   }
-
-  for (guint z = 0; z < im->n_zones; z++) {
-    const FocusZone *zone = &im->zones[z];
-    const guint first = zone->first_range;
-    const guint count = zone->end_range - zone->first_range;
-    if (count == 0)
-      continue;
-    for (guint d = 0; d < im->n_directions; d++) {
-      const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
-      const double *emitter_path = zone->emitter_path +
-          (gsize) d * g->n_emitters;
-      const gsize pixels = (gsize) d * n_range + first;
-
-      /* Receive side: once per direction for every hypothesis. */
-      memset (im->receive, 0, sizeof (SonarComplex) * n_bins);
-      for (guint j = 0; j < g->n_microphones; j++)
-        sonar_kernel_steer_accumulate (im->receive,
-            mic_spectra + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
-            dk * mic_path[j]);
-
-      for (guint h = 0; h < n_hypotheses; h++) {
-        const double v = velocities[h];
-        const double stretch = (c + v) / (c - v);       /* 1 / alpha */
-
-        memset (im->transmit, 0, sizeof (SonarComplex) * n_bins);
-        for (guint n = n_first; n < n_end; n++) {
-          const double path = emitter_path[n] * stretch;
-          sonar_kernel_steer_accumulate_conj (im->transmit,
-              templates[h] + (gsize) n * n_bins, n_bins, k0 * path,
-              dk * path);
-        }
-        sonar_kernel_multiply (im->baseband, im->receive, im->transmit,
-            n_bins);
-        memset (im->baseband + n_bins, 0, sizeof (SonarComplex) *
-            (im->ifft_size - n_bins));
-        fftwf_execute (im->inverse);
-        sonar_kernel_envelope (image + h * stride + pixels,
-            im->baseband + im->first_lag + first, count, scale,
-            stride == 0 && h > 0);
-      }
-    }
-  }
+  im->job.mic_spectra = mic_spectra;
+  im->job.n_hypotheses = n_hypotheses;
+  im->job.templates = templates;
+  im->job.velocities = velocities;
+  im->job.emitter = emitter;
+  im->job.image = image;
+  im->job.stride = stride;
+  im->job.scale = scale;
+  sonar_workers_run (im->workers, image_directions, im);
 }
 
 void

@@ -21,6 +21,7 @@
 
 #include "sonar-setup.h"
 #include "sonar-spectrum.h"
+#include "sonar-workers.h"
 
 G_BEGIN_DECLS
 
@@ -51,9 +52,11 @@ typedef struct
   double range_min, range_max;  /* m */
   double range_resolution;      /* m: the range step is at most this */
   guint focus_zones;            /* >= 1 */
+  guint threads;                /* sharing the directions; 0: one per processor */
 } SonarImagerParams;
 
-/* 2-D fan: -90..90 degrees in 181 directions, 0.3-5 m, 4 focus zones. */
+/* 2-D fan: -90..90 degrees in 181 directions, 0.3-5 m, 4 focus zones, a
+ * thread per processor. */
 void sonar_imager_params_init_default (SonarImagerParams * params);
 
 typedef struct _SonarImager SonarImager;

@@ -1,6 +1,7 @@
 /* sonar-velocity.c: see sonar-velocity.h. */
 #include "sonar-velocity.h"
 #include "sonar-kernels.h"
+#include "sonar-workers.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -447,9 +448,8 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
 
 struct _SonarVelocityPool
 {
-  guint n_workers;
-  SonarVelocityEstimator *estimators[SONAR_VELOCITY_MAX_THREADS];
-  GThreadPool *threads;         /* workers 1 .. n_workers - 1 */
+  SonarWorkers *workers;
+  SonarVelocityEstimator *estimators[SONAR_MAX_WORKERS];
 
   /* The ping being estimated, shared with the workers. */
   const SonarComplex *spectra;
@@ -457,33 +457,20 @@ struct _SonarVelocityPool
   guint n_centroids;
   SonarVelocityEstimate *results;
   guint *counts;
-  GMutex lock;
-  GCond done;
-  guint pending;                /* workers still running */
 };
 
-/* Worker @w estimates centroids w, w + n_workers, ... */
+/* Worker @w estimates centroids w, w + n, ... */
 static void
-estimate_share (SonarVelocityPool * pool, guint w)
+estimate_share (gpointer data, guint w, guint n)
 {
-  for (guint k = w; k < pool->n_centroids; k += pool->n_workers) {
+  SonarVelocityPool *pool = data;
+
+  for (guint k = w; k < pool->n_centroids; k += n) {
     const SonarCentroid *c = &pool->centroids[k];
     pool->counts[k] = sonar_velocity_estimate (pool->estimators[w],
         pool->spectra, c->range, c->azimuth, c->elevation,
         &pool->results[2 * k], NULL);
   }
-}
-
-static void
-run_worker (gpointer data, gpointer user_data)
-{
-  SonarVelocityPool *pool = user_data;
-
-  estimate_share (pool, GPOINTER_TO_UINT (data));
-  g_mutex_lock (&pool->lock);
-  if (--pool->pending == 0)
-    g_cond_signal (&pool->done);
-  g_mutex_unlock (&pool->lock);
 }
 
 SonarVelocityPool *
@@ -492,20 +479,13 @@ sonar_velocity_pool_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
 {
   SonarVelocityPool *pool = g_new0 (SonarVelocityPool, 1);
 
-  g_mutex_init (&pool->lock);
-  g_cond_init (&pool->done);
-  pool->n_workers = CLAMP (n_threads ? n_threads : g_get_num_processors (), 1,
-      SONAR_VELOCITY_MAX_THREADS);
-  for (guint w = 0; w < pool->n_workers; w++) {
+  pool->workers = sonar_workers_new (n_threads, error);
+  if (!pool->workers)
+    goto failed;
+  for (guint w = 0; w < sonar_workers_count (pool->workers); w++) {
     pool->estimators[w] = sonar_velocity_estimator_new (bank, grid, params,
         error);
     if (!pool->estimators[w])
-      goto failed;
-  }
-  if (pool->n_workers > 1) {
-    pool->threads = g_thread_pool_new (run_worker, pool, pool->n_workers - 1,
-        TRUE, error);
-    if (!pool->threads)
       goto failed;
   }
   return pool;
@@ -520,12 +500,9 @@ sonar_velocity_pool_free (SonarVelocityPool * pool)
 {
   if (!pool)
     return;
-  if (pool->threads)
-    g_thread_pool_free (pool->threads, FALSE, TRUE);
-  for (guint w = 0; w < pool->n_workers; w++)
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++)
     sonar_velocity_estimator_free (pool->estimators[w]);
-  g_mutex_clear (&pool->lock);
-  g_cond_clear (&pool->done);
+  sonar_workers_free (pool->workers);
   g_free (pool);
 }
 
@@ -539,12 +516,5 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   pool->n_centroids = n_centroids;
   pool->results = results;
   pool->counts = counts;
-  pool->pending = pool->threads ? pool->n_workers - 1 : 0;
-  for (guint w = 1; pool->threads && w < pool->n_workers; w++)
-    g_thread_pool_push (pool->threads, GUINT_TO_POINTER (w), NULL);
-  estimate_share (pool, 0);
-  g_mutex_lock (&pool->lock);
-  while (pool->pending > 0)
-    g_cond_wait (&pool->done, &pool->lock);
-  g_mutex_unlock (&pool->lock);
+  sonar_workers_run (pool->workers, estimate_share, pool);
 }

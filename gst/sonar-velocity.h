@@ -25,6 +25,7 @@
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-imager.h"
+#include "sonar-workers.h"
 
 G_BEGIN_DECLS
 
@@ -80,7 +81,7 @@ guint sonar_velocity_estimate (SonarVelocityEstimator * est,
  * not depend on the number of threads. */
 typedef struct _SonarVelocityPool SonarVelocityPool;
 
-#define SONAR_VELOCITY_MAX_THREADS 64
+#define SONAR_VELOCITY_MAX_THREADS SONAR_MAX_WORKERS
 
 /* @n_threads: 0 for one per processor. The threads are made here, once. */
 SonarVelocityPool *sonar_velocity_pool_new (SonarDopplerBank * bank,

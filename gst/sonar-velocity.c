@@ -160,7 +160,7 @@ emitter_output (SonarVelocityEstimator * est, guint n, guint v,
 static double
 coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
     double range, double azimuth, double elevation, const guint * vs,
-    guint n_v)
+    guint n_v, double *strength)
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
@@ -192,10 +192,48 @@ coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
       }
     }
   }
+  if (strength)
+    *strength = best_sum;
   return best;
 }
 
 static double parabola_offset (double a, double b, double c);
+
+/* Offsets of the direction search, in grid steps: -1/2 .. 1/2. */
+#define DIRECTION_SUBSTEPS 2
+
+/* Moves (*azimuth, *elevation) to the strongest sub-direction within half
+ * a grid step (steps of a quarter), at the detection hypotheses; *coherence
+ * receives the coherence factor there. */
+static void
+refine_direction (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    double range, double *azimuth, double *elevation, double *coherence)
+{
+  const SonarImageGrid *g = &est->grid;
+  const double da = g->azimuth_step / (2 * DIRECTION_SUBSTEPS);
+  const double de = g->elevation_step / (2 * DIRECTION_SUBSTEPS);
+  const int qa = da > 0.0 ? DIRECTION_SUBSTEPS : 0;
+  const int qe = de > 0.0 ? DIRECTION_SUBSTEPS : 0;
+  double best_strength = -1.0, best_az = *azimuth, best_el = *elevation;
+
+  for (int j = -qe; j <= qe; j++) {
+    for (int i = -qa; i <= qa; i++) {
+      const double az = CLAMP (*azimuth + i * da, -90.0, 90.0);
+      const double el = CLAMP (*elevation + j * de, -90.0, 90.0);
+      double strength;
+      const double cf = coherence_over (est, spectra, range, az, el,
+          est->hypotheses, est->n_hypotheses, &strength);
+      if (strength > best_strength) {
+        best_strength = strength;
+        best_az = az;
+        best_el = el;
+        *coherence = cf;
+      }
+    }
+  }
+  *azimuth = best_az;
+  *elevation = best_el;
+}
 
 /* Envelope peak of emitter @n's output at velocity index @v over the lags
  * of range bins -wr..wr around @range. The image's range bins are about
@@ -361,7 +399,7 @@ describe_peak (SonarVelocityEstimator * est, const SonarComplex * spectra,
   }
   out->agreeing_emitters = agree;
   out->coherence = coherence_over (est, spectra, out->range, out->azimuth,
-      out->elevation, &p, 1);
+      out->elevation, &p, 1, NULL);
   out->valid = agree >= MIN (est->params.min_agreeing_emitters,
       est->n_emitters) && out->variance >= est->params.min_variance
       && out->coherence >= est->params.min_coherence;
@@ -386,9 +424,14 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   /* Prescreen: a centroid whose emitters do not add up coherently at any
    * detection hypothesis is a ghost (measured: objects 0.95 and more,
    * cross-talk ridges 0.65 and less). Rejecting it here spares the whole
-   * bank's evaluation, most of the work of a ping. */
-  out[0].coherence = coherence_over (est, mic_spectra, range, azimuth,
-      elevation, est->hypotheses, est->n_hypotheses);
+   * bank's evaluation, most of the work of a ping. The centroid's direction
+   * is only as good as the image's grid, and the MIMO beam is about 2
+   * degrees wide: the prescreen also takes the strongest direction within
+   * half a grid step, where the bank is then evaluated. */
+  refine_direction (est, mic_spectra, range, &azimuth, &elevation,
+      &out[0].coherence);
+  out[0].azimuth = azimuth;
+  out[0].elevation = elevation;
   if (out[0].coherence < est->params.min_coherence) {
     out[0].radial_velocity = NAN;
     out[0].bank_index = 0;

@@ -67,6 +67,7 @@ enum
   PROP_0,
   PROP_THRESHOLD,
   PROP_ABSOLUTE_THRESHOLD,
+  PROP_FLOOR,
   PROP_LINKAGE,
   PROP_STOP,
   PROP_INCONSISTENCY,
@@ -184,6 +185,9 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
     case PROP_ABSOLUTE_THRESHOLD:
       p->absolute_threshold = g_value_get_double (value);
       break;
+    case PROP_FLOOR:
+      p->floor_db = g_value_get_double (value);
+      break;
     case PROP_LINKAGE:
       p->linkage = g_value_get_enum (value);
       break;
@@ -229,6 +233,9 @@ gst_ward_cluster_get_property (GObject * object, guint prop_id,
       break;
     case PROP_ABSOLUTE_THRESHOLD:
       g_value_set_double (value, p->absolute_threshold);
+      break;
+    case PROP_FLOOR:
+      g_value_set_double (value, p->floor_db);
       break;
     case PROP_LINKAGE:
       g_value_set_enum (value, p->linkage);
@@ -291,6 +298,11 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           "Pixels weaker than this envelope value are no peaks (0: off); "
           "set it above the noise so that an empty scene yields nothing",
           0.0, G_MAXDOUBLE, d.absolute_threshold, flags));
+  g_object_class_install_property (gobject_class, PROP_FLOOR,
+      g_param_spec_double ("floor", "Floor", "Pixels less than this many "
+          "dB above the noise floor of their range (the lower quartile over "
+          "the directions) are no peaks: noise alone yields nothing (0: off)",
+          0.0, 200.0, d.floor_db, flags));
   g_object_class_install_property (gobject_class, PROP_LINKAGE,
       g_param_spec_enum ("linkage", "Linkage", "How the distance between "
           "two clusters is measured", GST_TYPE_SONAR_LINKAGE, d.linkage,

@@ -730,6 +730,8 @@ struct _SonarClusterer
   int *labels;
   int *slot;                    /* per label: output index, or -1 */
   float *compensated;           /* the image times r^2, with range_compensation */
+  float *floor;                 /* per range bin: threshold over the noise floor */
+  float *column;                /* one range bin's values over the directions */
 };
 
 void
@@ -737,6 +739,7 @@ sonar_cluster_params_init_default (SonarClusterParams * p)
 {
   p->range_compensation = TRUE;
   p->threshold_db = -10.0;
+  p->floor_db = 15.0;
   p->absolute_threshold = 0.0;
   p->linkage = SONAR_LINKAGE_WARD;
   p->stop = SONAR_STOP_INCONSISTENCY;
@@ -760,6 +763,8 @@ validate (const SonarImageGrid * g, const SonarClusterParams * p,
     problem = "grid: first values and steps must be finite";
   else if (!(p->threshold_db <= 0.0 && p->threshold_db >= -200.0))
     problem = "threshold-db must be in [-200, 0] dB";
+  else if (!(p->floor_db >= 0.0 && p->floor_db <= 200.0))
+    problem = "floor-db must be in [0, 200] dB";
   else if (!(p->absolute_threshold >= 0.0 && isfinite (p->absolute_threshold)))
     problem = "absolute-threshold must be finite and >= 0";
   else if ((guint) p->linkage > SONAR_LINKAGE_CENTROID)
@@ -805,6 +810,8 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->slot = g_new (int, m + 1);
   if (params->range_compensation)
     c->compensated = g_new (float, sonar_image_grid_size (grid));
+  c->floor = g_new (float, grid->n_range);
+  c->column = g_new (float, (gsize) grid->n_azimuth * grid->n_elevation);
   return c;
 }
 
@@ -822,6 +829,8 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->labels);
   g_free (c->slot);
   g_free (c->compensated);
+  g_free (c->floor);
+  g_free (c->column);
   g_free (c);
 }
 
@@ -891,6 +900,62 @@ keep_peak (SonarClusterer * c, float value, gsize pixel)
   }
 }
 
+/* k-th smallest of v[0 .. n) (Hoare's selection; reorders v). */
+static float
+select_kth (float *v, gsize n, gsize k)
+{
+  gsize lo = 0, hi = n - 1;
+
+  while (lo < hi) {
+    const float pivot = v[lo + (hi - lo) / 2];
+    gsize i = lo, j = hi;
+    while (i <= j) {
+      while (v[i] < pivot)
+        i++;
+      while (v[j] > pivot)
+        j--;
+      if (i <= j) {
+        const float t = v[i];
+        v[i] = v[j];
+        v[j] = t;
+        i++;
+        if (j == 0)
+          break;
+        j--;
+      }
+    }
+    if (k <= j)
+      hi = j;
+    else if (k >= i)
+      lo = i;
+    else
+      break;
+  }
+  return v[k];
+}
+
+/* Per range bin: floor_db above the lower quartile over the directions.
+ * Not the median: a reflector near +-90 degrees smears over most of the
+ * fan and would lift it. */
+static void
+noise_floors (SonarClusterer * c, const float *image)
+{
+  const SonarImageGrid *g = &c->grid;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  const float gain = (float) pow (10.0, c->params.floor_db / 20.0);
+
+  for (guint i = 0; i < g->n_range; i++) {
+    gsize n = 0;
+    for (gsize d = 0; d < n_dirs; d++) {
+      const float v = image[d * g->n_range + i];
+      if (isfinite (v))
+        c->column[n++] = v;
+    }
+    c->floor[i] = n > 0 && c->params.floor_db > 0.0 ?
+        gain * select_kth (c->column, n, n / 4) : 0.0f;
+  }
+}
+
 static void
 find_peaks (SonarClusterer * c, const float *image, float threshold)
 {
@@ -905,7 +970,7 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
         const gsize p = ((gsize) e * g->n_azimuth + a) * g->n_range + i;
         const float v = image[p];
         gboolean peak = TRUE;
-        if (!(v >= threshold) || !isfinite (v))
+        if (!(v >= threshold) || !(v >= c->floor[i]) || !isfinite (v))
           continue;
         for (int de = -1; de <= 1 && peak; de++) {
           if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
@@ -1046,6 +1111,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
     return 0;
   threshold = MAX (max * pow (10.0, c->params.threshold_db / 20.0),
       c->params.absolute_threshold);
+  noise_floors (c, image);
   find_peaks (c, image, threshold);
   n = c->n_peaks;
   if (n == 0)

@@ -78,6 +78,11 @@ typedef struct
    * With range compensation the objects of a scene come out at similar
    * levels and cross-talk ridges 10-20 dB below them: -10 dB. */
   double threshold_db;
+  /* dB above the noise floor of the pixel's range bin (the lower quartile
+   * over the directions, which objects occupy few of): weaker pixels are
+   * no peaks, so that noise alone makes none (a CFAR detector). 0 turns it
+   * off. */
+  double floor_db;
   /* Linear envelope value: weaker pixels are no peaks; 0 turns it off. */
   double absolute_threshold;
   SonarLinkage linkage;
@@ -100,7 +105,8 @@ typedef struct
   guint max_peaks;
 } SonarClusterParams;
 
-/* Range compensation on; thresholds -10 dB and off; Ward, inconsistency
+/* Range compensation on; thresholds -10 dB, 15 dB over the floor, and
+ * absolute off; Ward, inconsistency
  * 1.0 over depth 3; distance 0.1 m; 2000 peaks. */
 void sonar_cluster_params_init_default (SonarClusterParams * params);
 

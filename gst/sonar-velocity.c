@@ -201,10 +201,14 @@ static double parabola_offset (double a, double b, double c);
 
 /* Offsets of the direction search, in grid steps: -1/2 .. 1/2. */
 #define DIRECTION_SUBSTEPS 2
+/* Degrees: on a grid this fine the centroid lies within half a degree of
+ * the 2-degree MIMO beam's peak, and no search is made (every searched
+ * direction is one more chance for noise to look coherent). */
+#define FINE_GRID_STEP 1.0
 
-/* Moves (*azimuth, *elevation) to the strongest sub-direction within half
- * a grid step (steps of a quarter), at the detection hypotheses; *coherence
- * receives the coherence factor there. */
+/* On a coarse grid, moves (*azimuth, *elevation) to the strongest
+ * sub-direction within half a grid step (steps of a quarter), at the
+ * detection hypotheses; *coherence receives the coherence factor there. */
 static void
 refine_direction (SonarVelocityEstimator * est, const SonarComplex * spectra,
     double range, double *azimuth, double *elevation, double *coherence)
@@ -212,8 +216,10 @@ refine_direction (SonarVelocityEstimator * est, const SonarComplex * spectra,
   const SonarImageGrid *g = &est->grid;
   const double da = g->azimuth_step / (2 * DIRECTION_SUBSTEPS);
   const double de = g->elevation_step / (2 * DIRECTION_SUBSTEPS);
-  const int qa = da > 0.0 ? DIRECTION_SUBSTEPS : 0;
-  const int qe = de > 0.0 ? DIRECTION_SUBSTEPS : 0;
+  const int qa = g->azimuth_step > FINE_GRID_STEP + 1e-9 ?
+      DIRECTION_SUBSTEPS : 0;
+  const int qe = g->elevation_step > FINE_GRID_STEP + 1e-9 ?
+      DIRECTION_SUBSTEPS : 0;
   double best_strength = -1.0, best_az = *azimuth, best_el = *elevation;
 
   for (int j = -qe; j <= qe; j++) {

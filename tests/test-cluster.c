@@ -22,6 +22,7 @@ synthetic_params (SonarClusterParams * p)
   sonar_cluster_params_init_default (p);
   p->range_compensation = FALSE;
   p->threshold_db = -20.0;
+  p->floor_db = 0.0;
 }
 
 static const char *const method_names[] = {

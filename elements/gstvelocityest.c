@@ -346,8 +346,8 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
   g_object_class_install_property (gobject_class, PROP_MIN_AGREEING_EMITTERS,
       g_param_spec_uint ("min-agreeing-emitters", "Minimum agreeing "
           "emitters", "A reflector needs at least this many emitters whose "
-          "own Doppler-ACF peak lies within half a Doppler main lobe of the "
-          "product's", 0, 64, d.min_agreeing_emitters, flags));
+          "own Doppler-ACF curve comes within 3 dB of its maximum within half "
+          "a Doppler main lobe of the product's peak", 0, 64, d.min_agreeing_emitters, flags));
   g_object_class_install_property (gobject_class, PROP_MIN_COHERENCE,
       g_param_spec_double ("min-coherence", "Minimum coherence", "A "
           "reflector's emitters add up coherently at its velocity: coherence "

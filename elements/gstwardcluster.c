@@ -295,8 +295,8 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           -200.0, 0.0, d.threshold_db, flags));
   g_object_class_install_property (gobject_class, PROP_ABSOLUTE_THRESHOLD,
       g_param_spec_double ("absolute-threshold", "Absolute threshold",
-          "Pixels weaker than this envelope value are no peaks (0: off); "
-          "set it above the noise so that an empty scene yields nothing",
+          "Pixels weaker than this envelope value (range-compensated if "
+          "range-compensation is on) are no peaks (0: off)",
           0.0, G_MAXDOUBLE, d.absolute_threshold, flags));
   g_object_class_install_property (gobject_class, PROP_FLOOR,
       g_param_spec_double ("floor", "Floor", "Pixels less than this many "

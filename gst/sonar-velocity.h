@@ -35,7 +35,8 @@ typedef struct
   guint window_ranges;          /* half-width of the window, in image range steps */
   gboolean refine;              /* parabolic sub-step refinement of the peak */
   double min_variance;          /* below: not peaked, flagged as a false positive */
-  guint min_agreeing_emitters;  /* emitters whose own peak is within a main lobe */
+  guint min_agreeing_emitters;  /* emitters whose own curve comes within 3 dB
+                                 * of its maximum near the product's peak */
   double min_coherence;         /* coherence factor across emitters, 0..1 */
   double second_peak_db;        /* a second product peak at most this far below
                                  * the first (dB, > 0) is a second reflector */

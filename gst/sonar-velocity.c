@@ -31,6 +31,8 @@ struct _SonarVelocityEstimator
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
   double *scratch;              /* [velocity] */
+  guint8 *wanted, *done;        /* [velocity]: to evaluate, evaluated */
+  guint coarse_stride;          /* bank steps between coarse evaluations */
   guint n_hypotheses;           /* the prescreen's Doppler hypotheses */
   guint *hypotheses;
 };
@@ -89,6 +91,12 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
+  est->wanted = g_new (guint8, est->n_velocities);
+  est->done = g_new (guint8, est->n_velocities);
+  /* The curves are a main lobe wide: sampled every quarter of it, their
+   * peak is found, then the bank is evaluated in full around it only. */
+  est->coarse_stride = MAX (1, (guint) round (0.25 * est->main_lobe /
+          sonar_doppler_bank_step (bank)));
   est->hypotheses = g_new (guint, est->n_velocities + 2);
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
       PRESCREEN_SPACING, est->hypotheses);
@@ -105,6 +113,8 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->acf);
   g_free (est->log_product);
   g_free (est->scratch);
+  g_free (est->wanted);
+  g_free (est->done);
   g_free (est->hypotheses);
   g_free (est);
 }
@@ -281,8 +291,8 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
   return fine[best];
 }
 
-/* Takes the maximum of the window's single-emitter image values at every
- * velocity into est->acf. */
+/* Takes the maximum of the window's single-emitter image values into
+ * est->acf, at the velocities wanted and not yet done. */
 static void
 evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
     double range, double azimuth, double elevation)
@@ -291,9 +301,6 @@ evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
   const int wd = est->params.window_directions;
   const int wr = est->params.window_ranges;
   const int we = grid->n_elevation > 1 ? wd : 0;
-
-  for (gsize i = 0; i < (gsize) est->n_emitters * est->n_velocities; i++)
-    est->acf[i] = 0.0;
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
@@ -305,11 +312,69 @@ evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
       for (guint n = 0; n < est->n_emitters; n++) {
         for (guint v = 0; v < est->n_velocities; v++) {
           double *acf = &est->acf[(gsize) n * est->n_velocities + v];
-          *acf = MAX (*acf, window_peak (est, n, v, point, range, wr));
+          if (est->wanted[v] && !est->done[v])
+            *acf = MAX (*acf, window_peak (est, n, v, point, range, wr));
         }
       }
     }
   }
+  for (guint v = 0; v < est->n_velocities; v++)
+    est->done[v] |= est->wanted[v];
+}
+
+/* Wants the velocities within half a main lobe (plus a coarse step) of
+ * index @p, and evaluates them. */
+static void
+evaluate_around (SonarVelocityEstimator * est, const SonarComplex * spectra,
+    double range, double azimuth, double elevation, guint p)
+{
+  const double vp = sonar_doppler_bank_velocity (est->bank, p);
+  const double reach = 0.5 * est->main_lobe + est->coarse_stride *
+      sonar_doppler_bank_step (est->bank);
+
+  for (guint v = 0; v < est->n_velocities; v++)
+    est->wanted[v] = fabs (sonar_doppler_bank_velocity (est->bank, v) - vp)
+        <= reach;
+  evaluate_window (est, spectra, range, azimuth, elevation);
+}
+
+/* Fills the curves between evaluated velocities (linearly in the log
+ * domain: they are smooth at a quarter of a main lobe), sums the log
+ * product into est->log_product and returns its peak's index. */
+static guint
+fill_and_multiply (SonarVelocityEstimator * est)
+{
+  const guint nv = est->n_velocities;
+  double *lp = est->log_product;
+  guint peak = 0;
+
+  for (guint n = 0; n < est->n_emitters; n++) {
+    double *acf = est->acf + (gsize) n * nv;
+    int prev = -1;
+    for (guint v = 0; v < nv; v++) {
+      guint next;
+      if (est->done[v]) {
+        prev = v;
+        continue;
+      }
+      for (next = v + 1; next < nv && !est->done[next]; next++);
+      if (prev < 0 || next >= nv) {
+        acf[v] = prev < 0 ? acf[next < nv ? next : v] : acf[prev];
+      } else {
+        const double t = (double) (v - prev) / (next - prev);
+        acf[v] = exp ((1.0 - t) * log (acf[prev] + ACF_FLOOR) +
+            t * log (acf[next] + ACF_FLOOR));
+      }
+    }
+  }
+  for (guint v = 0; v < nv; v++) {
+    lp[v] = 0.0;
+    for (guint n = 0; n < est->n_emitters; n++)
+      lp[v] += log (est->acf[(gsize) n * nv + v] + ACF_FLOOR);
+    if (lp[v] > lp[peak])
+      peak = v;
+  }
+  return peak;
 }
 
 /* Vertex of the parabola through (-1, a), (0, b), (1, c): offset in steps. */
@@ -450,14 +515,17 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
     return 1;
   }
 
-  evaluate_window (est, mic_spectra, range, azimuth, elevation);
+  /* Coarse pass over the bank, then every velocity around the peak. */
+  for (gsize i = 0; i < (gsize) est->n_emitters * nv; i++)
+    est->acf[i] = 0.0;
   for (guint v = 0; v < nv; v++) {
-    lp[v] = 0.0;
-    for (guint n = 0; n < est->n_emitters; n++)
-      lp[v] += log (est->acf[(gsize) n * nv + v] + ACF_FLOOR);
-    if (lp[v] > lp[peak])
-      peak = v;
+    est->done[v] = FALSE;
+    est->wanted[v] = v % est->coarse_stride == 0 || v + 1 == nv;
   }
+  evaluate_window (est, mic_spectra, range, azimuth, elevation);
+  peak = fill_and_multiply (est);
+  evaluate_around (est, mic_spectra, range, azimuth, elevation, peak);
+  peak = fill_and_multiply (est);
   memcpy (est->scratch, lp, sizeof (double) * nv);
   qsort (est->scratch, nv, sizeof (double), compare_doubles);
   median = est->scratch[nv / 2];
@@ -475,6 +543,14 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   }
   if (second >= 0 && lp[second] >= lp[peak] - est->n_emitters *
       est->params.second_peak_db * G_LN10 / 20.0) {
+    /* Its neighbourhood in full, and its exact top there. */
+    const double vs = sonar_doppler_bank_velocity (est->bank, second);
+    evaluate_around (est, mic_spectra, range, azimuth, elevation, second);
+    fill_and_multiply (est);
+    for (guint v = 0; v < nv; v++)
+      if (fabs (sonar_doppler_bank_velocity (est->bank, v) - vs) <=
+          0.5 * est->main_lobe && lp[v] > lp[second])
+        second = v;
     out[1] = out[0];
     describe_peak (est, mic_spectra, second, median, &out[1]);
     out[1].second = TRUE;

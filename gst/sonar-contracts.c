@@ -229,7 +229,7 @@ sonar_truth_to_structure (guint64 ping_index, GstClockTime timestamp,
     const SonarTruth *t = &truths[k];
     GValue item = G_VALUE_INIT;
     g_value_init (&item, GST_TYPE_STRUCTURE);
-    gst_value_set_structure (&item, gst_structure_new ("reflector",
+    g_value_take_boxed (&item, gst_structure_new ("reflector",
             "id", G_TYPE_UINT, t->reflector,
             "kind", G_TYPE_STRING, sonar_reflector_kind_to_string (t->kind),
             "range", G_TYPE_DOUBLE, t->range,
@@ -648,7 +648,7 @@ sonar_centroids_to_structure (guint64 ping_index, GstClockTime timestamp,
     const SonarCentroid *c = &centroids[k];
     GValue item = G_VALUE_INIT;
     g_value_init (&item, GST_TYPE_STRUCTURE);
-    gst_value_set_structure (&item, gst_structure_new ("centroid",
+    g_value_take_boxed (&item, gst_structure_new ("centroid",
             "range", G_TYPE_DOUBLE, c->range,
             "azimuth", G_TYPE_DOUBLE, c->azimuth,
             "elevation", G_TYPE_DOUBLE, c->elevation,
@@ -674,7 +674,7 @@ sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
     const SonarDetection *d = &detections[k];
     GValue item = G_VALUE_INIT;
     g_value_init (&item, GST_TYPE_STRUCTURE);
-    gst_value_set_structure (&item, gst_structure_new ("detection",
+    g_value_take_boxed (&item, gst_structure_new ("detection",
             "range", G_TYPE_DOUBLE, d->range,
             "azimuth", G_TYPE_DOUBLE, d->azimuth,
             "elevation", G_TYPE_DOUBLE, d->elevation,

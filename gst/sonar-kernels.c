@@ -70,6 +70,44 @@ sonar_kernel_steer_dot_conj_generic (const SonarComplex * a,
   return sum;
 }
 
+void
+sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
+    const SonarComplex * a, const SonarComplex * b, guint n, double phase0,
+    double dphase, guint block)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+
+  g_return_if_fail (block % LANES == 0 && RESEED_INTERVAL % block == 0);
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      if (k % block == 0)
+        out[k / block] = 0.0f;
+      out[k / block] += a[k] * conjf (b[k]) * p;
+      p *= rotation;
+    }
+  }
+}
+
+SonarComplex
+sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
+    double phase0, double dphase)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+  SonarComplex sum = 0.0f;
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      sum += x[k] * p;
+      p *= rotation;
+    }
+  }
+  return sum;
+}
+
 /* Fast versions ----------------------------------------------------------*/
 
 /* The fast kernels are compiled for AVX2 and used where the CPU has it;
@@ -210,6 +248,75 @@ steer_dot_conj_fast (const SonarComplex * a, const SonarComplex * b,
   return sum;
 }
 
+/* Block sums: the lane products are summed over a block, then across the
+ * lanes. */
+FAST_TARGET static void
+steer_block_sums_conj_fast (SonarComplex * out, const SonarComplex * a,
+    const SonarComplex * b, guint n, double phase0, double dphase,
+    guint block)
+{
+  const guint whole = n - n % block;
+  Lanes p;
+
+  lanes_init (&p, dphase);
+  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
+    lanes_seed (&p, phase0 + k0 * dphase, dphase);
+    for (guint kb = k0; kb < k1; kb += block) {
+      Vec sum_re = { 0 }, sum_im = { 0 };
+      SonarComplex sum = 0.0f;
+      for (guint k = kb; k < kb + block; k += LANES) {
+        Vec ar, ai, br, bi, tr, ti;
+        LOAD_SPLIT (a + k, ar, ai);
+        LOAD_SPLIT (b + k, br, bi);
+        tr = ar * br + ai * bi;
+        ti = ai * br - ar * bi;
+        sum_re += tr * p.re - ti * p.im;
+        sum_im += tr * p.im + ti * p.re;
+        LANES_ADVANCE (p);
+      }
+      for (int l = 0; l < LANES; l++)
+        sum += sum_re[l] + I * sum_im[l];
+      out[kb / block] = sum;
+    }
+  }
+  /* The last, shorter block. */
+  if (whole < n) {
+    SonarComplex sum = 0.0f;
+    for (guint k = whole; k < n; k++)
+      sum += a[k] * conjf (b[k]) * unit_phasor (phase0 + k * dphase);
+    out[whole / block] = sum;
+  }
+}
+
+FAST_TARGET static SonarComplex
+steer_sum_fast (const SonarComplex * x, guint n, double phase0,
+    double dphase)
+{
+  const guint whole = n - n % LANES;
+  Vec sum_re = { 0 }, sum_im = { 0 };
+  SonarComplex sum = 0.0f;
+  Lanes p;
+
+  lanes_init (&p, dphase);
+  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
+    lanes_seed (&p, phase0 + k0 * dphase, dphase);
+    for (guint k = k0; k < k1; k += LANES) {
+      Vec xr, xi;
+      LOAD_SPLIT (x + k, xr, xi);
+      sum_re += xr * p.re - xi * p.im;
+      sum_im += xr * p.im + xi * p.re;
+      LANES_ADVANCE (p);
+    }
+  }
+  for (int l = 0; l < LANES; l++)
+    sum += sum_re[l] + I * sum_im[l];
+  for (guint k = whole; k < n; k++)
+    sum += x[k] * unit_phasor (phase0 + k * dphase);
+  return sum;
+}
+
 void
 sonar_kernel_steer_accumulate (SonarComplex * acc, const SonarComplex * x,
     guint n, double phase0, double dphase)
@@ -236,6 +343,27 @@ sonar_kernel_steer_dot_conj (const SonarComplex * a, const SonarComplex * b,
 {
   return HAVE_FAST ()? steer_dot_conj_fast (a, b, n, phase0, dphase) :
       sonar_kernel_steer_dot_conj_generic (a, b, n, phase0, dphase);
+}
+
+void
+sonar_kernel_steer_block_sums_conj (SonarComplex * out,
+    const SonarComplex * a, const SonarComplex * b, guint n, double phase0,
+    double dphase, guint block)
+{
+  g_return_if_fail (block % LANES == 0 && RESEED_INTERVAL % block == 0);
+  if (HAVE_FAST ())
+    steer_block_sums_conj_fast (out, a, b, n, phase0, dphase, block);
+  else
+    sonar_kernel_steer_block_sums_conj_generic (out, a, b, n, phase0, dphase,
+        block);
+}
+
+SonarComplex
+sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
+    double dphase)
+{
+  return HAVE_FAST ()? steer_sum_fast (x, n, phase0, dphase) :
+      sonar_kernel_steer_sum_generic (x, n, phase0, dphase);
 }
 
 void

@@ -37,6 +37,26 @@ SonarComplex sonar_kernel_steer_dot_conj (const SonarComplex * a,
 SonarComplex sonar_kernel_steer_dot_conj_generic (const SonarComplex * a,
     const SonarComplex * b, guint n, double phase0, double dphase);
 
+/* out[i] = the sum over the bins k of block i (block bins from i * block;
+ * the last block takes what is left) of a[k] * conj (b[k]) * exp(i
+ * (phase0 + k * dphase)): writes ceil (n / block) sums. @block divides 64
+ * and is a multiple of 8. A matched filter's output at lags near the one
+ * the phase ramp delays to is then a short sum over the blocks (see
+ * sonar_kernel_steer_sum): over a block the extra phase of a small lag
+ * offset barely turns. */
+void sonar_kernel_steer_block_sums_conj (SonarComplex * out,
+    const SonarComplex * a, const SonarComplex * b, guint n, double phase0,
+    double dphase, guint block);
+void sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
+    const SonarComplex * a, const SonarComplex * b, guint n, double phase0,
+    double dphase, guint block);
+
+/* sum over k < n of x[k] * exp(i (phase0 + k * dphase)). */
+SonarComplex sonar_kernel_steer_sum (const SonarComplex * x, guint n,
+    double phase0, double dphase);
+SonarComplex sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
+    double phase0, double dphase);
+
 /* out[k] = a[k] * b[k]. */
 void sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
     const SonarComplex * b, guint n);

@@ -15,6 +15,12 @@
  * Doppler main lobe (about 0.33 m/s at -3 dB), like the detection image. */
 #define PRESCREEN_SPACING 0.3
 
+/* Bins per block of the lag sums (see emitter_blocks ()). */
+#define LAG_BLOCK 16
+
+/* Range steps of the window, at most. */
+#define MAX_WINDOW_RANGES 256
+
 /* -3 dB in amplitude. */
 #define AGREEMENT_RATIO 0.7071067811865476
 
@@ -28,6 +34,12 @@ struct _SonarVelocityEstimator
   guint n_velocities, n_emitters;
   double main_lobe;             /* m/s: one emitter's Doppler resolution */
   SonarComplex *receive;        /* n_bins */
+  /* One emitter's matched filter output by blocks of LAG_BLOCK bins. */
+  SonarComplex *blocks;
+  guint n_blocks;
+  double k0, dk;                /* phase of a metre of path: first bin, per bin */
+  SonarComplex *lag_sums;       /* [range offset]: sums over the emitters */
+  double *lag_powers;           /* [range offset] */
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
   double *scratch;              /* [velocity] */
@@ -66,7 +78,8 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
         "velocity: the Doppler bank has no band spectra");
     return NULL;
   }
-  if (params->window_directions > 32 || params->window_ranges > 256
+  if (params->window_directions > 32
+      || params->window_ranges > MAX_WINDOW_RANGES
       || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)
       || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
@@ -88,6 +101,14 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
           setup->band_high) * setup->waveform_length / setup->sample_rate);
   est->receive = g_new (SonarComplex, band->n_bins);
+  est->n_blocks = (band->n_bins + LAG_BLOCK - 1) / LAG_BLOCK;
+  est->blocks = g_new (SonarComplex, est->n_blocks);
+  est->k0 = 2.0 * M_PI * sonar_band_frequency (band, 0) /
+      setup->speed_of_sound;
+  est->dk = 2.0 * M_PI * band->sample_rate / band->fft_size /
+      setup->speed_of_sound;
+  est->lag_sums = g_new (SonarComplex, 2 * MAX_WINDOW_RANGES + 1);
+  est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
@@ -110,6 +131,9 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
     return;
   sonar_doppler_bank_unref (est->bank);
   g_free (est->receive);
+  g_free (est->blocks);
+  g_free (est->lag_sums);
+  g_free (est->lag_powers);
   g_free (est->acf);
   g_free (est->log_product);
   g_free (est->scratch);
@@ -127,41 +151,50 @@ receive_beam (SonarVelocityEstimator * est, const SonarComplex * spectra,
 {
   const SonarGeometry *g = &est->setup->geometry;
   const guint n_bins = est->band.n_bins;
-  const double c = est->setup->speed_of_sound;
-  const double k0 = 2.0 * M_PI * sonar_band_frequency (&est->band, 0) / c;
-  const double dk = 2.0 * M_PI * est->band.sample_rate / est->band.fft_size /
-      c;
 
   memset (est->receive, 0, sizeof (SonarComplex) * n_bins);
   for (guint j = 0; j < g->n_microphones; j++) {
     const double path = sonar_vec3_norm (sonar_vec3_sub (point,
             g->microphones[j])) - range;
     sonar_kernel_steer_accumulate (est->receive, spectra + (gsize) j * n_bins,
-        n_bins, k0 * path, dk * path);
+        n_bins, est->k0 * path, est->dk * path);
   }
 }
 
-/* Output of emitter @n's matched filter at velocity index @v for the beam
- * in est->receive, at the lag of range @lag_range for a pixel at @point. */
-static SonarComplex
-emitter_output (SonarVelocityEstimator * est, guint n, guint v,
-    SonarVec3 point, double range, double lag_range)
+/* Emitter @n's matched filter output at velocity index @v for the beam in
+ * est->receive, at the lag of the pixel at @point (range @range), summed
+ * by blocks of LAG_BLOCK bins into est->blocks. Its outputs at the lags
+ * of nearby ranges are then short sums over the blocks (output_at ()):
+ * over a block, the extra phase of a lag two range bins away turns by
+ * 0.06 rad, an error of -60 dB (tests/test-kernels.c). The window's
+ * dozen lags cost one pass over the bins instead of a dozen. */
+static void
+emitter_blocks (SonarVelocityEstimator * est, guint n, guint v,
+    SonarVec3 point, double range)
 {
   const SonarGeometry *g = &est->setup->geometry;
-  const guint n_bins = est->band.n_bins;
   const double c = est->setup->speed_of_sound;
-  const double k0 = 2.0 * M_PI * sonar_band_frequency (&est->band, 0) / c;
-  const double dk = 2.0 * M_PI * est->band.sample_rate / est->band.fft_size /
-      c;
   const double vel = sonar_doppler_bank_velocity (est->bank, v);
   const double e_path = sonar_vec3_norm (sonar_vec3_sub (point,
           g->emitters[n])) - range;
-  /* Lag of the pixel's range plus the emitter leg, stretched by 1 / alpha. */
-  const double path = 2.0 * lag_range + e_path * (c + vel) / (c - vel);
+  /* The two-way range plus the emitter leg, stretched by 1 / alpha. */
+  const double path = 2.0 * range + e_path * (c + vel) / (c - vel);
 
-  return sonar_kernel_steer_dot_conj (est->receive,
-      sonar_doppler_bank_spectra (est->bank, v) + (gsize) n * n_bins, n_bins,
-      k0 * path, dk * path) * (2.0f / est->band.fft_size);
+  sonar_kernel_steer_block_sums_conj (est->blocks, est->receive,
+      sonar_doppler_bank_spectra (est->bank, v) + (gsize) n * est->band.n_bins,
+      est->band.n_bins, est->k0 * path, est->dk * path, LAG_BLOCK);
+}
+
+/* The output in est->blocks at the lag of @offset m further in range,
+ * each block's phase taken at its centre bin. */
+static SonarComplex
+output_at (SonarVelocityEstimator * est, double offset)
+{
+  const double path = 2.0 * offset;
+
+  return sonar_kernel_steer_sum (est->blocks, est->n_blocks,
+      (est->k0 + est->dk * 0.5 * (LAG_BLOCK - 1)) * path,
+      est->dk * LAG_BLOCK * path) * (2.0f / est->band.fft_size);
 }
 
 /* Coherence factor |sum|^2 / (N sum |.|^2) of the emitters' outputs at
@@ -185,18 +218,26 @@ coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
               CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
       receive_beam (est, spectra, point, range);
       for (guint i = 0; i < n_v; i++) {
+        SonarComplex *sums = est->lag_sums + wr;
+        double *powers = est->lag_powers + wr;
         for (int dr = -wr; dr <= wr; dr++) {
-          SonarComplex sum = 0.0f;
-          double power = 0.0;
-          for (guint n = 0; n < est->n_emitters; n++) {
-            const SonarComplex y = emitter_output (est, n, vs[i], point,
-                range, range + dr * grid->range_step);
-            sum += y;
-            power += crealf (y * conjf (y));
+          sums[dr] = 0.0f;
+          powers[dr] = 0.0;
+        }
+        for (guint n = 0; n < est->n_emitters; n++) {
+          emitter_blocks (est, n, vs[i], point, range);
+          for (int dr = -wr; dr <= wr; dr++) {
+            const SonarComplex y = output_at (est, dr * grid->range_step);
+            sums[dr] += y;
+            powers[dr] += crealf (y * conjf (y));
           }
-          if (crealf (sum * conjf (sum)) > best_sum) {
-            best_sum = crealf (sum * conjf (sum));
-            best = power > 0.0 ? best_sum / (est->n_emitters * power) : 0.0;
+        }
+        for (int dr = -wr; dr <= wr; dr++) {
+          const double sum_power = crealf (sums[dr] * conjf (sums[dr]));
+          if (sum_power > best_sum) {
+            best_sum = sum_power;
+            best = powers[dr] > 0.0 ? sum_power / (est->n_emitters *
+                powers[dr]) : 0.0;
           }
         }
       }
@@ -266,9 +307,9 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
   double fine[9], best_value = -1.0, best_lag = 0.0;
   int best = 4;
 
+  emitter_blocks (est, n, v, point, range);
   for (int dr = -wr; dr <= wr; dr++) {
-    const double y = cabsf (emitter_output (est, n, v, point, range,
-            range + dr * step));
+    const double y = cabsf (output_at (est, dr * step));
     if (y > best_value) {
       best_value = y;
       best_lag = dr * step;
@@ -276,8 +317,8 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
   }
   /* Quarter steps from -1 to +1 bin around the best. */
   for (int q = 0; q < 9; q++)
-    fine[q] = q == 4 ? best_value : cabsf (emitter_output (est, n, v, point,
-            range, range + best_lag + (q - 4) * 0.25 * step));
+    fine[q] = q == 4 ? best_value : cabsf (output_at (est,
+            best_lag + (q - 4) * 0.25 * step));
   for (int q = 1; q < 8; q++)
     if (fine[q] > fine[best])
       best = q;

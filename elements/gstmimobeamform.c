@@ -72,6 +72,8 @@ enum
   PROP_RANGE_MAX,
   PROP_RANGE_RESOLUTION,
   PROP_FOCUS_ZONES,
+  PROP_COARSE_SPACING,
+  PROP_REFINE_DB,
   PROP_MODE,
   PROP_VELOCITY,
   PROP_HYPOTHESIS_SPACING,
@@ -307,6 +309,12 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
     case PROP_FOCUS_ZONES:
       p->focus_zones = g_value_get_uint (value);
       break;
+    case PROP_COARSE_SPACING:
+      p->coarse_spacing = g_value_get_double (value);
+      break;
+    case PROP_REFINE_DB:
+      p->refine_db = g_value_get_double (value);
+      break;
     case PROP_MODE:
       self->mode = g_value_get_enum (value);
       break;
@@ -367,6 +375,12 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
       break;
     case PROP_FOCUS_ZONES:
       g_value_set_uint (value, p->focus_zones);
+      break;
+    case PROP_COARSE_SPACING:
+      g_value_set_double (value, p->coarse_spacing);
+      break;
+    case PROP_REFINE_DB:
+      g_value_set_double (value, p->refine_db);
       break;
     case PROP_MODE:
       g_value_set_enum (value, self->mode);
@@ -453,6 +467,17 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "in 1/range, each focused at its own range (near-field "
           "correction: more zones, sharper near images, more work)", 1, 64,
           d.focus_zones, flags));
+  g_object_class_install_property (gobject_class, PROP_COARSE_SPACING,
+      g_param_spec_double ("coarse-spacing", "Coarse spacing", "Modes "
+          "detection and fixed image a grid this coarse first, in degrees, "
+          "then in full only around what it finds (within refine-db), the "
+          "rest interpolated; 0: every direction in full", 0.0, 90.0,
+          d.coarse_spacing, flags));
+  g_object_class_install_property (gobject_class, PROP_REFINE_DB,
+      g_param_spec_double ("refine-db", "Refine level", "dB below the "
+          "coarse image's maximum (weighted by range^2) down to which the "
+          "directions around a coarse one are imaged in full (more: fewer "
+          "echoes missed, more work)", 0.1, 200.0, d.refine_db, flags));
   g_object_class_install_property (gobject_class, PROP_MODE,
       g_param_spec_enum ("mode", "Mode", "Which Doppler hypotheses to image",
           GST_TYPE_SONAR_IMAGE_MODE, DEFAULT_MODE, flags));

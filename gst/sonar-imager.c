@@ -31,6 +31,8 @@ typedef struct
 /* One call's arguments, for the workers. */
 typedef struct
 {
+  const guint *units;           /* direction * n_zones + zone */
+  guint n_units;
   const SonarComplex *mic_spectra;
   guint n_hypotheses;
   const SonarComplex *const *templates;
@@ -50,6 +52,15 @@ struct _SonarImager
   SonarVec3 *directions;
   guint n_zones;
   FocusZone *zones;
+
+  /* Coarse to fine (see the header). */
+  guint coarse_azimuth, coarse_elevation;      /* grid steps per coarse step */
+  float refine_ratio;           /* 10^(-refine_db / 20) */
+  float *range_weight;          /* [range bin] r^2, as wardcluster's */
+  guint *units;                 /* [direction x zone]: the units to image */
+  guint8 *hot;                  /* [direction x zone]: coarse, above the level */
+  guint8 *imaged;               /* [direction x zone]: imaged in full */
+  guint n_imaged;               /* units imaged by the last call */
 
   guint ifft_size;              /* M */
   guint first_lag;              /* IFFT sample of range bin 0 */
@@ -74,6 +85,11 @@ sonar_imager_params_init_default (SonarImagerParams * p)
   p->range_max = 5.0;
   p->range_resolution = 0.005;
   p->focus_zones = 4;
+  /* sonar-bench's coarse-spacing and refine-db sweeps: 3 degrees (a MIMO
+   * main lobe) and 20 dB (wardcluster's -10 dB with 10 dB to spare) find
+   * every object of Fig. 9 and 10 with the dense image's errors. */
+  p->coarse_spacing = 3.0;
+  p->refine_db = 20.0;
   p->threads = 0;
 }
 
@@ -98,6 +114,10 @@ validate_params (const SonarImagerParams * p, double max_range,
     problem = "the range resolution must be in (0, 1] m";
   else if (p->focus_zones < 1 || p->focus_zones > MAX_FOCUS_ZONES)
     problem = "focus zones must be 1 to 64";
+  else if (!(p->coarse_spacing >= 0.0 && p->coarse_spacing <= 90.0))
+    problem = "the coarse spacing must be 0 to 90 degrees";
+  else if (!(p->refine_db > 0.0 && p->refine_db <= 200.0))
+    problem = "refine-db must be in (0, 200] dB";
   if (problem) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
         "imager: %s", problem);
@@ -203,6 +223,21 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   grid->n_range = (guint) floor (p->range_max / lag_range) - im->first_lag + 1;
 
   init_zones (im, p);
+  /* The coarse grid is every k-th direction, k steps nearest the
+   * spacing; 1 (no coarse pass) on grids as coarse as it. */
+  im->coarse_azimuth = grid->azimuth_step > 0.0 ? (guint) CLAMP (round
+      (p->coarse_spacing / grid->azimuth_step), 1, 64) : 1;
+  im->coarse_elevation = grid->elevation_step > 0.0 ? (guint) CLAMP (round
+      (p->coarse_spacing / grid->elevation_step), 1, 64) : 1;
+  im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
+  im->range_weight = g_new (float, grid->n_range);
+  for (guint i = 0; i < grid->n_range; i++) {
+    const double r = grid->range_first + i * grid->range_step;
+    im->range_weight[i] = (float) (r * r);
+  }
+  im->units = g_new (guint, (gsize) im->n_directions * im->n_zones);
+  im->hot = g_new (guint8, (gsize) im->n_directions * im->n_zones);
+  im->imaged = g_new (guint8, (gsize) im->n_directions * im->n_zones);
 
   im->rescaled = g_new (SonarComplex, (gsize) band->n_bins *
       setup->geometry.n_microphones);
@@ -236,6 +271,10 @@ sonar_imager_free (SonarImager * im)
   }
   g_free (im->zones);
   g_free (im->directions);
+  g_free (im->range_weight);
+  g_free (im->units);
+  g_free (im->hot);
+  g_free (im->imaged);
   if (im->inverse) {
     sonar_fftw_lock ();
     fftwf_destroy_plan (im->inverse);
@@ -273,9 +312,9 @@ data_exponent (const SonarComplex * x, gsize n)
   return exponent;
 }
 
-/* Worker @w's share of a call: directions w, w + n, ... */
+/* Worker @w's share of a call: units w, w + n, ... */
 static void
-image_directions (gpointer data, guint w, guint n_workers)
+image_units (gpointer data, guint w, guint n_workers)
 {
   SonarImager *im = data;
   const ImageJob *job = &im->job;
@@ -291,48 +330,187 @@ image_directions (gpointer data, guint w, guint n_workers)
   const guint n_end = job->emitter < 0 ? g->n_emitters :
       (guint) job->emitter + 1;
 
-  for (guint z = 0; z < im->n_zones; z++) {
-    const FocusZone *zone = &im->zones[z];
+  for (guint u = w; u < job->n_units; u += n_workers) {
+    const guint d = job->units[u] / im->n_zones;
+    const FocusZone *zone = &im->zones[job->units[u] % im->n_zones];
     const guint first = zone->first_range;
     const guint count = zone->end_range - zone->first_range;
+    const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
+    const double *emitter_path = zone->emitter_path +
+        (gsize) d * g->n_emitters;
+    const gsize pixels = (gsize) d * n_range + first;
+
     if (count == 0)
       continue;
-    for (guint d = w; d < im->n_directions; d += n_workers) {
-      const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
-      const double *emitter_path = zone->emitter_path +
-          (gsize) d * g->n_emitters;
-      const gsize pixels = (gsize) d * n_range + first;
+    /* Receive side: once per direction for every hypothesis. */
+    memset (scratch->receive, 0, sizeof (SonarComplex) * n_bins);
+    for (guint j = 0; j < g->n_microphones; j++)
+      sonar_kernel_steer_accumulate (scratch->receive,
+          job->mic_spectra + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
+          dk * mic_path[j]);
 
-      /* Receive side: once per direction for every hypothesis. */
-      memset (scratch->receive, 0, sizeof (SonarComplex) * n_bins);
-      for (guint j = 0; j < g->n_microphones; j++)
-        sonar_kernel_steer_accumulate (scratch->receive,
-            job->mic_spectra + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
-            dk * mic_path[j]);
+    for (guint h = 0; h < job->n_hypotheses; h++) {
+      const double v = job->velocities[h];
+      const double stretch = (c + v) / (c - v); /* 1 / alpha */
 
-      for (guint h = 0; h < job->n_hypotheses; h++) {
-        const double v = job->velocities[h];
-        const double stretch = (c + v) / (c - v);       /* 1 / alpha */
+      memset (scratch->transmit, 0, sizeof (SonarComplex) * n_bins);
+      for (guint n = n_first; n < n_end; n++) {
+        const double path = emitter_path[n] * stretch;
+        sonar_kernel_steer_accumulate_conj (scratch->transmit,
+            job->templates[h] + (gsize) n * n_bins, n_bins, k0 * path,
+            dk * path);
+      }
+      sonar_kernel_multiply (scratch->baseband, scratch->receive,
+          scratch->transmit, n_bins);
+      memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
+          (im->ifft_size - n_bins));
+      fftwf_execute_dft (im->inverse, scratch->baseband, scratch->baseband);
+      sonar_kernel_envelope (job->image + h * job->stride + pixels,
+          scratch->baseband + im->first_lag + first, count, job->scale,
+          job->stride == 0 && h > 0);
+    }
+  }
+}
 
-        memset (scratch->transmit, 0, sizeof (SonarComplex) * n_bins);
-        for (guint n = n_first; n < n_end; n++) {
-          const double path = emitter_path[n] * stretch;
-          sonar_kernel_steer_accumulate_conj (scratch->transmit,
-              job->templates[h] + (gsize) n * n_bins, n_bins, k0 * path,
-              dk * path);
-        }
-        sonar_kernel_multiply (scratch->baseband, scratch->receive,
-            scratch->transmit, n_bins);
-        memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
-            (im->ifft_size - n_bins));
-        fftwf_execute_dft (im->inverse, scratch->baseband,
-            scratch->baseband);
-        sonar_kernel_envelope (job->image + h * job->stride + pixels,
-            scratch->baseband + im->first_lag + first, count, job->scale,
-            job->stride == 0 && h > 0);
+/* Images the @n units listed in im->units. */
+static void
+run_units (SonarImager * im, guint n)
+{
+  im->job.units = im->units;
+  im->job.n_units = n;
+  sonar_workers_run (im->workers, image_units, im);
+  for (guint u = 0; u < n; u++)
+    im->imaged[im->units[u]] = TRUE;
+  im->n_imaged += n;
+}
+
+/* Coarse indices of a grid axis of @n points: every @step-th and the
+ * last. @i lies between coarse indices *lo <= i <= *hi (equal when i is
+ * coarse). */
+static void
+coarse_bracket (guint i, guint n, guint step, guint * lo, guint * hi)
+{
+  if (i % step == 0 || i == n - 1) {
+    *lo = *hi = i;
+  } else {
+    *lo = i - i % step;
+    *hi = MIN (*lo + step, n - 1);
+  }
+}
+
+/* Flags the coarse units whose r^2-weighted peak comes within the refine
+ * level of the coarse image's. */
+static void
+mark_hot_units (SonarImager * im, const float *image, guint n_coarse)
+{
+  const guint n_range = im->grid.n_range;
+  float top = 0.0f, level;
+
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = im->units[u] / im->n_zones;
+    const FocusZone *zone = &im->zones[im->units[u] % im->n_zones];
+    for (guint i = zone->first_range; i < zone->end_range; i++)
+      top = MAX (top, image[(gsize) d * n_range + i] * im->range_weight[i]);
+  }
+  level = top * im->refine_ratio;
+  memset (im->hot, 0, (gsize) im->n_directions * im->n_zones);
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = im->units[u] / im->n_zones;
+    const FocusZone *zone = &im->zones[im->units[u] % im->n_zones];
+    for (guint i = zone->first_range; i < zone->end_range; i++) {
+      if (image[(gsize) d * n_range + i] * im->range_weight[i] >= level) {
+        im->hot[im->units[u]] = TRUE;
+        break;
       }
     }
   }
+}
+
+/* The pixels of the units not imaged, bilinear between the bracketing
+ * coarse directions. */
+static void
+interpolate_rest (SonarImager * im, float *image)
+{
+  const SonarImageGrid *grid = &im->grid;
+  const guint n_range = grid->n_range;
+
+  for (guint e = 0; e < grid->n_elevation; e++) {
+    guint e0, e1;
+    coarse_bracket (e, grid->n_elevation, im->coarse_elevation, &e0, &e1);
+    for (guint a = 0; a < grid->n_azimuth; a++) {
+      const guint d = e * grid->n_azimuth + a;
+      const float te = e1 > e0 ? (float) (e - e0) / (e1 - e0) : 0.0f;
+      guint a0, a1;
+      float ta, w00, w01, w10, w11;
+      const float *p00, *p01, *p10, *p11;
+
+      coarse_bracket (a, grid->n_azimuth, im->coarse_azimuth, &a0, &a1);
+      ta = a1 > a0 ? (float) (a - a0) / (a1 - a0) : 0.0f;
+      w00 = (1 - te) * (1 - ta);
+      w01 = (1 - te) * ta;
+      w10 = te * (1 - ta);
+      w11 = te * ta;
+      p00 = image + (gsize) (e0 * grid->n_azimuth + a0) * n_range;
+      p01 = image + (gsize) (e0 * grid->n_azimuth + a1) * n_range;
+      p10 = image + (gsize) (e1 * grid->n_azimuth + a0) * n_range;
+      p11 = image + (gsize) (e1 * grid->n_azimuth + a1) * n_range;
+      for (guint z = 0; z < im->n_zones; z++) {
+        const FocusZone *zone = &im->zones[z];
+        float *out = image + (gsize) d * n_range;
+        if (im->imaged[d * im->n_zones + z])
+          continue;
+        for (guint i = zone->first_range; i < zone->end_range; i++)
+          out[i] = w00 * p00[i] + w01 * p01[i] + w10 * p10[i] + w11 * p11[i];
+      }
+    }
+  }
+}
+
+/* Coarse directions first, then the units near hot ones, then the rest
+ * interpolated. */
+static void
+image_coarse_to_fine (SonarImager * im, float *image)
+{
+  const SonarImageGrid *grid = &im->grid;
+  guint n = 0, n_coarse;
+
+  for (guint e = 0; e < grid->n_elevation; e++) {
+    guint e0, e1;
+    coarse_bracket (e, grid->n_elevation, im->coarse_elevation, &e0, &e1);
+    for (guint a = 0; a < grid->n_azimuth && e0 == e1; a++) {
+      guint a0, a1;
+      coarse_bracket (a, grid->n_azimuth, im->coarse_azimuth, &a0, &a1);
+      if (a0 == a1)
+        for (guint z = 0; z < im->n_zones; z++)
+          im->units[n++] = (e * grid->n_azimuth + a) * im->n_zones + z;
+    }
+  }
+  n_coarse = n;
+  run_units (im, n_coarse);
+  mark_hot_units (im, image, n_coarse);
+
+  n = 0;
+  for (guint e = 0; e < grid->n_elevation; e++) {
+    guint e0, e1;
+    coarse_bracket (e, grid->n_elevation, im->coarse_elevation, &e0, &e1);
+    for (guint a = 0; a < grid->n_azimuth; a++) {
+      const guint d = e * grid->n_azimuth + a;
+      guint a0, a1;
+      coarse_bracket (a, grid->n_azimuth, im->coarse_azimuth, &a0, &a1);
+      if (a0 == a1 && e0 == e1)
+        continue;
+      for (guint z = 0; z < im->n_zones; z++) {
+        const guint nz = im->n_zones;
+        if (im->hot[(e0 * grid->n_azimuth + a0) * nz + z]
+            || im->hot[(e0 * grid->n_azimuth + a1) * nz + z]
+            || im->hot[(e1 * grid->n_azimuth + a0) * nz + z]
+            || im->hot[(e1 * grid->n_azimuth + a1) * nz + z])
+          im->units[n++] = d * nz + z;
+      }
+    }
+  }
+  run_units (im, n);
+  interpolate_rest (im, image);
 }
 
 /* The images of every hypothesis: their maximum into @image (stride 0),
@@ -345,6 +523,7 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
 {
   const gsize n_data = (gsize) im->setup->geometry.n_microphones *
       im->band.n_bins;
+  const guint n_units = im->n_directions * im->n_zones;
   /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
   float scale = 2.0f / im->band.fft_size;
   /* The envelope squares float sums of up to N J K products: far from
@@ -368,9 +547,16 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   im->job.image = image;
   im->job.stride = stride;
   im->job.scale = scale;
-  sonar_workers_run (im->workers, image_directions, im);
+  memset (im->imaged, 0, n_units);
+  im->n_imaged = 0;
+  if (stride == 0 && im->coarse_azimuth * im->coarse_elevation > 1) {
+    image_coarse_to_fine (im, image);
+  } else {
+    for (guint u = 0; u < n_units; u++)
+      im->units[u] = u;
+    run_units (im, n_units);
+  }
 }
-
 void
 sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
     guint n_hypotheses, const SonarComplex * const *templates,
@@ -388,4 +574,12 @@ sonar_imager_process_each (SonarImager * im,
 {
   image_hypotheses (im, mic_spectra, n_hypotheses, templates, velocities,
       emitter, images, stride);
+}
+
+void
+sonar_imager_last_work (const SonarImager * im, guint * imaged,
+    guint * dense)
+{
+  *imaged = im->n_imaged;
+  *dense = im->n_directions * im->n_zones;
 }

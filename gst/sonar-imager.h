@@ -15,6 +15,15 @@
  *
  * The image is the envelope of the delay-and-sum output, the magnitude of
  * the analytic signal, sampled on a regular range grid.
+ *
+ * Coarse to fine: a scene's echoes fill few directions. The image is made
+ * first on a coarse grid, every k-th direction along azimuth and
+ * elevation, k grid steps nearest coarse_spacing (about a main lobe);
+ * the directions between coarse ones are then imaged in full only in the
+ * range zones where a bracketing coarse direction comes within refine_db
+ * of the coarse image's maximum (both weighted by r^2, as wardcluster
+ * compensates range); elsewhere they are interpolated from the coarse
+ * ones. Work grows with what the scene holds, not with the grid.
  */
 #ifndef SONAR_IMAGER_H
 #define SONAR_IMAGER_H
@@ -52,11 +61,15 @@ typedef struct
   double range_min, range_max;  /* m */
   double range_resolution;      /* m: the range step is at most this */
   guint focus_zones;            /* >= 1 */
+  double coarse_spacing;        /* degrees; 0 or less than 1.5 grid steps:
+                                 * every direction in full */
+  double refine_db;             /* > 0: level below the coarse maximum (r^2
+                                 * weighted) that is imaged in full */
   guint threads;                /* sharing the directions; 0: one per processor */
 } SonarImagerParams;
 
-/* 2-D fan: -90..90 degrees in 181 directions, 0.3-5 m, 4 focus zones, a
- * thread per processor. */
+/* 2-D fan: -90..90 degrees in 181 directions, 0.3-5 m, 4 focus zones,
+ * coarse spacing 3 degrees refined 20 dB down, a thread per processor. */
 void sonar_imager_params_init_default (SonarImagerParams * params);
 
 typedef struct _SonarImager SonarImager;
@@ -80,11 +93,17 @@ void sonar_imager_process (SonarImager * imager,
     int emitter, float *image);
 
 /* Same, but one image per hypothesis: hypothesis h's at images + h *
- * stride (stride >= the grid's size, in floats): the datacube. */
+ * stride (stride >= the grid's size, in floats): the datacube, imaged at
+ * every direction (no coarse pass). */
 void sonar_imager_process_each (SonarImager * imager,
     const SonarComplex * mic_spectra, guint n_hypotheses,
     const SonarComplex * const *templates, const double *velocities,
     int emitter, float *images, gsize stride);
+
+/* Direction x zone units the last process () imaged in full, and how many
+ * the dense grid has: the work done against the work saved. */
+void sonar_imager_last_work (const SonarImager * imager, guint * imaged,
+    guint * dense);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarImager, sonar_imager_free)
 

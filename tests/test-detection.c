@@ -189,6 +189,8 @@ window_params (SonarImagerParams * p, double azimuth_min, double azimuth_max,
    * pixel values sample peaks to a few tenths of a dB. */
   p->range_resolution = 0.001;
   p->focus_zones = zones;
+  /* These tests measure the beamformer itself: every pixel in full. */
+  p->coarse_spacing = 0.0;
 }
 
 /* 1. The bank's peak: for a still sensor and a noise-free point moving at

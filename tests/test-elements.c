@@ -774,10 +774,13 @@ test_datacube (void)
       "azimuth-count=31 range-max=3";
   g_autofree char *cube_launch = g_strdup_printf ("%s mode=datacube ! "
       "appsink name=sink sync=false", source);
+  /* Every direction imaged in full (coarse-spacing=0): then the modes agree
+   * bit for bit. */
   g_autofree char *det_launch = g_strdup_printf ("%s mode=detection "
-      "hypothesis-spacing=0.05 ! appsink name=sink sync=false", source);
+      "hypothesis-spacing=0.05 coarse-spacing=0 ! appsink name=sink sync=false",
+      source);
   g_autofree char *fixed_launch = g_strdup_printf ("%s mode=fixed "
-      "velocity=0 ! appsink name=sink sync=false", source);
+      "velocity=0 coarse-spacing=0 ! appsink name=sink sync=false", source);
   Run *cube = run_pipeline (cube_launch);
   Run *det = run_pipeline (det_launch);
   Run *fixed = run_pipeline (fixed_launch);

@@ -12,6 +12,10 @@
 #define MAX_DIRECTIONS 65536
 #define MAX_FOCUS_ZONES 64
 
+#define UNIT(im, d, z) ((d) * ((im)->n_zones + 1) + (z))
+#define UNIT_DIRECTION(im, u) ((u) / ((im)->n_zones + 1))
+#define UNIT_ZONE(im, u) ((u) % ((im)->n_zones + 1))
+
 typedef struct
 {
   guint first_range, end_range; /* range bins [first, end) of the grid */
@@ -31,7 +35,7 @@ typedef struct
 /* One call's arguments, for the workers. */
 typedef struct
 {
-  const guint *units;           /* direction * n_zones + zone */
+  const guint *units;           /* UNIT (direction, zone) */
   guint n_units;
   const SonarComplex *mic_spectra;
   guint n_hypotheses;
@@ -53,7 +57,8 @@ struct _SonarImager
   guint n_zones;
   FocusZone *zones;
 
-  /* Coarse to fine (see the header). */
+  /* Coarse to fine (see the header). Units of work, [direction x zone]
+   * arrays: UNIT (d, z), z <= n_zones, the coarse zone n_zones. */
   guint coarse_azimuth, coarse_elevation;      /* grid steps per coarse step */
   float refine_ratio;           /* 10^(-refine_db / 20) */
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
@@ -132,44 +137,59 @@ validate_params (const SonarImagerParams * p, double max_range,
   return TRUE;
 }
 
+/* A zone of range bins [first, end) focused at @focus m. */
+static void
+init_zone (SonarImager * im, FocusZone * zone, double focus, guint first,
+    guint end)
+{
+  const SonarGeometry *g = &im->setup->geometry;
+
+  zone->focus = focus;
+  zone->first_range = first;
+  zone->end_range = end;
+  zone->mic_path = g_new (double, (gsize) im->n_directions *
+      g->n_microphones);
+  zone->emitter_path = g_new (double, (gsize) im->n_directions *
+      g->n_emitters);
+  for (guint d = 0; d < im->n_directions; d++) {
+    const SonarVec3 point = sonar_vec3_scale (im->directions[d], focus);
+    for (guint j = 0; j < g->n_microphones; j++)
+      zone->mic_path[(gsize) d * g->n_microphones + j] =
+          sonar_vec3_norm (sonar_vec3_sub (point, g->microphones[j])) - focus;
+    for (guint n = 0; n < g->n_emitters; n++)
+      zone->emitter_path[(gsize) d * g->n_emitters + n] =
+          sonar_vec3_norm (sonar_vec3_sub (point, g->emitters[n])) - focus;
+  }
+}
+
+/* The focus zones, then (when there is a coarse pass) the coarse zone:
+ * the whole range focused as one zone would be. */
 static void
 init_zones (SonarImager * im, const SonarImagerParams * p)
 {
-  const SonarGeometry *g = &im->setup->geometry;
   const double inv_near = 1.0 / p->range_min, inv_far = 1.0 / p->range_max;
+  const guint n_range = im->grid.n_range;
 
   im->n_zones = p->focus_zones;
-  im->zones = g_new0 (FocusZone, im->n_zones);
+  im->zones = g_new0 (FocusZone, im->n_zones + 1);
   for (guint z = 0; z < im->n_zones; z++) {
-    FocusZone *zone = &im->zones[z];
     /* Focusing errors scale with 1 / r: zones are even in 1 / r, focused
      * at their middle in 1 / r. */
     const double inv_a = inv_near + (inv_far - inv_near) * z / im->n_zones;
     const double inv_b = inv_near + (inv_far - inv_near) * (z + 1) /
         im->n_zones;
     const double r_a = 1.0 / inv_a, r_b = 1.0 / inv_b;
-    double r = 2.0 / (inv_a + inv_b);
 
-    zone->focus = r;
-    zone->first_range = (guint) CLAMP (ceil ((r_a - im->grid.range_first)
-            / im->grid.range_step), 0, im->grid.n_range);
-    zone->end_range = z + 1 == im->n_zones ? im->grid.n_range :
-        (guint) CLAMP (ceil ((r_b - im->grid.range_first)
-            / im->grid.range_step), 0, im->grid.n_range);
-    zone->mic_path = g_new (double, (gsize) im->n_directions *
-        g->n_microphones);
-    zone->emitter_path = g_new (double, (gsize) im->n_directions *
-        g->n_emitters);
-    for (guint d = 0; d < im->n_directions; d++) {
-      const SonarVec3 point = sonar_vec3_scale (im->directions[d], r);
-      for (guint j = 0; j < g->n_microphones; j++)
-        zone->mic_path[(gsize) d * g->n_microphones + j] =
-            sonar_vec3_norm (sonar_vec3_sub (point, g->microphones[j])) - r;
-      for (guint n = 0; n < g->n_emitters; n++)
-        zone->emitter_path[(gsize) d * g->n_emitters + n] =
-            sonar_vec3_norm (sonar_vec3_sub (point, g->emitters[n])) - r;
-    }
+    init_zone (im, &im->zones[z], 2.0 / (inv_a + inv_b),
+        (guint) CLAMP (ceil ((r_a - im->grid.range_first) /
+                im->grid.range_step), 0, n_range),
+        z + 1 == im->n_zones ? n_range :
+        (guint) CLAMP (ceil ((r_b - im->grid.range_first) /
+                im->grid.range_step), 0, n_range));
   }
+  if (im->coarse_azimuth * im->coarse_elevation > 1)
+    init_zone (im, &im->zones[im->n_zones], 2.0 / (inv_near + inv_far), 0,
+        n_range);
 }
 
 SonarImager *
@@ -222,22 +242,22 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   grid->range_first = im->first_lag * lag_range;
   grid->n_range = (guint) floor (p->range_max / lag_range) - im->first_lag + 1;
 
-  init_zones (im, p);
   /* The coarse grid is every k-th direction, k steps nearest the
    * spacing; 1 (no coarse pass) on grids as coarse as it. */
   im->coarse_azimuth = grid->azimuth_step > 0.0 ? (guint) CLAMP (round
       (p->coarse_spacing / grid->azimuth_step), 1, 64) : 1;
   im->coarse_elevation = grid->elevation_step > 0.0 ? (guint) CLAMP (round
       (p->coarse_spacing / grid->elevation_step), 1, 64) : 1;
+  init_zones (im, p);
   im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
   im->range_weight = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++) {
     const double r = grid->range_first + i * grid->range_step;
     im->range_weight[i] = (float) (r * r);
   }
-  im->units = g_new (guint, (gsize) im->n_directions * im->n_zones);
-  im->hot = g_new (guint8, (gsize) im->n_directions * im->n_zones);
-  im->imaged = g_new (guint8, (gsize) im->n_directions * im->n_zones);
+  im->units = g_new (guint, (gsize) im->n_directions * (im->n_zones + 1));
+  im->hot = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
+  im->imaged = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
 
   im->rescaled = g_new (SonarComplex, (gsize) band->n_bins *
       setup->geometry.n_microphones);
@@ -265,7 +285,7 @@ sonar_imager_free (SonarImager * im)
 {
   if (!im)
     return;
-  for (guint z = 0; z < im->n_zones; z++) {
+  for (guint z = 0; z <= im->n_zones && im->zones; z++) {
     g_free (im->zones[z].mic_path);
     g_free (im->zones[z].emitter_path);
   }
@@ -331,8 +351,8 @@ image_units (gpointer data, guint w, guint n_workers)
       (guint) job->emitter + 1;
 
   for (guint u = w; u < job->n_units; u += n_workers) {
-    const guint d = job->units[u] / im->n_zones;
-    const FocusZone *zone = &im->zones[job->units[u] % im->n_zones];
+    const guint d = UNIT_DIRECTION (im, job->units[u]);
+    const FocusZone *zone = &im->zones[UNIT_ZONE (im, job->units[u])];
     const guint first = zone->first_range;
     const guint count = zone->end_range - zone->first_range;
     const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
@@ -398,119 +418,120 @@ coarse_bracket (guint i, guint n, guint step, guint * lo, guint * hi)
   }
 }
 
-/* Flags the coarse units whose r^2-weighted peak comes within the refine
- * level of the coarse image's. */
+/* The four coarse directions around direction @d (repeated where @d is
+ * on a coarse row or column). */
 static void
-mark_hot_units (SonarImager * im, const float *image, guint n_coarse)
+coarse_corners (const SonarImager * im, guint d, guint corners[4])
+{
+  const guint n_az = im->grid.n_azimuth;
+  guint a0, a1, e0, e1;
+
+  coarse_bracket (d % n_az, n_az, im->coarse_azimuth, &a0, &a1);
+  coarse_bracket (d / n_az, im->grid.n_elevation, im->coarse_elevation, &e0,
+      &e1);
+  corners[0] = e0 * n_az + a0;
+  corners[1] = e0 * n_az + a1;
+  corners[2] = e1 * n_az + a0;
+  corners[3] = e1 * n_az + a1;
+}
+
+/* Flags hot the (coarse direction, zone) whose r^2-weighted peak in the
+ * coarse image comes within the refine level of the coarse image's. */
+static void
+mark_hot (SonarImager * im, const float *image, guint n_coarse)
 {
   const guint n_range = im->grid.n_range;
   float top = 0.0f, level;
 
   for (guint u = 0; u < n_coarse; u++) {
-    const guint d = im->units[u] / im->n_zones;
-    const FocusZone *zone = &im->zones[im->units[u] % im->n_zones];
-    for (guint i = zone->first_range; i < zone->end_range; i++)
-      top = MAX (top, image[(gsize) d * n_range + i] * im->range_weight[i]);
+    const float *pixels = image + (gsize) UNIT_DIRECTION (im, im->units[u]) *
+        n_range;
+    for (guint i = 0; i < n_range; i++)
+      top = MAX (top, pixels[i] * im->range_weight[i]);
   }
   level = top * im->refine_ratio;
-  memset (im->hot, 0, (gsize) im->n_directions * im->n_zones);
+  memset (im->hot, 0, (gsize) im->n_directions * (im->n_zones + 1));
   for (guint u = 0; u < n_coarse; u++) {
-    const guint d = im->units[u] / im->n_zones;
-    const FocusZone *zone = &im->zones[im->units[u] % im->n_zones];
-    for (guint i = zone->first_range; i < zone->end_range; i++) {
-      if (image[(gsize) d * n_range + i] * im->range_weight[i] >= level) {
-        im->hot[im->units[u]] = TRUE;
-        break;
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    const float *pixels = image + (gsize) d * n_range;
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *zone = &im->zones[z];
+      for (guint i = zone->first_range; i < zone->end_range; i++) {
+        if (pixels[i] * im->range_weight[i] >= level) {
+          im->hot[UNIT (im, d, z)] = TRUE;
+          break;
+        }
       }
     }
   }
 }
 
-/* The pixels of the units not imaged, bilinear between the bracketing
- * coarse directions. */
-static void
-interpolate_rest (SonarImager * im, float *image)
-{
-  const SonarImageGrid *grid = &im->grid;
-  const guint n_range = grid->n_range;
-
-  for (guint e = 0; e < grid->n_elevation; e++) {
-    guint e0, e1;
-    coarse_bracket (e, grid->n_elevation, im->coarse_elevation, &e0, &e1);
-    for (guint a = 0; a < grid->n_azimuth; a++) {
-      const guint d = e * grid->n_azimuth + a;
-      const float te = e1 > e0 ? (float) (e - e0) / (e1 - e0) : 0.0f;
-      guint a0, a1;
-      float ta, w00, w01, w10, w11;
-      const float *p00, *p01, *p10, *p11;
-
-      coarse_bracket (a, grid->n_azimuth, im->coarse_azimuth, &a0, &a1);
-      ta = a1 > a0 ? (float) (a - a0) / (a1 - a0) : 0.0f;
-      w00 = (1 - te) * (1 - ta);
-      w01 = (1 - te) * ta;
-      w10 = te * (1 - ta);
-      w11 = te * ta;
-      p00 = image + (gsize) (e0 * grid->n_azimuth + a0) * n_range;
-      p01 = image + (gsize) (e0 * grid->n_azimuth + a1) * n_range;
-      p10 = image + (gsize) (e1 * grid->n_azimuth + a0) * n_range;
-      p11 = image + (gsize) (e1 * grid->n_azimuth + a1) * n_range;
-      for (guint z = 0; z < im->n_zones; z++) {
-        const FocusZone *zone = &im->zones[z];
-        float *out = image + (gsize) d * n_range;
-        if (im->imaged[d * im->n_zones + z])
-          continue;
-        for (guint i = zone->first_range; i < zone->end_range; i++)
-          out[i] = w00 * p00[i] + w01 * p01[i] + w10 * p10[i] + w11 * p11[i];
-      }
-    }
-  }
-}
-
-/* Coarse directions first, then the units near hot ones, then the rest
- * interpolated. */
+/* Coarse pass: the coarse directions over the whole range, focused as one
+ * zone (at worst 0.8 dB off the zones' focus at 0.3 m, measured by
+ * test-detection). Fine pass: every (direction, zone) with a hot coarse
+ * corner, the coarse directions included, with the zone's own focus.
+ * Then the pixels of the other fine directions are interpolated bilinearly
+ * between their coarse corners. */
 static void
 image_coarse_to_fine (SonarImager * im, float *image)
 {
-  const SonarImageGrid *grid = &im->grid;
-  guint n = 0, n_coarse;
+  const guint n_range = im->grid.n_range, coarse = im->n_zones;
+  guint corners[4], n = 0, n_coarse;
 
-  for (guint e = 0; e < grid->n_elevation; e++) {
-    guint e0, e1;
-    coarse_bracket (e, grid->n_elevation, im->coarse_elevation, &e0, &e1);
-    for (guint a = 0; a < grid->n_azimuth && e0 == e1; a++) {
-      guint a0, a1;
-      coarse_bracket (a, grid->n_azimuth, im->coarse_azimuth, &a0, &a1);
-      if (a0 == a1)
-        for (guint z = 0; z < im->n_zones; z++)
-          im->units[n++] = (e * grid->n_azimuth + a) * im->n_zones + z;
-    }
+  for (guint d = 0; d < im->n_directions; d++) {
+    coarse_corners (im, d, corners);
+    if (corners[0] == d && corners[3] == d)
+      im->units[n++] = UNIT (im, d, coarse);
   }
   n_coarse = n;
   run_units (im, n_coarse);
-  mark_hot_units (im, image, n_coarse);
+  mark_hot (im, image, n_coarse);
 
   n = 0;
-  for (guint e = 0; e < grid->n_elevation; e++) {
-    guint e0, e1;
-    coarse_bracket (e, grid->n_elevation, im->coarse_elevation, &e0, &e1);
-    for (guint a = 0; a < grid->n_azimuth; a++) {
-      const guint d = e * grid->n_azimuth + a;
-      guint a0, a1;
-      coarse_bracket (a, grid->n_azimuth, im->coarse_azimuth, &a0, &a1);
-      if (a0 == a1 && e0 == e1)
-        continue;
-      for (guint z = 0; z < im->n_zones; z++) {
-        const guint nz = im->n_zones;
-        if (im->hot[(e0 * grid->n_azimuth + a0) * nz + z]
-            || im->hot[(e0 * grid->n_azimuth + a1) * nz + z]
-            || im->hot[(e1 * grid->n_azimuth + a0) * nz + z]
-            || im->hot[(e1 * grid->n_azimuth + a1) * nz + z])
-          im->units[n++] = d * nz + z;
-      }
+  for (guint d = 0; d < im->n_directions; d++) {
+    coarse_corners (im, d, corners);
+    /* One zone is the coarse zone: its coarse directions are done. */
+    if (im->n_zones == 1 && corners[0] == d && corners[3] == d)
+      continue;
+    for (guint z = 0; z < im->n_zones; z++) {
+      if (im->hot[UNIT (im, corners[0], z)]
+          || im->hot[UNIT (im, corners[1], z)]
+          || im->hot[UNIT (im, corners[2], z)]
+          || im->hot[UNIT (im, corners[3], z)])
+        im->units[n++] = UNIT (im, d, z);
     }
   }
   run_units (im, n);
-  interpolate_rest (im, image);
+
+  for (guint d = 0; d < im->n_directions; d++) {
+    float *out = image + (gsize) d * n_range;
+    const float *p[4];
+    float w[4], ta, te;
+    guint a = d % im->grid.n_azimuth, e = d / im->grid.n_azimuth;
+
+    coarse_corners (im, d, corners);
+    if (corners[0] == d && corners[3] == d)
+      continue;
+    ta = corners[1] > corners[0] ? (float) (a - corners[0] %
+        im->grid.n_azimuth) / (corners[1] - corners[0]) : 0.0f;
+    te = corners[2] > corners[0] ? (float) (e - corners[0] /
+        im->grid.n_azimuth) / ((corners[2] - corners[0]) /
+        im->grid.n_azimuth) : 0.0f;
+    w[0] = (1 - te) * (1 - ta);
+    w[1] = (1 - te) * ta;
+    w[2] = te * (1 - ta);
+    w[3] = te * ta;
+    for (guint k = 0; k < 4; k++)
+      p[k] = image + (gsize) corners[k] * n_range;
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *zone = &im->zones[z];
+      if (im->imaged[UNIT (im, d, z)])
+        continue;
+      for (guint i = zone->first_range; i < zone->end_range; i++)
+        out[i] = w[0] * p[0][i] + w[1] * p[1][i] + w[2] * p[2][i] +
+            w[3] * p[3][i];
+    }
+  }
 }
 
 /* The images of every hypothesis: their maximum into @image (stride 0),
@@ -523,7 +544,7 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
 {
   const gsize n_data = (gsize) im->setup->geometry.n_microphones *
       im->band.n_bins;
-  const guint n_units = im->n_directions * im->n_zones;
+  const gsize n_units = (gsize) im->n_directions * (im->n_zones + 1);
   /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
   float scale = 2.0f / im->band.fft_size;
   /* The envelope squares float sums of up to N J K products: far from
@@ -552,9 +573,11 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   if (stride == 0 && im->coarse_azimuth * im->coarse_elevation > 1) {
     image_coarse_to_fine (im, image);
   } else {
-    for (guint u = 0; u < n_units; u++)
-      im->units[u] = u;
-    run_units (im, n_units);
+    guint n = 0;
+    for (guint d = 0; d < im->n_directions; d++)
+      for (guint z = 0; z < im->n_zones; z++)
+        im->units[n++] = UNIT (im, d, z);
+    run_units (im, n);
   }
 }
 void

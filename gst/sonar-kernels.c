@@ -132,33 +132,51 @@ static const VecIndex odd = { 1, 3, 5, 7, 9, 11, 13, 15 };
 static const VecIndex low = { 0, 8, 1, 9, 2, 10, 3, 11 };
 static const VecIndex high = { 4, 12, 5, 13, 6, 14, 7, 15 };
 
+/* The seeds of successive reseeds come from a rotation in double
+ * precision, not from a sincos each: over a spectrum's few dozen reseeds
+ * its rounding stays near 1e-15, and the sincos calls cost as much as the
+ * bins between them. */
 typedef struct
 {
   Vec re, im;
   double offset_re[LANES], offset_im[LANES];    /* exp(i l dphase) */
   float step_re, step_im;       /* rotation by LANES bins */
+  double seed_re, seed_im;      /* exp(i phase) of the next reseed's bin */
+  double jump_re, jump_im;      /* rotation by RESEED_INTERVAL bins */
 } Lanes;
 
+/* Lanes for a ramp starting at @phase0. */
 static inline void
-lanes_init (Lanes * p, double dphase)
+lanes_init (Lanes * p, double phase0, double dphase)
 {
-  for (int l = 0; l < LANES; l++) {
-    p->offset_re[l] = cos (l * dphase);
-    p->offset_im[l] = sin (l * dphase);
+  const double c = cos (dphase), s = sin (dphase);
+
+  p->offset_re[0] = 1.0;
+  p->offset_im[0] = 0.0;
+  for (int l = 1; l < LANES; l++) {
+    p->offset_re[l] = p->offset_re[l - 1] * c - p->offset_im[l - 1] * s;
+    p->offset_im[l] = p->offset_re[l - 1] * s + p->offset_im[l - 1] * c;
   }
   p->step_re = (float) cos (LANES * dphase);
   p->step_im = (float) sin (LANES * dphase);
+  p->seed_re = cos (phase0);
+  p->seed_im = sin (phase0);
+  p->jump_re = cos (RESEED_INTERVAL * dphase);
+  p->jump_im = sin (RESEED_INTERVAL * dphase);
 }
 
-/* Lane l = exp(i (phase + l dphase)), from one sincos in double. */
+/* Lane l = exp(i (phase + l dphase)) at the next reseed's bin (every
+ * RESEED_INTERVAL bins from the first). */
 static inline void
-lanes_seed (Lanes * p, double phase, double dphase)
+lanes_seed (Lanes * p)
 {
-  const double c = cos (phase), s = sin (phase);
+  const double c = p->seed_re, s = p->seed_im;
   for (int l = 0; l < LANES; l++) {
     p->re[l] = (float) (c * p->offset_re[l] - s * p->offset_im[l]);
     p->im[l] = (float) (c * p->offset_im[l] + s * p->offset_re[l]);
   }
+  p->seed_re = c * p->jump_re - s * p->jump_im;
+  p->seed_im = c * p->jump_im + s * p->jump_re;
 }
 
 /* The vector helpers are macros, not functions: a function compiled for the
@@ -195,10 +213,10 @@ steer_accumulate_fast (SonarComplex * acc, const SonarComplex * x, guint n,
   const float sign = conj_x ? -1.0f : 1.0f;
   Lanes p;
 
-  lanes_init (&p, dphase);
+  lanes_init (&p, phase0, dphase);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p, phase0 + k0 * dphase, dphase);
+    lanes_seed (&p);
     for (guint k = k0; k < k1; k += LANES) {
       Vec xr, xi, ar, ai;
       LOAD_SPLIT (x + k, xr, xi);
@@ -225,10 +243,10 @@ steer_dot_conj_fast (const SonarComplex * a, const SonarComplex * b,
   SonarComplex sum = 0.0f;
   Lanes p;
 
-  lanes_init (&p, dphase);
+  lanes_init (&p, phase0, dphase);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p, phase0 + k0 * dphase, dphase);
+    lanes_seed (&p);
     for (guint k = k0; k < k1; k += LANES) {
       Vec ar, ai, br, bi, tr, ti;
       LOAD_SPLIT (a + k, ar, ai);
@@ -258,10 +276,10 @@ steer_block_sums_conj_fast (SonarComplex * out, const SonarComplex * a,
   const guint whole = n - n % block;
   Lanes p;
 
-  lanes_init (&p, dphase);
+  lanes_init (&p, phase0, dphase);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p, phase0 + k0 * dphase, dphase);
+    lanes_seed (&p);
     for (guint kb = k0; kb < k1; kb += block) {
       Vec sum_re = { 0 }, sum_im = { 0 };
       SonarComplex sum = 0.0f;
@@ -298,10 +316,10 @@ steer_sum_fast (const SonarComplex * x, guint n, double phase0,
   SonarComplex sum = 0.0f;
   Lanes p;
 
-  lanes_init (&p, dphase);
+  lanes_init (&p, phase0, dphase);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p, phase0 + k0 * dphase, dphase);
+    lanes_seed (&p);
     for (guint k = k0; k < k1; k += LANES) {
       Vec xr, xi;
       LOAD_SPLIT (x + k, xr, xi);

@@ -257,8 +257,9 @@ test_point_reflectors_3d (void)
 /* Compares the coarse-to-fine image (the default) with the dense one
  * (coarse_spacing 0) of the same ping: every pixel wardcluster could keep
  * (r^2-weighted, within its default -10 dB of the maximum) is imaged in
- * full, so bit-identical; a scene of a few objects costs well under half
- * the dense work. */
+ * full, so bit-identical; the work is at most @max_work_fraction of the
+ * dense image's (measured: 47 % for four objects, 11 % for one, 13 % in
+ * 3-D for two). */
 static void
 check_coarse_to_fine (Chain * c, SonarDopplerBank * bank,
     const SonarImagerParams * dense_params, const char *json,
@@ -323,8 +324,8 @@ test_coarse_to_fine (void)
   chain_init (&c, 4100);
   bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
   sonar_imager_params_init_default (&p);
-  check_coarse_to_fine (&c, bank, &p, scene, 0.75);
-  check_coarse_to_fine (&c, bank, &p, sparse, 0.5);
+  check_coarse_to_fine (&c, bank, &p, scene, 0.6);
+  check_coarse_to_fine (&c, bank, &p, sparse, 0.2);
   /* 3-D at 2 degrees over +-30 x +-20 degrees: a coarse grid of 4. */
   p.n_azimuth = 31;
   p.azimuth_min = -30;
@@ -332,7 +333,7 @@ test_coarse_to_fine (void)
   p.n_elevation = 21;
   p.elevation_min = -20;
   p.elevation_max = 20;
-  check_coarse_to_fine (&c, bank, &p, scene_3d, 0.5);
+  check_coarse_to_fine (&c, bank, &p, scene_3d, 0.25);
   chain_clear (&c);
 }
 

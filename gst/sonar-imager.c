@@ -235,7 +235,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   period_range = 0.5 * c * band->fft_size / fs;
   min_ifft = MAX (band->n_bins, (guint) ceil (period_range /
           p->range_resolution));
-  im->ifft_size = sonar_fft_good_size (min_ifft);
+  im->ifft_size = sonar_fft_fast_size (min_ifft);
   lag_range = period_range / im->ifft_size;
   grid->range_step = lag_range;
   im->first_lag = (guint) ceil (p->range_min / lag_range);

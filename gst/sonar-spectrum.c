@@ -36,6 +36,16 @@ sonar_fft_good_size (guint n)
   }
 }
 
+guint
+sonar_fft_fast_size (guint n)
+{
+  guint power = 1;
+
+  while (power < n && 3 * power < n)
+    power *= 2;
+  return power >= n ? power : 3 * power;
+}
+
 void
 sonar_band_init (SonarBand * band, double sample_rate, guint min_fft_size,
     double low, double high)

@@ -49,6 +49,7 @@ enum
   PROP_MIN_AGREEING_EMITTERS,
   PROP_MIN_COHERENCE,
   PROP_SECOND_PEAK,
+  PROP_EMITTERS,
   PROP_KEEP_REJECTED,
   PROP_THREADS,
   PROP_POST_MESSAGES,
@@ -109,7 +110,9 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
       &self->grid, &params, threads, error);
   if (!self->pool)
     return NULL;
-  self->n_emitters = gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
+  /* Confidence is the share of the emitters that enter the product. */
+  self->n_emitters = params.emitters ? params.emitters :
+      gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }
 
@@ -226,6 +229,9 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
     case PROP_SECOND_PEAK:
       p->second_peak_db = g_value_get_double (value);
       break;
+    case PROP_EMITTERS:
+      p->emitters = g_value_get_uint (value);
+      break;
     case PROP_KEEP_REJECTED:
       self->keep_rejected = g_value_get_boolean (value);
       break;
@@ -271,6 +277,9 @@ gst_velocity_est_get_property (GObject * object, guint prop_id,
       break;
     case PROP_SECOND_PEAK:
       g_value_set_double (value, p->second_peak_db);
+      break;
+    case PROP_EMITTERS:
+      g_value_set_uint (value, p->emitters);
       break;
     case PROP_KEEP_REJECTED:
       g_value_set_boolean (value, self->keep_rejected);
@@ -359,6 +368,12 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "Doppler-ACF peak at most this many dB (per emitter) below the "
           "first, a main lobe away, is a second reflector in the centroid",
           0.01, 100.0, d.second_peak_db, flags));
+  g_object_class_install_property (gobject_class, PROP_EMITTERS,
+      g_param_spec_uint ("emitters", "Emitters", "Only the first this many "
+          "emitters' Doppler-ACF curves enter the product and the "
+          "false-positive tests (0: all); fewer is cheaper and less "
+          "selective, more than the sensor has is an error at start",
+          0, 64, d.emitters, flags));
   g_object_class_install_property (gobject_class, PROP_KEEP_REJECTED,
       g_param_spec_boolean ("keep-rejected", "Keep rejected", "Report the "
           "centroids that fail the false-positive tests too, with "

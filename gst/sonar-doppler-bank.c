@@ -25,9 +25,40 @@ sonar_doppler_scale (double speed_of_sound, double v)
   return (speed_of_sound - v) / (speed_of_sound + v);
 }
 
+/* Emission @s (@length samples) at @position samples, read as @interp
+ * says (@band_limited for SONAR_TEMPLATE_BAND_LIMITED). */
+static float
+emission_at (const float *s, guint length, const SonarInterp * band_limited,
+    SonarTemplateInterp interp, double position)
+{
+  const double i = floor (position);
+  const guint k = (guint) i;
+  const float f = (float) (position - i);
+
+  switch (interp) {
+    case SONAR_TEMPLATE_LINEAR:
+      return (k < length ? (1.0f - f) * s[k] : 0.0f) +
+          (k + 1 < length ? f * s[k + 1] : 0.0f);
+    case SONAR_TEMPLATE_NEAREST:
+      return f < 0.5f ? (k < length ? s[k] : 0.0f) :
+          (k + 1 < length ? s[k + 1] : 0.0f);
+    case SONAR_TEMPLATE_BAND_LIMITED:
+    default:
+      return sonar_interp_at (band_limited, position);
+  }
+}
+
 SonarDopplerBank *
 sonar_doppler_bank_new (SonarSetup * setup, double v_min, double v_max,
     double v_step, GError ** error)
+{
+  return sonar_doppler_bank_new_with_interp (setup, v_min, v_max, v_step,
+      SONAR_TEMPLATE_BAND_LIMITED, error);
+}
+
+SonarDopplerBank *
+sonar_doppler_bank_new_with_interp (SonarSetup * setup, double v_min,
+    double v_max, double v_step, SonarTemplateInterp interp, GError ** error)
 {
   const double c = setup->speed_of_sound;
   const guint n_emitters = setup->geometry.n_emitters;
@@ -69,8 +100,9 @@ sonar_doppler_bank_new (SonarSetup * setup, double v_min, double v_max,
       bank->max_length);
 
   for (guint n = 0; n < n_emitters; n++) {
-    g_autoptr (SonarInterp) interp =
-        sonar_interp_new (sonar_setup_waveform (setup, n), length);
+    const float *emission = sonar_setup_waveform (setup, n);
+    g_autoptr (SonarInterp) band_limited = sonar_interp_new (emission,
+        length);
     for (guint i = 0; i < bank->n_velocities; i++) {
       const double alpha = sonar_doppler_scale (c,
           sonar_doppler_bank_velocity (bank, i));
@@ -78,7 +110,8 @@ sonar_doppler_bank_new (SonarSetup * setup, double v_min, double v_max,
       float *t = bank->templates + ((gsize) n * bank->n_velocities + i) *
           bank->max_length;
       for (guint k = 0; k < bank->lengths[i]; k++)
-        t[k] = gain * sonar_interp_at (interp, alpha * k);
+        t[k] = gain * emission_at (emission, length, band_limited, interp,
+            alpha * k);
     }
   }
   return bank;

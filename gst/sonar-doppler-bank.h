@@ -23,9 +23,22 @@ G_BEGIN_DECLS
 
 typedef struct _SonarDopplerBank SonarDopplerBank;
 
+/* How a template reads the emission between its samples. */
+typedef enum
+{
+  SONAR_TEMPLATE_BAND_LIMITED,  /* sonar-interp.h: -96 dB, the default */
+  SONAR_TEMPLATE_LINEAR,        /* straight lines between samples */
+  SONAR_TEMPLATE_NEAREST,       /* the nearest sample */
+} SonarTemplateInterp;
+
 /* Velocities min, min + step, ..., up to max (m/s). */
 SonarDopplerBank *sonar_doppler_bank_new (SonarSetup * setup, double v_min,
     double v_max, double v_step, GError ** error);
+/* Same, templates read with @interp: the cheaper ones only measure what
+ * the accuracy of the templates is worth (sonar-bench). */
+SonarDopplerBank *sonar_doppler_bank_new_with_interp (SonarSetup * setup,
+    double v_min, double v_max, double v_step, SonarTemplateInterp interp,
+    GError ** error);
 SonarDopplerBank *sonar_doppler_bank_ref (SonarDopplerBank * bank);
 void sonar_doppler_bank_unref (SonarDopplerBank * bank);
 

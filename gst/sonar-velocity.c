@@ -62,6 +62,7 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->min_agreeing_emitters = 5;
   p->min_coherence = 0.8;
   p->second_peak_db = 3.0;
+  p->emitters = 0;
 }
 
 SonarVelocityEstimator *
@@ -89,6 +90,12 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
     return NULL;
   }
   setup = sonar_doppler_bank_get_setup (bank);
+  if (params->emitters > setup->geometry.n_emitters) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "velocity: emitters is %u, the set-up has only %u", params->emitters,
+        setup->geometry.n_emitters);
+    return NULL;
+  }
   est = g_new0 (SonarVelocityEstimator, 1);
   est->bank = sonar_doppler_bank_ref (bank);
   est->setup = setup;
@@ -96,7 +103,8 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   est->grid = *grid;
   est->params = *params;
   est->n_velocities = sonar_doppler_bank_n_velocities (bank);
-  est->n_emitters = setup->geometry.n_emitters;
+  est->n_emitters = params->emitters ? params->emitters :
+      setup->geometry.n_emitters;
   /* c / (2 f0 T): the Doppler resolution of one emission (physics notes). */
   est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
           setup->band_high) * setup->waveform_length / setup->sample_rate);

@@ -40,6 +40,8 @@ typedef struct
   double min_coherence;         /* coherence factor across emitters, 0..1 */
   double second_peak_db;        /* a second product peak at most this far below
                                  * the first (dB, > 0) is a second reflector */
+  guint emitters;               /* emitters whose curves enter the product and
+                                 * the tests: the first k; 0 = all */
 } SonarVelocityParams;
 
 void sonar_velocity_params_init_default (SonarVelocityParams * params);
@@ -72,7 +74,8 @@ void sonar_velocity_estimator_free (SonarVelocityEstimator * est);
  * or 2 estimates (2 when a second reflector of another speed shares the
  * centroid) and returns their number. If @curves is not NULL it receives
  * the n_emitters + 1 Doppler-ACF curves in dB (emitters, then the product
- * divided by n_emitters), n_velocities each. */
+ * divided by n_emitters), n_velocities each; n_emitters is params.emitters
+ * when set. */
 guint sonar_velocity_estimate (SonarVelocityEstimator * est,
     const SonarComplex * mic_spectra, double range, double azimuth,
     double elevation, SonarVelocityEstimate * out, float *curves);

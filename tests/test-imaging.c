@@ -337,11 +337,50 @@ test_coarse_to_fine (void)
   chain_clear (&c);
 }
 
+/* Cheaper template readings (the benchmark's template-interpolation
+ * sweep): linear and nearest-sample templates stay near the band-limited
+ * ones, nearest further off; the default is the band-limited reading. */
+static void
+test_bank_template_interp (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17500);
+  const SonarTemplateInterp interps[] = { SONAR_TEMPLATE_BAND_LIMITED,
+    SONAR_TEMPLATE_LINEAR, SONAR_TEMPLATE_NEAREST,
+  };
+  g_autoptr (SonarDopplerBank) plain = sonar_doppler_bank_new (setup, 0.3,
+      0.3, 0.1, NULL);
+  const float *exact = sonar_doppler_bank_template (plain, 2, 0, NULL);
+  double error_db[G_N_ELEMENTS (interps)];
+
+  for (guint i = 0; i < G_N_ELEMENTS (interps); i++) {
+    g_autoptr (SonarDopplerBank) bank = sonar_doppler_bank_new_with_interp
+        (setup, 0.3, 0.3, 0.1, interps[i], NULL);
+    guint length;
+    const float *t = sonar_doppler_bank_template (bank, 2, 0, &length);
+    double err2 = 0, sig2 = 0;
+
+    for (guint k = 0; k < length; k++) {
+      err2 += (t[k] - exact[k]) * (t[k] - exact[k]);
+      sig2 += exact[k] * exact[k];
+    }
+    error_db[i] = err2 > 0 ? 10 * log10 (err2 / sig2) : -INFINITY;
+    g_test_message ("%u: %.1f dB from the band-limited template", i,
+        error_db[i]);
+  }
+  g_assert_cmpfloat (error_db[0], ==, -INFINITY);
+  g_assert_cmpfloat (error_db[1], <, -20.0);
+  g_assert_cmpfloat (error_db[1], >, -40.0);
+  g_assert_cmpfloat (error_db[2], >, error_db[1] + 6.0);
+  g_assert_cmpfloat (error_db[2], <, -6.0);
+}
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/imaging/bank-templates-exact", test_bank_templates_exact);
+  g_test_add_func ("/imaging/bank-template-interp",
+      test_bank_template_interp);
   g_test_add_func ("/imaging/bank-errors", test_bank_errors);
   g_test_add_func ("/imaging/point-reflectors-2d", test_point_reflectors_2d);
   g_test_add_func ("/imaging/point-reflectors-3d", test_point_reflectors_3d);

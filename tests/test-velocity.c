@@ -153,11 +153,86 @@ test_fast_movers (void)
   fixture_clear (&f);
 }
 
+/* Points of @curve (dB) within @db of its maximum. */
+static guint
+width_within (const float *curve, guint n, double db)
+{
+  float top = -INFINITY;
+  guint count = 0;
+
+  for (guint v = 0; v < n; v++)
+    top = MAX (top, curve[v]);
+  for (guint v = 0; v < n; v++)
+    count += curve[v] >= top - db;
+  return count;
+}
+
+/* params.emitters: only the first k emitters enter the product, which is
+ * wider for fewer; more than the sensor has is refused. */
+static void
+test_emitters_subset (void)
+{
+  const char *json = "{\"reflectors\": [{\"kind\": \"cylinder\", "
+      "\"radius\": 0.05, \"range\": 2.0, \"azimuth\": 20, "
+      "\"radial-velocity\": -0.2}]}";
+  const guint subsets[] = { 1, 4, 0 };
+  guint widths[G_N_ELEMENTS (subsets)];
+  SonarVelocityParams vp;
+  g_autoptr (GError) error = NULL;
+  Fixture f;
+  guint nv;
+
+  fixture_init (&f, -0.4, 0.4, 0.02);
+  nv = sonar_doppler_bank_n_velocities (f.bank);
+  sonar_velocity_params_init_default (&vp);
+  vp.emitters = 9;
+  g_assert_null (sonar_velocity_estimator_new (f.bank, &f.grid, &vp,
+          &error));
+  g_assert_cmpstr (error->message, ==,
+      "velocity: emitters is 9, the set-up has only 8");
+
+  for (guint i = 0; i < G_N_ELEMENTS (subsets); i++) {
+    const guint k = subsets[i] ? subsets[i] : 8;
+    g_autofree float *curves = g_new (float, (gsize) (k + 1) * nv);
+    g_autofree float *product = g_new (float, nv);
+    SonarVelocityEstimate e[2];
+    SonarTruth truth;
+
+    vp.emitters = subsets[i];
+    sonar_velocity_estimator_free (f.est);
+    f.est = sonar_velocity_estimator_new (f.bank, &f.grid, &vp, NULL);
+    g_assert_nonnull (f.est);
+    e[0] = estimate_at_truth (&f, json, 0.01, 0, &truth);
+    sonar_velocity_estimate (f.est, f.spectra, truth.range, truth.azimuth,
+        truth.elevation, e, curves);
+    /* The last curve is the product per emitter: times k, the product. */
+    for (guint v = 0; v < nv; v++)
+      product[v] = k * curves[(gsize) k * nv + v];
+    widths[i] = width_within (product, nv, 3.0);
+    g_test_message ("emitters %u: estimate %+.4f m/s (truth %+.4f), agree "
+        "%u, product 3 dB wide over %u of %u velocities", k,
+        e[0].radial_velocity, truth.radial_velocity, e[0].agreeing_emitters,
+        widths[i], nv);
+    g_assert_true (e[0].valid);
+    g_assert_cmpuint (e[0].agreeing_emitters, <=, k);
+    g_assert_cmpfloat (fabs (e[0].radial_velocity - truth.radial_velocity),
+        <=, 0.02);
+    if (k == 1)
+      for (guint v = 0; v < nv; v++)
+        g_assert_cmpfloat (fabsf (product[v] - curves[v]), <, 1e-3f);
+  }
+  /* More emitters, a sharper product (paper Fig. 4g). */
+  g_assert_cmpuint (widths[0], >, widths[1]);
+  g_assert_cmpuint (widths[1], >, widths[2]);
+  fixture_clear (&f);
+}
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/velocity/slow-objects", test_slow_objects);
   g_test_add_func ("/velocity/fast-movers", test_fast_movers);
+  g_test_add_func ("/velocity/emitters-subset", test_emitters_subset);
   return g_test_run ();
 }

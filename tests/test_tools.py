@@ -1,13 +1,15 @@
 #!/usr/bin/python3
 """Tests of the command-line tools: sonar-waveforms, the ambiguity function
-(tools/ambiguity.py, tools/plot-ambiguity.py) and the energyscape reader and
-plotter (tools/energyscape.py, tools/plot-energyscape.py).
+(tools/ambiguity.py, tools/plot-ambiguity.py), the energyscape reader and
+plotter (tools/energyscape.py, tools/plot-energyscape.py) and the benchmark
+(sonar-bench, tools/plot-bench.py).
 
 Run as SONAR_BUILD_DIR=build SONAR_SOURCE_DIR=. /usr/bin/python3
 tests/test_tools.py; prints TAP and exits non-zero when a test fails.
 """
 
 import atexit
+import csv
 import importlib.util
 import json
 import math
@@ -27,6 +29,7 @@ BUILD_DIR = pathlib.Path(os.environ.get("SONAR_BUILD_DIR",
                                         SOURCE_DIR / "build"))
 TOOLS = SOURCE_DIR / "tools"
 PROGRAM = BUILD_DIR / "tools" / "sonar-waveforms"
+BENCH = BUILD_DIR / "tools" / "sonar-bench"
 PYTHON = "/usr/bin/python3"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -373,6 +376,52 @@ def plot_energyscape_bad_record():
                  "2", "-o", TMP / "none.png", check=False)
     assert result.returncode != 0 and "--record 2" in result.stderr, \
         result.stderr
+
+
+# sonar-bench -------------------------------------------------------------
+
+@test
+def bench_emitters_sweep():
+    """sonar-bench: --sweep emitters on one fig10 ping writes 5 scored rows
+    with memory, and plot-bench.py draws them"""
+    path = TMP / "bench.csv"
+    result = run(BENCH, "--sweep", "emitters", "--fig10-pings", "1",
+                 "--csv", path)
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["sweep"] for r in rows] == ["emitters"] * 5, rows
+    assert [r["value"] for r in rows] == ["8", "6", "4", "2", "1"], rows
+    for r in rows:
+        found, total, fp = (int(r[k]) for k in
+                            ("found", "total", "false_positives"))
+        assert total == 6 and 0 <= found <= total and fp >= 0, r
+        bank, chain, rss = (float(r[k]) for k in
+                            ("mb_bank", "mb_chain", "peak_rss_mb"))
+        assert 0 < bank < chain < rss, r
+        assert float(r["template_error_db"]) < -100, r
+        assert int(r["bank_velocities"]) == 41, r
+    # All eight emitters: every Fig. 10 object, no false positive.
+    assert rows[0]["found"] == "6" and rows[0]["false_positives"] == "0", \
+        rows[0]
+    # Both tables print a row per value.
+    lines = result.stdout.splitlines()
+    for value in ("8", "6", "4", "2", "1"):
+        assert sum(line.split()[:2] == [value, "fig10"]
+                   for line in lines) == 2, (value, result.stdout)
+    png = TMP / "bench.png"
+    run(PYTHON, TOOLS / "plot-bench.py", path, "-o", png)
+    assert_png(png)
+
+
+@test
+def bench_refuses_other_csv():
+    """sonar-bench: a CSV of other columns is refused, not appended to"""
+    path = TMP / "old-bench.csv"
+    path.write_text("sweep,value,scene\nlinkage,ward,fig10\n")
+    result = run(BENCH, "--sweep", "emitters", "--csv", path, check=False)
+    assert result.returncode == 1, result
+    assert "not this sonar-bench's" in result.stderr, result.stderr
+    assert path.read_text() == "sweep,value,scene\nlinkage,ward,fig10\n"
 
 
 def main():

@@ -1,27 +1,54 @@
 /* sonar-bench: the project's benchmark.
  *
- * Processes a fixed set of pings of the fig10 and fig9 presets through the
- * DSP core the way the elements do (dopplerbank ! mimobeamform !
- * wardcluster ! velocityest, with their defaults), scores the detections
- * against the simulator's ground truth and times every stage. Each sweep
- * changes one setting; each row is one configuration.
+ * Processes a fixed set of pings of the fig10 and fig9 presets (and of
+ * seeded random scenes) through the DSP core the way the elements do
+ * (dopplerbank ! mimobeamform ! wardcluster ! velocityest, with their
+ * defaults), scores the detections against the simulator's ground truth,
+ * times every stage and measures the memory it holds. Each sweep changes
+ * one setting; each row is one configuration.
  *
  *   sonar-bench                         the elements' defaults, both scenes
  *   sonar-bench --sweep linkage         Ward vs SLINK (paper Fig. 10) and more
  *   sonar-bench --all --csv bench.csv   every sweep, rows appended to a CSV
  *   sonar-bench --quick                 fig10, 2 pings: linkage and refine
  *
+ * Sweeps (fig10 unless said): linkage, refine, window (velocity window),
+ * bank-step, directions, focus-zones, hypotheses (fig9: detection
+ * hypotheses), emitters (emitters in the Doppler-ACF product: 8, 6, 4, 2,
+ * 1), template-interpolation (templates read band-limited, linearly or by
+ * nearest sample; their error against the exact templates in dB),
+ * range-resolution (the image's range step, asked 0.001-0.04 m; the
+ * band's bins bound it too, at 2.8 mm), bank-size (bank -v..v at 0.05
+ * m/s for v = 0.4, 1, 3, 7: cost against bank size), reflectors (seeded
+ * random scenes of 1, 5, 20 and 50 point reflectors, 2 pings each: cost
+ * against reflectors) and datacube (the full datacube, an image per bank
+ * velocity with the velocity read at each centroid's pixel, against the
+ * proposed chain on the first fig10 ping with a -1..1 m/s bank; the
+ * paper's Fig. 11 measured on the Doppler-ACF curves at the true
+ * reflectors).
+ *
  * The sensor is sonarsrc's default, built by a copy of its make_setup ()
  * logic; the velocity stage shares the centroids between worker threads as
  * velocityest does (--threads). Every ping is rendered before anything is
  * timed: the simulator's cost is not counted. Times are wall-clock medians
- * over the pings, ms per ping. Set-up work (the Doppler bank, FFT plans,
- * the imager's tables) is not timed, as the elements do it once per
- * stream. A configuration two sweeps share (linkage=ward is refine=on) runs
- * once. tools/plot-bench.py draws the CSV.
+ * over the pings, ms per ping, plus the chain's CPU time. Set-up work (the
+ * Doppler bank, FFT plans, the imager's tables) is not timed, as the
+ * elements do it once per stream. A configuration two sweeps share
+ * (linkage=ward is refine=on) runs once.
+ *
+ * Memory is the heap each stage holds (glibc mallinfo2: FFTW and GLib
+ * allocate through malloc), counted when its objects are made and while
+ * it processes the first ping (buffers made on first use); the bank is
+ * dopplerbank's. Thread stacks are not heap and not counted. Peak RSS is
+ * the process's during the configuration's run (Linux resets it per run),
+ * rendered pings and banks of earlier runs included.
+ *
+ * tools/plot-bench.py draws the CSV.
  */
+#include <complex.h>
 #include <errno.h>
 #include <gio/gio.h>
+#include <malloc.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,6 +59,8 @@
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-imager.h"
+#include "sonar-interp.h"
+#include "sonar-rng.h"
 #include "sonar-simulator.h"
 #include "sonar-spectrum.h"
 #include "sonar-velocity.h"
@@ -55,10 +84,26 @@
 /* The paper's Fig. 10b: SLINK struggles below this range. */
 #define NEAR_RANGE 1.0
 
+/* The random scenes: point reflectors at 0.5-4.5 m, -60..60 degrees, radial
+ * velocities -0.4..0.4 m/s, far enough apart to be objects of their own. */
+#define RANDOM_SCENE_SEED 5
+#define RANDOM_RANGE_MIN 0.5
+#define RANDOM_RANGE_MAX 4.5
+#define RANDOM_AZIMUTH 60.0
+#define RANDOM_SPEED 0.4
+#define RANDOM_SEPARATION 0.25
+
+/* The datacube sweep's bank, -reach..reach at the scene's step (m/s). */
+#define DATACUBE_REACH 1.0
+
+#define MB (1024.0 * 1024.0)
+
 typedef struct
 {
   const char *name;
   SonarScenePreset preset;
+  guint n_random;               /* > 0: that many random point reflectors
+                                 * instead of the preset */
   double v_min, v_max, v_step;  /* the bank the paper uses with it */
   guint n_pings;
   guint n_reflectors;
@@ -71,12 +116,17 @@ enum
 {
   SCENE_FIG10,
   SCENE_FIG9,
-  N_SCENES,
+  SCENE_RANDOM_FIRST,
+  N_SCENES = SCENE_RANDOM_FIRST + 4,
 };
 
 static BenchScene scenes[N_SCENES] = {
-  {"fig10", SONAR_SCENE_PRESET_FIG10, -0.4, 0.4, 0.02, 3},
-  {"fig9", SONAR_SCENE_PRESET_FIG9, -7.0, 7.0, 0.05, 1},
+  {"fig10", SONAR_SCENE_PRESET_FIG10, 0, -0.4, 0.4, 0.02, 3},
+  {"fig9", SONAR_SCENE_PRESET_FIG9, 0, -7.0, 7.0, 0.05, 1},
+  {"rand1", SONAR_SCENE_PRESET_EMPTY, 1, -0.4, 0.4, 0.02, 2},
+  {"rand5", SONAR_SCENE_PRESET_EMPTY, 5, -0.4, 0.4, 0.02, 2},
+  {"rand20", SONAR_SCENE_PRESET_EMPTY, 20, -0.4, 0.4, 0.02, 2},
+  {"rand50", SONAR_SCENE_PRESET_EMPTY, 50, -0.4, 0.4, 0.02, 2},
 };
 
 enum
@@ -88,11 +138,27 @@ enum
   N_STAGES,
 };
 
+typedef enum
+{
+  /* Detection image over a few hypotheses, Doppler-ACF product in a
+   * window around each centroid: the elements. */
+  METHOD_PROPOSED,
+  /* An image per bank velocity; each centroid's velocity is the one whose
+   * image is strongest at its pixel (paper Fig. 3). */
+  METHOD_DATACUBE,
+} Method;
+
 typedef struct
 {
   BenchScene *scene;
-  double v_step;                /* the bank's; min and max are the scene's */
+  guint n_pings;                /* the scene's first pings */
+  double v_min, v_max, v_step;  /* the bank */
+  SonarTemplateInterp template_interp;
   double hypothesis_spacing;
+  Method method;
+  /* Fig. 11: the Doppler-ACF curves at the true reflectors of the first
+   * ping, measured after it is timed. */
+  gboolean measure_curves;
   SonarImagerParams imager;
   SonarClusterParams cluster;
   SonarVelocityParams velocity;
@@ -110,6 +176,18 @@ typedef struct
   /* CPU time of the whole chain: other processes on the machine inflate
    * the wall-clock times, not this. */
   double cpu_ms_total;
+  double bank_mb, mb[N_STAGES]; /* heap held */
+  double peak_rss_mb;
+  guint bank_velocities;
+  double template_error_db;     /* the bank's templates against exact ones */
+  /* Fig. 11, per true reflector of the first ping (NaN where the curve
+   * has none): peak-to-sidelobe ratio in dB (a lower bound where the main
+   * lobe reaches the bank's edge), -3 dB width in m/s. */
+  guint n_curves;
+  double *psr_db, *width;
+  gboolean *psr_bounded;
+  double range_step;            /* the image's, m */
+  guint n_range;
 } Result;
 
 typedef struct
@@ -124,12 +202,51 @@ typedef struct
 
 typedef struct
 {
+  SonarDopplerBank *bank;
+  double mb;                    /* heap it holds */
+  double template_error_db;
+} BankEntry;
+
+typedef struct
+{
   SonarSetup *setup;
   guint n_threads;              /* velocity workers */
-  GHashTable *banks;            /* "min/max/step" -> SonarDopplerBank */
+  GHashTable *banks;            /* "min/max/step/interp" -> BankEntry */
   GHashTable *results;          /* configuration key -> Result */
   FILE *csv;
+  double peak_rss_mb;           /* the whole run's: each run resets the
+                                 * kernel's */
 } Bench;
+
+/* A configuration's chain, made once per run. */
+typedef struct
+{
+  const Config *config;
+  BankEntry *bank;
+  const SonarBand *band;
+  const SonarImageGrid *grid;
+  guint n_emitters;             /* in the velocity product */
+  SonarSpectrum *analyzer;
+  SonarImager *imager;
+  SonarClusterer *clusterer;
+  SonarVelocityPool *workers;   /* METHOD_PROPOSED */
+  /* The images' Doppler hypotheses: the detection's, or every bank
+   * velocity for the datacube. */
+  guint n_templates;
+  const SonarComplex **templates;
+  double *template_velocities;
+  SonarComplex *spectra;
+  float *image;
+  float *cube;                  /* METHOD_DATACUBE: n_templates images */
+  float *curve;                 /* a bank's worth of Doppler-ACF values */
+  SonarCentroid centroids[MAX_CENTROIDS];
+  SonarVelocityEstimate results[2 * MAX_CENTROIDS];
+  guint counts[MAX_CENTROIDS];
+  /* Detections of the ping. */
+  guint n_detections;
+  SonarVec3 positions[2 * MAX_CENTROIDS];
+  double velocities[2 * MAX_CENTROIDS];
+} Chain;
 
 
 static double
@@ -145,6 +262,51 @@ static double
 now_ms (void)
 {
   return clock_ms (CLOCK_MONOTONIC);
+}
+
+/* Heap in use, MB: FFTW and GLib allocate through malloc, and mallinfo2
+ * sums every thread's arena. */
+static double
+heap_mb (void)
+{
+  const struct mallinfo2 m = mallinfo2 ();
+
+  return (m.uordblks + m.hblkhd) / MB;
+}
+
+/* Restarts the kernel's peak-RSS count (VmHWM), so that a run's peak is
+ * its own; only on Linux. */
+static void
+reset_peak_rss (void)
+{
+  FILE *f = fopen ("/proc/self/clear_refs", "w");
+
+  if (f) {
+    fputs ("5", f);
+    fclose (f);
+  }
+}
+
+/* Peak RSS since reset_peak_rss (), MB; the whole run's where the kernel
+ * does not say. */
+static double
+peak_rss_mb (void)
+{
+  FILE *f = fopen ("/proc/self/status", "r");
+  struct rusage usage;
+  char line[256];
+  double kb = -1.0;
+
+  while (f && fgets (line, sizeof (line), f))
+    if (g_str_has_prefix (line, "VmHWM:"))
+      kb = g_ascii_strtod (line + 6, NULL);
+  if (f)
+    fclose (f);
+  if (kb < 0.0) {
+    getrusage (RUSAGE_SELF, &usage);
+    kb = usage.ru_maxrss;
+  }
+  return kb / 1024.0;
 }
 
 static int
@@ -163,11 +325,25 @@ median (double *v, guint n)
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+static double
+mean_of (const double *v, guint n)
+{
+  double sum = 0.0;
+  guint count = 0;
+
+  for (guint i = 0; i < n; i++) {
+    if (isfinite (v[i])) {
+      sum += v[i];
+      count++;
+    }
+  }
+  return count ? sum / count : NAN;
+}
+
 /* sonarsrc's default sensor, built as its make_setup () does without
  * geometry or waveforms files: the built-in array, the noise waveforms of
  * seed 1, a window holding the whole echo of an object at max-range seen
  * from the farthest element. */
-/* sonarsrc's sensor: default array and waveforms, its recording window. */
 static SonarSetup *
 make_setup (GError ** error)
 {
@@ -190,6 +366,37 @@ make_setup (GError ** error)
   return setup;
 }
 
+/* @n seeded point reflectors in the y = 0 plane, moving radially. */
+static void
+random_scene_init (SonarScene * scene, guint n)
+{
+  SonarRng rng;
+
+  sonar_scene_init_preset (scene, SONAR_SCENE_PRESET_EMPTY);
+  sonar_rng_init (&rng, RANDOM_SCENE_SEED, n);
+  scene->reflectors = g_new0 (SonarReflector, n);
+  while (scene->n_reflectors < n) {
+    SonarReflector *r = &scene->reflectors[scene->n_reflectors];
+    const double range = RANDOM_RANGE_MIN + (RANDOM_RANGE_MAX -
+        RANDOM_RANGE_MIN) * sonar_rng_uniform (&rng);
+    const double azimuth = RANDOM_AZIMUTH * (2.0 * sonar_rng_uniform (&rng)
+        - 1.0);
+    const double speed = RANDOM_SPEED * (2.0 * sonar_rng_uniform (&rng) -
+        1.0);
+    const SonarVec3 direction = sonar_vec3_from_direction (azimuth, 0.0);
+    gboolean apart = TRUE;
+
+    r->kind = SONAR_REFLECTOR_POINT;
+    r->position = sonar_vec3_scale (direction, range);
+    r->velocity = sonar_vec3_scale (direction, speed);
+    r->strength = 1.0;
+    for (guint k = 0; k < scene->n_reflectors && apart; k++)
+      apart = sonar_vec3_norm (sonar_vec3_sub (r->position,
+              scene->reflectors[k].position)) >= RANDOM_SEPARATION;
+    scene->n_reflectors += apart;
+  }
+}
+
 /* Renders the scene's pings as sonarsrc emits them (interleaved, ping p
  * at p / ping-rate s), with their truth. */
 static gboolean
@@ -208,7 +415,10 @@ render_scene (BenchScene * s, SonarSetup * setup, GError ** error)
   sim = sonar_simulator_new (setup, &params, error);
   if (!sim)
     return FALSE;
-  sonar_scene_init_preset (&scene, s->preset);
+  if (s->n_random)
+    random_scene_init (&scene, s->n_random);
+  else
+    sonar_scene_init_preset (&scene, s->preset);
   s->n_reflectors = scene.n_reflectors;
   s->pings = g_new (float, s->n_pings * length * n_mics);
   s->truths = g_new (SonarTruth, MAX (s->n_pings * s->n_reflectors, 1));
@@ -231,8 +441,14 @@ static void
 config_init (Config * c, BenchScene * scene)
 {
   c->scene = scene;
+  c->n_pings = scene->n_pings;
+  c->v_min = scene->v_min;
+  c->v_max = scene->v_max;
   c->v_step = scene->v_step;
+  c->template_interp = SONAR_TEMPLATE_BAND_LIMITED;
   c->hypothesis_spacing = HYPOTHESIS_SPACING;
+  c->method = METHOD_PROPOSED;
+  c->measure_curves = FALSE;
   sonar_imager_params_init_default (&c->imager);
   sonar_cluster_params_init_default (&c->cluster);
   sonar_velocity_params_init_default (&c->velocity);
@@ -246,45 +462,119 @@ config_key (const Config * c)
   const SonarClusterParams *k = &c->cluster;
   const SonarVelocityParams *v = &c->velocity;
 
-  return g_strdup_printf ("%s %u | %.17g %.17g | %.17g %.17g %u %.17g %.17g "
-      "%u %.17g %.17g %.17g %u | %d %.17g %.17g %d %d %.17g %u %.17g %u | "
-      "%u %u %d %.17g %u %.17g %.17g", c->scene->name, c->scene->n_pings,
-      c->v_step, c->hypothesis_spacing, i->azimuth_min, i->azimuth_max,
-      i->n_azimuth, i->elevation_min, i->elevation_max, i->n_elevation,
-      i->range_min, i->range_max, i->range_resolution, i->focus_zones,
-      k->range_compensation, k->threshold_db, k->absolute_threshold,
-      k->linkage, k->stop, k->inconsistency, k->depth, k->distance,
-      k->max_peaks, v->window_directions, v->window_ranges, v->refine,
-      v->min_variance, v->min_agreeing_emitters, v->min_coherence,
-      v->second_peak_db);
+  return g_strdup_printf ("%s %u %d %d | %.17g %.17g %.17g %d %.17g | "
+      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u | %d %.17g %.17g "
+      "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u",
+      c->scene->name, c->n_pings, c->method, c->measure_curves, c->v_min,
+      c->v_max, c->v_step, c->template_interp, c->hypothesis_spacing,
+      i->azimuth_min, i->azimuth_max, i->n_azimuth, i->elevation_min,
+      i->elevation_max, i->n_elevation, i->range_min, i->range_max,
+      i->range_resolution, i->focus_zones, k->range_compensation,
+      k->threshold_db, k->absolute_threshold, k->linkage, k->stop,
+      k->inconsistency, k->depth, k->distance, k->max_peaks,
+      v->window_directions, v->window_ranges, v->refine, v->min_variance,
+      v->min_agreeing_emitters, v->min_coherence, v->second_peak_db,
+      v->emitters);
+}
+
+/* The bank's templates of emitter 0 at its first, middle and last velocity
+ * against exact ones: the emission's band-limited continuation as
+ * sonar-interp.h defines it (the zero-extended signal's periodic
+ * interpolation), summed as a Fourier series in double precision. Returns
+ * the rms error over the templates' rms, dB. */
+static double
+template_error_db (SonarDopplerBank * bank)
+{
+  const SonarSetup *setup = sonar_doppler_bank_get_setup (bank);
+  const float *emission = sonar_setup_waveform (setup, 0);
+  const guint length = setup->waveform_length;
+  const guint n = sonar_fft_good_size (length + 2 * SONAR_INTERP_PAD);
+  /* No Nyquist term: the emission is band-limited far below it. */
+  const guint n_bins = (n + 1) / 2;
+  const guint nv = sonar_doppler_bank_n_velocities (bank);
+  const guint indices[] = { 0, nv / 2, nv - 1 };
+  g_autofree double complex *spectrum = g_new (double complex, n_bins);
+  double error2 = 0.0, exact2 = 0.0;
+
+  for (guint k = 0; k < n_bins; k++) {
+    const double complex step = cexp (-2.0 * G_PI * I * k / n);
+    double complex w = cexp (-2.0 * G_PI * I * k * SONAR_INTERP_PAD / n);
+    double complex sum = 0.0;
+
+    for (guint m = 0; m < length; m++, w *= step)
+      sum += emission[m] * w;
+    spectrum[k] = sum;
+  }
+  for (guint i = 0; i < G_N_ELEMENTS (indices); i++) {
+    const double alpha = sonar_doppler_scale (setup->speed_of_sound,
+        sonar_doppler_bank_velocity (bank, indices[i]));
+    guint t_length;
+    const float *t = sonar_doppler_bank_template (bank, 0, indices[i],
+        &t_length);
+
+    for (guint j = 0; j < t_length; j++) {
+      const double complex step = cexp (2.0 * G_PI * I * (alpha * j +
+              SONAR_INTERP_PAD) / n);
+      double complex w = step;
+      double sum = creal (spectrum[0]), exact;
+
+      for (guint k = 1; k < n_bins; k++, w *= step)
+        sum += 2.0 * creal (spectrum[k] * w);
+      exact = sqrt (alpha) * sum / n;
+      error2 += (t[j] - exact) * (t[j] - exact);
+      exact2 += exact * exact;
+    }
+  }
+  return 10.0 * log10 (error2 / exact2);
+}
+
+static const char *const template_interp_names[] = {
+  [SONAR_TEMPLATE_BAND_LIMITED] = "hermite4x",
+  [SONAR_TEMPLATE_LINEAR] = "linear",
+  [SONAR_TEMPLATE_NEAREST] = "nearest",
+};
+
+static void
+bank_entry_free (gpointer data)
+{
+  BankEntry *e = data;
+
+  sonar_doppler_bank_unref (e->bank);
+  g_free (e);
 }
 
 /* Banks are set-up work: made once per velocity grid and shared. */
-static SonarDopplerBank *
+static BankEntry *
 get_bank (Bench * b, const Config * c, GError ** error)
 {
-  const BenchScene *s = c->scene;
-  g_autofree char *key = g_strdup_printf ("%.17g/%.17g/%.17g", s->v_min,
-      s->v_max, c->v_step);
-  SonarDopplerBank *bank = g_hash_table_lookup (b->banks, key);
+  g_autofree char *key = g_strdup_printf ("%.17g/%.17g/%.17g/%d", c->v_min,
+      c->v_max, c->v_step, c->template_interp);
+  BankEntry *e = g_hash_table_lookup (b->banks, key);
   const SonarBand *band;
-  double start;
+  double start, heap;
 
-  if (bank)
-    return bank;
+  if (e)
+    return e;
   start = now_ms ();
-  bank = sonar_doppler_bank_new (b->setup, s->v_min, s->v_max, c->v_step,
-      error);
-  if (!bank)
+  heap = heap_mb ();
+  e = g_new0 (BankEntry, 1);
+  e->bank = sonar_doppler_bank_new_with_interp (b->setup, c->v_min,
+      c->v_max, c->v_step, c->template_interp, error);
+  if (!e->bank) {
+    g_free (e);
     return NULL;
-  sonar_doppler_bank_prepare_ping_band (bank);
-  band = sonar_doppler_bank_band (bank);
-  g_printerr ("bank %g..%g / %g m/s: %u velocities, FFT %u, %u bins, made "
-      "in %.1f s\n", s->v_min, s->v_max, c->v_step,
-      sonar_doppler_bank_n_velocities (bank), band->fft_size, band->n_bins,
-      (now_ms () - start) * 1e-3);
-  g_hash_table_insert (b->banks, g_steal_pointer (&key), bank);
-  return bank;
+  }
+  sonar_doppler_bank_prepare_ping_band (e->bank);
+  e->mb = heap_mb () - heap;
+  e->template_error_db = template_error_db (e->bank);
+  band = sonar_doppler_bank_band (e->bank);
+  g_printerr ("bank %g..%g / %g m/s, %s templates (%.1f dB): %u "
+      "velocities, FFT %u, %u bins, %.1f MB, made in %.1f s\n", c->v_min,
+      c->v_max, c->v_step, template_interp_names[c->template_interp],
+      e->template_error_db, sonar_doppler_bank_n_velocities (e->bank),
+      band->fft_size, band->n_bins, e->mb, (now_ms () - start) * 1e-3);
+  g_hash_table_insert (b->banks, g_steal_pointer (&key), e);
+  return e;
 }
 
 /* Scores one ping as test-pipeline.c does: each true object matches the
@@ -325,111 +615,410 @@ score_ping (Result * r, const SonarTruth * truths, guint n_truths,
   }
 }
 
+/* The chain --------------------------------------------------------------*/
+
+static void
+chain_clear (Chain * ch)
+{
+  g_clear_pointer (&ch->analyzer, sonar_spectrum_free);
+  g_clear_pointer (&ch->imager, sonar_imager_free);
+  g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
+  g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
+  g_clear_pointer (&ch->templates, g_free);
+  g_clear_pointer (&ch->template_velocities, g_free);
+  g_clear_pointer (&ch->spectra, g_free);
+  g_clear_pointer (&ch->image, g_free);
+  g_clear_pointer (&ch->cube, g_free);
+  g_clear_pointer (&ch->curve, g_free);
+}
+
+/* Makes @c's stages as the elements do at start, charging each the heap
+ * its objects take. */
+static gboolean
+chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
+    GError ** error)
+{
+  const guint n_mics = b->setup->geometry.n_microphones;
+  g_autofree guint *indices = NULL;
+  SonarDopplerBank *bank;
+  guint nv;
+  double heap;
+
+  ch->config = c;
+  ch->bank = get_bank (b, c, error);
+  if (!ch->bank)
+    return FALSE;
+  bank = ch->bank->bank;
+  nv = sonar_doppler_bank_n_velocities (bank);
+  ch->band = sonar_doppler_bank_band (bank);
+  ch->n_emitters = c->velocity.emitters ? c->velocity.emitters :
+      b->setup->geometry.n_emitters;
+  r->bank_mb = ch->bank->mb;
+  r->bank_velocities = nv;
+  r->template_error_db = ch->bank->template_error_db;
+  indices = g_new (guint, nv + 2);
+
+  heap = heap_mb ();
+  ch->analyzer = sonar_spectrum_new (ch->band);
+  ch->spectra = g_new (SonarComplex, (gsize) n_mics * ch->band->n_bins);
+  r->mb[STAGE_SPECTRA] = heap_mb () - heap;
+
+  heap = heap_mb ();
+  ch->imager = sonar_imager_new (b->setup, ch->band, &c->imager, error);
+  if (!ch->imager)
+    return FALSE;
+  ch->grid = sonar_imager_grid (ch->imager);
+  r->range_step = ch->grid->range_step;
+  r->n_range = ch->grid->n_range;
+  if (c->method == METHOD_DATACUBE) {
+    ch->n_templates = nv;
+    for (guint i = 0; i < nv; i++)
+      indices[i] = i;
+  } else {
+    ch->n_templates = sonar_doppler_bank_hypotheses (bank,
+        c->hypothesis_spacing, indices);
+  }
+  ch->templates = g_new (const SonarComplex *, ch->n_templates);
+  ch->template_velocities = g_new (double, ch->n_templates);
+  for (guint h = 0; h < ch->n_templates; h++) {
+    ch->templates[h] = sonar_doppler_bank_spectra (bank, indices[h]);
+    ch->template_velocities[h] = sonar_doppler_bank_velocity (bank,
+        indices[h]);
+  }
+  ch->image = g_new (float, sonar_image_grid_size (ch->grid));
+  if (c->method == METHOD_DATACUBE)
+    ch->cube = g_new (float, ch->n_templates *
+        sonar_image_grid_size (ch->grid));
+  r->mb[STAGE_IMAGING] = heap_mb () - heap;
+
+  heap = heap_mb ();
+  ch->clusterer = sonar_clusterer_new (ch->grid, &c->cluster, error);
+  if (!ch->clusterer)
+    return FALSE;
+  r->mb[STAGE_CLUSTERING] = heap_mb () - heap;
+
+  heap = heap_mb ();
+  if (c->method == METHOD_DATACUBE) {
+    ch->curve = g_new (float, nv);
+  } else {
+    ch->workers = sonar_velocity_pool_new (bank, ch->grid, &c->velocity,
+        b->n_threads, error);
+    if (!ch->workers)
+      return FALSE;
+  }
+  r->mb[STAGE_VELOCITY] = heap_mb () - heap;
+  return TRUE;
+}
+
+static void
+chain_spectra (Chain * ch, const float *samples, guint n_mics, gsize length)
+{
+  for (guint j = 0; j < n_mics; j++)
+    sonar_spectrum_process (ch->analyzer, samples + j, length, n_mics,
+        ch->spectra + (gsize) j * ch->band->n_bins, NULL);
+}
+
+static void
+chain_imaging (Chain * ch)
+{
+  const gsize size = sonar_image_grid_size (ch->grid);
+
+  if (!ch->cube) {
+    sonar_imager_process (ch->imager, ch->spectra, ch->n_templates,
+        ch->templates, ch->template_velocities, -1, ch->image);
+    return;
+  }
+  sonar_imager_process_each (ch->imager, ch->spectra, ch->n_templates,
+      ch->templates, ch->template_velocities, -1, ch->cube, size);
+  /* What the datacube detects on: each pixel at its best velocity. */
+  memcpy (ch->image, ch->cube, size * sizeof (float));
+  for (guint h = 1; h < ch->n_templates; h++)
+    for (gsize i = 0; i < size; i++)
+      ch->image[i] = MAX (ch->image[i], ch->cube[h * size + i]);
+}
+
+/* The datacube's Doppler-ACF curve at pixel (@e, @a, @i): per velocity, the
+ * MIMO image's maximum over the velocity estimator's window (eq. 15). */
+static void
+cube_curve (Chain * ch, int e, int a, int i)
+{
+  const SonarImageGrid *g = ch->grid;
+  const SonarVelocityParams *p = &ch->config->velocity;
+  const int wd = p->window_directions, wr = p->window_ranges;
+  const int we = g->n_elevation > 1 ? wd : 0;
+  const gsize size = sonar_image_grid_size (g);
+
+  for (guint v = 0; v < ch->n_templates; v++) {
+    const float *image = ch->cube + v * size;
+    float best = 0.0f;
+
+    for (int ee = MAX (e - we, 0); ee <= MIN (e + we,
+            (int) g->n_elevation - 1); ee++)
+      for (int aa = MAX (a - wd, 0); aa <= MIN (a + wd,
+              (int) g->n_azimuth - 1); aa++)
+        for (int ii = MAX (i - wr, 0); ii <= MIN (i + wr,
+                (int) g->n_range - 1); ii++)
+          best = MAX (best, image[((gsize) ee * g->n_azimuth + aa) *
+                  g->n_range + ii]);
+    ch->curve[v] = best;
+  }
+}
+
+/* Grid index nearest @x on the axis first + k step, k < n. */
+static int
+nearest_index (double x, double first, double step, guint n)
+{
+  return n > 1 ? (int) CLAMP (round ((x - first) / step), 0, n - 1) : 0;
+}
+
+static void
+cube_curve_at (Chain * ch, double range, double azimuth, double elevation)
+{
+  const SonarImageGrid *g = ch->grid;
+
+  cube_curve (ch, nearest_index (elevation, g->elevation_first,
+          g->elevation_step, g->n_elevation), nearest_index (azimuth,
+          g->azimuth_first, g->azimuth_step, g->n_azimuth),
+      nearest_index (range, g->range_first, g->range_step, g->n_range));
+}
+
+/* The velocity of the datacube curve's peak, refined below the bank's step
+ * by a parabola through the log of its neighbours. */
+static double
+cube_curve_velocity (Chain * ch)
+{
+  SonarDopplerBank *bank = ch->bank->bank;
+  const float *curve = ch->curve;
+  guint p = 0;
+  double v;
+
+  for (guint i = 1; i < ch->n_templates; i++)
+    if (curve[i] > curve[p])
+      p = i;
+  v = sonar_doppler_bank_velocity (bank, p);
+  if (ch->config->velocity.refine && p > 0 && p + 1 < ch->n_templates
+      && curve[p - 1] > 0.0f && curve[p + 1] > 0.0f) {
+    const double a = log (curve[p - 1]), b = log (curve[p]);
+    const double c = log (curve[p + 1]), denom = a - 2.0 * b + c;
+
+    if (denom < 0.0)
+      v += sonar_doppler_bank_step (bank) * CLAMP (0.5 * (a - c) / denom,
+          -0.5, 0.5);
+  }
+  return v;
+}
+
+/* The ping's detections: the estimator's valid ones, or every datacube
+ * centroid at its curve's peak (the datacube has no false-positive test). */
+static void
+chain_velocity (Chain * ch, guint n_centroids)
+{
+  ch->n_detections = 0;
+  if (ch->cube) {
+    for (guint k = 0; k < n_centroids; k++) {
+      const SonarCentroid *c = &ch->centroids[k];
+
+      cube_curve (ch, c->peak_elevation_index, c->peak_azimuth_index,
+          c->peak_range_index);
+      ch->positions[ch->n_detections] = c->position;
+      ch->velocities[ch->n_detections++] = cube_curve_velocity (ch);
+    }
+    return;
+  }
+  sonar_velocity_pool_estimate (ch->workers, ch->spectra, ch->centroids,
+      n_centroids, ch->results, ch->counts);
+  for (guint k = 0; k < n_centroids; k++) {
+    const SonarVelocityEstimate *e = &ch->results[2 * k];
+
+    for (guint i = 0; i < ch->counts[k]; i++) {
+      if (!e[i].valid)
+        continue;
+      ch->positions[ch->n_detections] = sonar_vec3_scale
+          (sonar_vec3_from_direction (e[i].azimuth, e[i].elevation),
+          e[i].range);
+      ch->velocities[ch->n_detections++] = e[i].radial_velocity;
+    }
+  }
+}
+
+/* Peak-to-sidelobe ratio (dB) and -3 dB width (m/s) of a Doppler-ACF curve
+ * in dB over a bank of @step. The main lobe ends at the first minimum on
+ * either side; where it reaches the bank's edge instead, the edge stands
+ * for the sidelobe, and *bounded says the ratio is only a lower bound. */
+static void
+curve_shape (const float *db, guint n, double step, double *psr,
+    double *width, gboolean * bounded)
+{
+  float side = -INFINITY;
+  guint p = 0, lo, hi, w = 1;
+
+  *bounded = FALSE;
+  if (!isfinite (db[0])) {
+    *psr = *width = NAN;
+    return;
+  }
+  for (guint v = 1; v < n; v++)
+    if (db[v] > db[p])
+      p = v;
+  for (lo = p; lo > 0 && db[lo - 1] <= db[lo]; lo--);
+  for (hi = p; hi + 1 < n && db[hi + 1] <= db[hi]; hi++);
+  for (guint v = 0; v < n; v++)
+    if (v < lo || v > hi)
+      side = MAX (side, db[v]);
+  if ((lo == 0 && lo != p && db[0] > side) || (hi == n - 1 && hi != p
+          && db[n - 1] > side)) {
+    side = MAX (lo == 0 && lo != p ? db[0] : -INFINITY,
+        hi == n - 1 && hi != p ? db[n - 1] : -INFINITY);
+    *bounded = TRUE;
+  }
+  *psr = db[p] - side;
+  for (guint v = p; v > 0 && db[v - 1] >= db[p] - 3.0f; v--)
+    w++;
+  for (guint v = p; v + 1 < n && db[v + 1] >= db[p] - 3.0f; v++)
+    w++;
+  *width = w * step;
+}
+
+/* Fig. 11: the Doppler-ACF curve, in dB, at each of the ping's @n true
+ * reflectors: the product of the emitters' curves as
+ * sonar_velocity_estimate () gives it, or the MIMO image's across the
+ * datacube at the reflector's pixel. */
+static gboolean
+measure_curves (Chain * ch, const SonarTruth * truths, guint n, Result * r,
+    GError ** error)
+{
+  SonarDopplerBank *bank = ch->bank->bank;
+  const guint nv = sonar_doppler_bank_n_velocities (bank);
+  g_autoptr (SonarVelocityEstimator) est = NULL;
+  g_autofree float *curves = NULL;
+  g_autofree float *db = g_new (float, nv);
+
+  if (!ch->cube) {
+    est = sonar_velocity_estimator_new (bank, ch->grid,
+        &ch->config->velocity, error);
+    if (!est)
+      return FALSE;
+    curves = g_new (float, (gsize) (ch->n_emitters + 1) * nv);
+  }
+  r->n_curves = n;
+  r->psr_db = g_new (double, n);
+  r->width = g_new (double, n);
+  r->psr_bounded = g_new (gboolean, n);
+  for (guint k = 0; k < n; k++) {
+    const SonarTruth *t = &truths[k];
+
+    if (est) {
+      SonarVelocityEstimate e[2];
+
+      sonar_velocity_estimate (est, ch->spectra, t->range, t->azimuth,
+          t->elevation, e, curves);
+      /* The last curve is the product per emitter. */
+      for (guint v = 0; v < nv; v++)
+        db[v] = ch->n_emitters * curves[(gsize) ch->n_emitters * nv + v];
+    } else {
+      cube_curve_at (ch, t->range, t->azimuth, t->elevation);
+      for (guint v = 0; v < nv; v++)
+        db[v] = 20.0f * log10f (ch->curve[v] + 1e-30f);
+    }
+    curve_shape (db, nv, sonar_doppler_bank_step (bank), &r->psr_db[k],
+        &r->width[k], &r->psr_bounded[k]);
+  }
+  return TRUE;
+}
+
+/* Times a stage of a ping; on the first ping also charges what the heap
+ * grows by to the stage (buffers made on first use are part of what it
+ * holds). */
+typedef struct
+{
+  gboolean first;
+  double heap, start;
+} StageClock;
+
+static void
+stage_start (StageClock * clock)
+{
+  if (clock->first)
+    clock->heap = heap_mb ();
+  clock->start = now_ms ();
+}
+
+static double
+stage_stop (StageClock * clock, Result * r, guint stage)
+{
+  const double ms = now_ms () - clock->start;
+
+  if (clock->first)
+    r->mb[stage] += MAX (heap_mb () - clock->heap, 0.0);
+  return ms;
+}
+
 /* One configuration over the scene's pings: the stages of dopplerbank,
- * mimobeamform (mode=detection), wardcluster and velocityest. */
+ * mimobeamform (mode=detection, or datacube), wardcluster and
+ * velocityest. */
 static gboolean
 run_config (Bench * b, const Config * c, Result * r, GError ** error)
 {
   const BenchScene *s = c->scene;
+  const guint n_pings = c->n_pings;
   const guint n_mics = b->setup->geometry.n_microphones;
   const gsize length = b->setup->ping_length;
-  SonarDopplerBank *bank = get_bank (b, c, error);
-  const SonarBand *band;
-  const SonarImageGrid *grid;
-  g_autoptr (SonarSpectrum) analyzer = NULL;
-  g_autoptr (SonarImager) imager = NULL;
-  g_autoptr (SonarClusterer) clusterer = NULL;
-  g_autoptr (SonarVelocityPool) workers = NULL;
-  SonarVelocityEstimate results[2 * MAX_CENTROIDS];
-  guint counts[MAX_CENTROIDS];
-  g_autofree guint *hypotheses = NULL;
-  g_autofree const SonarComplex **templates = NULL;
-  g_autofree double *hyp_velocities = NULL;
-  g_autofree SonarComplex *spectra = NULL;
-  g_autofree float *image = NULL;
+  g_autofree Chain *ch = g_new0 (Chain, 1);
   g_autofree double *times = NULL;
-  SonarCentroid centroids[MAX_CENTROIDS];
-  SonarVec3 positions[2 * MAX_CENTROIDS];
-  double velocities[2 * MAX_CENTROIDS];
-  guint n_hypotheses, total_centroids = 0;
+  guint total_centroids = 0;
+  gboolean ok;
 
-  if (!bank)
-    return FALSE;
-  band = sonar_doppler_bank_band (bank);
-  analyzer = sonar_spectrum_new (band);
-  imager = sonar_imager_new (b->setup, band, &c->imager, error);
-  if (!imager)
-    return FALSE;
-  grid = sonar_imager_grid (imager);
-  clusterer = sonar_clusterer_new (grid, &c->cluster, error);
-  if (!clusterer)
-    return FALSE;
-  workers = sonar_velocity_pool_new (bank, grid, &c->velocity, b->n_threads,
-      error);
-  if (!workers)
-    return FALSE;
-  hypotheses = g_new (guint, sonar_doppler_bank_n_velocities (bank) + 2);
-  n_hypotheses = sonar_doppler_bank_hypotheses (bank, c->hypothesis_spacing,
-      hypotheses);
-  templates = g_new (const SonarComplex *, n_hypotheses);
-  hyp_velocities = g_new (double, n_hypotheses);
-  for (guint h = 0; h < n_hypotheses; h++) {
-    templates[h] = sonar_doppler_bank_spectra (bank, hypotheses[h]);
-    hyp_velocities[h] = sonar_doppler_bank_velocity (bank, hypotheses[h]);
-  }
-  spectra = g_new (SonarComplex, (gsize) n_mics * band->n_bins);
-  image = g_new (float, sonar_image_grid_size (grid));
+  reset_peak_rss ();
+  ok = chain_init (ch, b, c, r, error);
   /* Per ping: the stages, the total, its CPU time. */
-  times = g_new (double, (N_STAGES + 2) * s->n_pings);
-
-  for (guint p = 0; p < s->n_pings; p++) {
+  times = g_new (double, (N_STAGES + 2) * n_pings);
+  for (guint p = 0; ok && p < n_pings; p++) {
     const float *samples = s->pings + p * length * n_mics;
+    const SonarTruth *truths = s->truths + p * s->n_reflectors;
     const double cpu_start = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
-    double t[N_STAGES + 1];
-    guint n_centroids, n = 0;
+    StageClock clock = { p == 0 };
+    double t[N_STAGES], total = 0.0;
+    guint n_centroids;
 
-    t[0] = now_ms ();
-    for (guint j = 0; j < n_mics; j++)
-      sonar_spectrum_process (analyzer, samples + j, length, n_mics,
-          spectra + (gsize) j * band->n_bins, NULL);
-    t[1] = now_ms ();
-    sonar_imager_process (imager, spectra, n_hypotheses, templates,
-        hyp_velocities, -1, image);
-    t[2] = now_ms ();
-    n_centroids = sonar_clusterer_process (clusterer, image, centroids,
-        MAX_CENTROIDS);
-    t[3] = now_ms ();
-    sonar_velocity_pool_estimate (workers, spectra, centroids, n_centroids,
-        results, counts);
-    for (guint k = 0; k < n_centroids; k++) {
-      const SonarVelocityEstimate *e = &results[2 * k];
+    stage_start (&clock);
+    chain_spectra (ch, samples, n_mics, length);
+    t[STAGE_SPECTRA] = stage_stop (&clock, r, STAGE_SPECTRA);
+    stage_start (&clock);
+    chain_imaging (ch);
+    t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
+    stage_start (&clock);
+    n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,
+        ch->centroids, MAX_CENTROIDS);
+    t[STAGE_CLUSTERING] = stage_stop (&clock, r, STAGE_CLUSTERING);
+    stage_start (&clock);
+    chain_velocity (ch, n_centroids);
+    t[STAGE_VELOCITY] = stage_stop (&clock, r, STAGE_VELOCITY);
 
-      for (guint i = 0; i < counts[k]; i++) {
-        if (!e[i].valid)
-          continue;
-        positions[n] = sonar_vec3_scale (sonar_vec3_from_direction
-            (e[i].azimuth, e[i].elevation), e[i].range);
-        velocities[n++] = e[i].radial_velocity;
-      }
-    }
-    t[4] = now_ms ();
-
-    for (guint k = 0; k < N_STAGES; k++)
-      times[k * s->n_pings + p] = t[k + 1] - t[k];
-    times[N_STAGES * s->n_pings + p] = t[N_STAGES] - t[0];
-    times[(N_STAGES + 1) * s->n_pings + p] =
+    times[(N_STAGES + 1) * n_pings + p] =
         clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
+    for (guint k = 0; k < N_STAGES; k++) {
+      times[k * n_pings + p] = t[k];
+      total += t[k];
+    }
+    times[N_STAGES * n_pings + p] = total;
     total_centroids += n_centroids;
-    score_ping (r, s->truths + p * s->n_reflectors, s->n_reflectors,
-        positions, velocities, n);
+    score_ping (r, truths, s->n_reflectors, ch->positions, ch->velocities,
+        ch->n_detections);
+    if (p == 0 && c->measure_curves)
+      ok = measure_curves (ch, truths, s->n_reflectors, r, error);
   }
+  r->peak_rss_mb = peak_rss_mb ();
+  b->peak_rss_mb = MAX (b->peak_rss_mb, r->peak_rss_mb);
+  chain_clear (ch);
+  if (!ok)
+    return FALSE;
 
-  r->pings = s->n_pings;
-  r->centroids = (double) total_centroids / s->n_pings;
+  r->pings = n_pings;
+  r->centroids = (double) total_centroids / n_pings;
   for (guint k = 0; k < N_STAGES; k++)
-    r->ms[k] = median (times + k * s->n_pings, s->n_pings);
-  r->ms_total = median (times + N_STAGES * s->n_pings, s->n_pings);
-  r->cpu_ms_total = median (times + (N_STAGES + 1) * s->n_pings, s->n_pings);
+    r->ms[k] = median (times + k * n_pings, n_pings);
+  r->ms_total = median (times + N_STAGES * n_pings, n_pings);
+  r->cpu_ms_total = median (times + (N_STAGES + 1) * n_pings, n_pings);
   return TRUE;
 }
 
@@ -439,6 +1028,9 @@ result_free (gpointer data)
   Result *r = data;
 
   g_free (r->label);
+  g_free (r->psr_db);
+  g_free (r->width);
+  g_free (r->psr_bounded);
   g_free (r);
 }
 
@@ -446,6 +1038,22 @@ static double
 mean_error (const Result * r)
 {
   return r->found ? r->sum_error / r->found : NAN;
+}
+
+static double
+chain_mb (const Result * r)
+{
+  double sum = r->bank_mb;
+
+  for (guint k = 0; k < N_STAGES; k++)
+    sum += r->mb[k];
+  return sum;
+}
+
+static double
+ms_per_centroid (const Result * r)
+{
+  return r->centroids > 0.0 ? r->ms[STAGE_VELOCITY] / r->centroids : NAN;
 }
 
 /* Sweeps ------------------------------------------------------------------*/
@@ -527,8 +1135,72 @@ apply_hypotheses (Config * c, guint i, char *label, gsize size)
   g_snprintf (label, size, "%g", spacings[i]);
 }
 
+static void
+apply_emitters (Config * c, guint i, char *label, gsize size)
+{
+  static const guint counts[] = { 8, 6, 4, 2, 1 };
+
+  /* 0 is all 8: the baseline's run. */
+  c->velocity.emitters = i == 0 ? 0 : counts[i];
+  g_snprintf (label, size, "%u", counts[i]);
+}
+
+static const SonarTemplateInterp template_interps[] = {
+  SONAR_TEMPLATE_BAND_LIMITED, SONAR_TEMPLATE_LINEAR, SONAR_TEMPLATE_NEAREST,
+};
+
+static void
+apply_template_interp (Config * c, guint i, char *label, gsize size)
+{
+  c->template_interp = template_interps[i];
+  g_strlcpy (label, template_interp_names[template_interps[i]], size);
+}
+
+static void
+apply_range_resolution (Config * c, guint i, char *label, gsize size)
+{
+  /* The image's step is also bounded by the band: with the default
+   * sensor, 2.8 mm at most, so the coarser values change nothing. */
+  static const double steps[] = { 0.001, 0.002, 0.005, 0.01, 0.02, 0.04 };
+
+  c->imager.range_resolution = steps[i];
+  g_snprintf (label, size, "%g", steps[i]);
+}
+
+static void
+apply_bank_size (Config * c, guint i, char *label, gsize size)
+{
+  static const double reach[] = { 0.4, 1.0, 3.0, 7.0 };
+
+  c->v_min = -reach[i];
+  c->v_max = reach[i];
+  c->v_step = 0.05;
+  g_snprintf (label, size, "%g", reach[i]);
+}
+
+static void
+apply_reflectors (Config * c, guint i, char *label, gsize size)
+{
+  config_init (c, &scenes[SCENE_RANDOM_FIRST + i]);
+  g_snprintf (label, size, "%u", c->scene->n_random);
+}
+
+static void
+apply_datacube (Config * c, guint i, char *label, gsize size)
+{
+  /* One ping: the datacube images every bank velocity. A bank wider than
+   * fig10's: one emitter's Doppler main lobe is 0.33 m/s wide, and within
+   * +-0.4 m/s the curves' sidelobes mostly fall beyond the bank's edges. */
+  c->n_pings = 1;
+  c->v_min = -DATACUBE_REACH;
+  c->v_max = DATACUBE_REACH;
+  c->measure_curves = TRUE;
+  c->method = i == 0 ? METHOD_PROPOSED : METHOD_DATACUBE;
+  g_strlcpy (label, i == 0 ? "proposed" : "datacube", size);
+}
+
 static const Sweep sweeps[] = {
-  {"baseline", SCENE_FIG10, N_SCENES, apply_baseline},
+  {"baseline", SCENE_FIG10, SCENE_FIG9 + 1, apply_baseline},
   {"linkage", SCENE_FIG10, G_N_ELEMENTS (linkages), apply_linkage},
   {"refine", SCENE_FIG10, 2, apply_refine},
   {"window", SCENE_FIG10, 9, apply_window},
@@ -536,6 +1208,14 @@ static const Sweep sweeps[] = {
   {"directions", SCENE_FIG10, 4, apply_directions},
   {"focus-zones", SCENE_FIG10, 4, apply_focus_zones},
   {"hypotheses", SCENE_FIG9, 3, apply_hypotheses},
+  {"emitters", SCENE_FIG10, 5, apply_emitters},
+  {"template-interpolation", SCENE_FIG10, G_N_ELEMENTS (template_interps),
+      apply_template_interp},
+  {"range-resolution", SCENE_FIG10, 6, apply_range_resolution},
+  {"bank-size", SCENE_FIG10, 4, apply_bank_size},
+  {"reflectors", SCENE_FIG10, N_SCENES - SCENE_RANDOM_FIRST,
+      apply_reflectors},
+  {"datacube", SCENE_FIG10, 2, apply_datacube},
 };
 
 static const Sweep *
@@ -547,7 +1227,23 @@ find_sweep (const char *name)
   return NULL;
 }
 
+/* Value @i of @sweep on its scene's defaults. */
+static void
+sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
+    gsize size)
+{
+  config_init (c, &scenes[sweep->scene]);
+  sweep->apply (c, i, label, size);
+}
+
 /* Output ------------------------------------------------------------------*/
+
+#define CSV_HEADER "sweep,value,scene,pings,found,total,false_positives," \
+  "mean_error,max_error,ms_spectra,ms_imaging,ms_clustering,ms_velocity," \
+  "ms_total,pings_per_second,cpu_ms_total,mb_bank,mb_spectra,mb_imaging," \
+  "mb_clustering,mb_velocity,mb_chain,peak_rss_mb,centroids," \
+  "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
+  "lobe_width,n_range,range_step"
 
 static void
 print_header (const Sweep * sweep)
@@ -576,6 +1272,42 @@ print_row (const char *value, const Config * c, const Result * r,
   g_print ("\n");
 }
 
+/* @x in a column of @width with @decimals, "-" for NaN. */
+static void
+print_number (double x, int width, int decimals)
+{
+  if (isnan (x))
+    g_print (" %*s", width, "-");
+  else
+    g_print (" %*.*f", width, decimals, x);
+}
+
+static void
+print_memory_header (void)
+{
+  g_print ("  memory held (MB; bank: dopplerbank's templates and spectra) "
+      "and growth\n");
+  g_print ("  %-9s %-6s %7s %7s %7s %7s %8s %7s %7s %6s %9s %8s %7s %7s "
+      "%6s %6s\n", "value", "scene", "bank", "spectra", "imaging",
+      "cluster", "velocity", "chain", "RSS", "bank v", "ms/cent", "tmpl dB",
+      "PSR dB", "3dB m/s", "ranges", "dr mm");
+}
+
+static void
+print_memory_row (const char *value, const Config * c, const Result * r)
+{
+  g_print ("  %-9s %-6s %7.1f", value, c->scene->name, r->bank_mb);
+  for (guint k = 0; k < N_STAGES; k++)
+    print_number (r->mb[k], k == STAGE_VELOCITY ? 8 : 7, 1);
+  g_print (" %7.1f %7.0f %6u", chain_mb (r), r->peak_rss_mb,
+      r->bank_velocities);
+  print_number (ms_per_centroid (r), 9, 2);
+  print_number (r->template_error_db, 8, 1);
+  print_number (r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN, 7, 1);
+  print_number (r->n_curves ? mean_of (r->width, r->n_curves) : NAN, 7, 3);
+  g_print (" %6u %6.2f\n", r->n_range, r->range_step * 1e3);
+}
+
 static void
 write_csv_row (FILE * csv, const char *sweep, const char *value,
     const Config * c, const Result * r)
@@ -585,7 +1317,16 @@ write_csv_row (FILE * csv, const char *sweep, const char *value,
       mean_error (r), r->max_error);
   for (guint k = 0; k < N_STAGES; k++)
     fprintf (csv, ",%.6g", r->ms[k]);
-  fprintf (csv, ",%.6g,%.6g\n", r->ms_total, 1e3 / r->ms_total);
+  fprintf (csv, ",%.6g,%.6g,%.6g,%.6g", r->ms_total, 1e3 / r->ms_total,
+      r->cpu_ms_total, r->bank_mb);
+  for (guint k = 0; k < N_STAGES; k++)
+    fprintf (csv, ",%.6g", r->mb[k]);
+  fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g\n",
+      chain_mb (r), r->peak_rss_mb, r->centroids, r->bank_velocities,
+      ms_per_centroid (r), r->template_error_db,
+      r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN,
+      r->n_curves ? mean_of (r->width, r->n_curves) : NAN, r->n_range,
+      r->range_step);
   fflush (csv);
 }
 
@@ -613,24 +1354,65 @@ print_ward_vs_slink (const Result * ward, const Result * slink)
   }
 }
 
+/* Reflector @k's ratio, ">" marking a lower bound, and width. */
+static void
+print_psr (const Result * r, guint k)
+{
+  g_autofree char *psr = g_strdup_printf ("%s%.1f", r->psr_bounded[k] ?
+      ">" : "", r->psr_db[k]);
+
+  g_print (" %12s", isnan (r->psr_db[k]) ? "-" : psr);
+  print_number (r->width[k], 10, 3);
+}
+
+/* The paper's Fig. 11, per true reflector of the first fig10 ping. */
+static void
+print_datacube_vs_proposed (const Result * proposed, const Result * cube)
+{
+  const BenchScene *s = &scenes[SCENE_FIG10];
+
+  g_print ("\nFull datacube vs proposed, first fig10 ping, bank -%g..%g / "
+      "%g m/s (paper Fig. 11): %.1fx the time, %.1fx the memory.\nDoppler-ACF curves at the true "
+      "reflectors: the product of the emitters' curves (dB of the product, "
+      "N times\nits dB per emitter) against the datacube's MIMO image at "
+      "the reflector's pixel (dB): peak-to-sidelobe\nratio (>: the main "
+      "lobe reaches the bank's edge, which bounds it) and -3 dB width in "
+      "m/s\n", DATACUBE_REACH, DATACUBE_REACH, s->v_step,
+      cube->ms_total / proposed->ms_total,
+      chain_mb (cube) / chain_mb (proposed));
+  g_print ("  %7s %7s %9s %12s %10s %12s %10s\n", "range", "azimuth",
+      "v m/s", "product PSR", "3 dB", "cube PSR", "3 dB");
+  for (guint k = 0; k < MIN (proposed->n_curves, cube->n_curves); k++) {
+    const SonarTruth *t = &s->truths[k];
+
+    g_print ("  %7.2f %7.1f %9.3f", t->range, t->azimuth,
+        t->radial_velocity);
+    print_psr (proposed, k);
+    print_psr (cube, k);
+    g_print ("\n");
+  }
+}
+
 static gboolean
 run_sweep (Bench * b, const Sweep * sweep)
 {
-  const Result *ward = NULL, *slink = NULL;
+  const Result *ward = NULL, *slink = NULL, *proposed = NULL, *cube = NULL;
+  g_autofree const Result **rows = g_new0 (const Result *, sweep->n_values);
+  g_autofree Config *configs = g_new (Config, sweep->n_values);
+  char values[16][32];
   gboolean ok = TRUE;
 
+  g_assert (sweep->n_values <= G_N_ELEMENTS (values));
   print_header (sweep);
   for (guint i = 0; i < sweep->n_values; i++) {
     g_autoptr (GError) error = NULL;
     g_autofree char *key = NULL;
     const char *same_as = NULL;
-    char value[32];
+    Config *c = &configs[i];
     Result *r;
-    Config c;
 
-    config_init (&c, &scenes[sweep->scene]);
-    sweep->apply (&c, i, value, sizeof (value));
-    key = config_key (&c);
+    sweep_config (sweep, i, c, values[i], sizeof (values[i]));
+    key = config_key (c);
     r = g_hash_table_lookup (b->results, key);
     if (r) {
       same_as = r->label;
@@ -638,10 +1420,10 @@ run_sweep (Bench * b, const Sweep * sweep)
       double start = now_ms ();
 
       r = g_new0 (Result, 1);
-      r->label = g_strdup_printf ("%s=%s", sweep->name, value);
-      g_printerr ("%s: %u pings of %s\n", r->label, c.scene->n_pings,
-          c.scene->name);
-      if (!run_config (b, &c, r, &error)) {
+      r->label = g_strdup_printf ("%s=%s", sweep->name, values[i]);
+      g_printerr ("%s: %u pings of %s\n", r->label, c->n_pings,
+          c->scene->name);
+      if (!run_config (b, c, r, &error)) {
         g_printerr ("%s: %s\n", r->label, error->message);
         result_free (r);
         ok = FALSE;
@@ -651,18 +1433,30 @@ run_sweep (Bench * b, const Sweep * sweep)
           (now_ms () - start) * 1e-3);
       g_hash_table_insert (b->results, g_steal_pointer (&key), r);
     }
-    print_row (value, &c, r, same_as);
+    rows[i] = r;
+    print_row (values[i], c, r, same_as);
     if (b->csv)
-      write_csv_row (b->csv, sweep->name, value, &c, r);
+      write_csv_row (b->csv, sweep->name, values[i], c, r);
     if (sweep->apply == apply_linkage) {
       if (linkages[i] == SONAR_LINKAGE_WARD)
         ward = r;
       else if (linkages[i] == SONAR_LINKAGE_SINGLE)
         slink = r;
+    } else if (sweep->apply == apply_datacube) {
+      if (c->method == METHOD_DATACUBE)
+        cube = r;
+      else
+        proposed = r;
     }
   }
+  print_memory_header ();
+  for (guint i = 0; i < sweep->n_values; i++)
+    if (rows[i])
+      print_memory_row (values[i], &configs[i], rows[i]);
   if (ward && slink)
     print_ward_vs_slink (ward, slink);
+  if (proposed && cube)
+    print_datacube_vs_proposed (proposed, cube);
   return ok;
 }
 
@@ -697,6 +1491,33 @@ parse_fig9_pings (const char *option_name, const char *value,
   return parse_pings (option_name, value, &scenes[SCENE_FIG9].n_pings, error);
 }
 
+/* Opens @path to append rows, with the header if it is new; a file of
+ * other columns (an older sonar-bench's) is refused. */
+static FILE *
+open_csv (const char *path, GError ** error)
+{
+  FILE *csv = fopen (path, "a+");
+  char line[1024] = "";
+
+  if (!csv) {
+    g_set_error (error, G_FILE_ERROR, g_file_error_from_errno (errno),
+        "%s: %s", path, g_strerror (errno));
+    return NULL;
+  }
+  rewind (csv);
+  if (!fgets (line, sizeof (line), csv)) {
+    fprintf (csv, "%s\n", CSV_HEADER);
+    return csv;
+  }
+  if (!g_str_equal (g_strchomp (line), CSV_HEADER)) {
+    g_set_error (error, G_FILE_ERROR, G_FILE_ERROR_INVAL, "%s: its columns "
+        "are not this sonar-bench's; write to a new file", path);
+    fclose (csv);
+    return NULL;
+  }
+  return csv;
+}
+
 int
 main (int argc, char **argv)
 {
@@ -705,16 +1526,16 @@ main (int argc, char **argv)
   g_autoptr (GOptionContext) context = NULL;
   g_autoptr (GError) error = NULL;
   g_autoptr (GPtrArray) selected = g_ptr_array_new ();
+  g_autoptr (GString) sweep_help = g_string_new ("Run this sweep "
+      "(repeatable):");
   gboolean all = FALSE, quick = FALSE, needed[N_SCENES] = { FALSE };
   gboolean ok = TRUE;
   int threads = 0;
-  struct rusage usage;
   Bench b = { 0 };
   double start = now_ms ();
   GOptionEntry entries[] = {
-    {"sweep", 's', 0, G_OPTION_ARG_STRING_ARRAY, &sweep_names,
-        "Run this sweep (repeatable): baseline, linkage, refine, window, "
-          "bank-step, directions, focus-zones, hypotheses", "NAME"},
+    {"sweep", 's', 0, G_OPTION_ARG_STRING_ARRAY, &sweep_names, NULL,
+        "NAME"},
     {"all", 'a', 0, G_OPTION_ARG_NONE, &all,
         "Run every sweep but baseline", NULL},
     {"quick", 'q', 0, G_OPTION_ARG_NONE, &quick,
@@ -731,19 +1552,49 @@ main (int argc, char **argv)
     {NULL}
   };
 
+  for (guint i = 0; i < G_N_ELEMENTS (sweeps); i++)
+    g_string_append_printf (sweep_help, "%s %s", i ? "," : "",
+        sweeps[i].name);
+  entries[0].description = sweep_help->str;
   context = g_option_context_new ("- time and score the sonar's DSP chain");
   g_option_context_set_summary (context, "Processes fixed pings of the "
-      "fig10 and fig9 presets through the DSP core as the elements do and "
-      "prints, per configuration, the objects found, false positives, "
-      "velocity errors against the truth and the median time per ping of "
-      "each stage. Without a sweep: the elements' defaults on both scenes.");
+      "fig10 and fig9 presets (and of random scenes) through the DSP core "
+      "as the elements do and prints, per configuration, the objects found, "
+      "false positives, velocity errors against the truth, the median time "
+      "per ping of each stage and the memory each holds. Without a sweep: "
+      "the elements' defaults on both scenes.");
+  g_option_context_set_description (context, "Sweeps, each on fig10 unless "
+      "said:\n"
+      "  linkage, refine, window   clustering linkage, peak refinement, "
+      "velocity window\n"
+      "  bank-step, bank-size      bank step; bank -v..v / 0.05 for v = "
+      "0.4, 1, 3, 7\n"
+      "  directions, focus-zones   image directions, near-field focus "
+      "zones\n"
+      "  range-resolution          image range step 0.001-0.04 m (the band "
+      "bounds it too)\n"
+      "  hypotheses                detection hypotheses' spacing (fig9)\n"
+      "  emitters                  emitters in the Doppler-ACF product: 8, "
+      "6, 4, 2, 1\n"
+      "  template-interpolation    templates read band-limited (hermite4x), "
+      "linearly or by\n"
+      "                            nearest sample; error against exact "
+      "templates in dB\n"
+      "  reflectors                random scenes of 1, 5, 20, 50 reflectors, "
+      "2 pings each\n"
+      "  datacube                  the full datacube against the proposed "
+      "chain, first fig10\n"
+      "                            ping, bank -1..1 m/s; Doppler-ACF "
+      "peak-to-sidelobe ratios\n"
+      "                            (paper Fig. 11)\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, &argc, &argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);
     return 2;
   }
   if (threads < 0 || threads > SONAR_VELOCITY_MAX_THREADS) {
-    g_printerr ("sonar-bench: --threads must be 0 to %d\n", SONAR_VELOCITY_MAX_THREADS);
+    g_printerr ("sonar-bench: --threads must be 0 to %d\n",
+        SONAR_VELOCITY_MAX_THREADS);
     return 2;
   }
   b.n_threads = CLAMP (threads ? (guint) threads : g_get_num_processors (),
@@ -772,22 +1623,21 @@ main (int argc, char **argv)
   for (guint i = 0; i < selected->len; i++) {
     const Sweep *sweep = g_ptr_array_index (selected, i);
 
-    if (sweep->apply == apply_baseline)
-      needed[SCENE_FIG10] = needed[SCENE_FIG9] = TRUE;
-    else
-      needed[sweep->scene] = TRUE;
+    for (guint v = 0; v < sweep->n_values; v++) {
+      char label[32];
+      Config c;
+
+      sweep_config (sweep, v, &c, label, sizeof (label));
+      needed[c.scene - scenes] = TRUE;
+    }
   }
 
   if (csv_path) {
-    b.csv = fopen (csv_path, "a");
+    b.csv = open_csv (csv_path, &error);
     if (!b.csv) {
-      g_printerr ("sonar-bench: %s: %s\n", csv_path, g_strerror (errno));
+      g_printerr ("sonar-bench: %s\n", error->message);
       return 1;
     }
-    if (ftell (b.csv) == 0)
-      fprintf (b.csv, "sweep,value,scene,pings,found,total,false_positives,"
-          "mean_error,max_error,ms_spectra,ms_imaging,ms_clustering,"
-          "ms_velocity,ms_total,pings_per_second\n");
   }
 
   b.setup = make_setup (&error);
@@ -813,15 +1663,15 @@ main (int argc, char **argv)
       b.setup->geometry.n_emitters, b.setup->ping_length, b.n_threads,
       b.n_threads > 1 ? "s" : "");
 
+  b.peak_rss_mb = peak_rss_mb ();
   b.banks = g_hash_table_new_full (g_str_hash, g_str_equal, g_free,
-      (GDestroyNotify) sonar_doppler_bank_unref);
+      bank_entry_free);
   b.results = g_hash_table_new_full (g_str_hash, g_str_equal, g_free,
       result_free);
   for (guint i = 0; i < selected->len; i++)
     ok &= run_sweep (&b, g_ptr_array_index (selected, i));
 
-  getrusage (RUSAGE_SELF, &usage);
-  g_print ("\npeak RSS %.1f MB; whole run %.1f s\n", usage.ru_maxrss / 1024.0,
+  g_print ("\npeak RSS %.1f MB; whole run %.1f s\n", b.peak_rss_mb,
       (now_ms () - start) * 1e-3);
 
   g_hash_table_unref (b.results);

@@ -1,6 +1,9 @@
 /* sonar-kernels.c: see sonar-kernels.h. Built with -O3 (gst/meson.build)
  * so that the lane loops are vectorised. */
 #include "sonar-kernels.h"
+#include "sonar-orc.h"
+
+#include <orc/orc.h>
 
 #include <math.h>
 #include <string.h>
@@ -385,7 +388,7 @@ sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
 }
 
 void
-sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
+sonar_kernel_multiply_generic (SonarComplex * out, const SonarComplex * a,
     const SonarComplex * b, guint n)
 {
   for (guint k = 0; k < n; k++)
@@ -393,7 +396,7 @@ sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
 }
 
 void
-sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
+sonar_kernel_envelope_generic (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate)
 {
   for (guint k = 0; k < n; k++) {
@@ -401,4 +404,36 @@ sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
     const float v = scale * sqrtf (re * re + im * im);
     out[k] = accumulate ? MAX (out[k], v) : v;
   }
+}
+
+/* ORC's opcode tables, once per process. */
+static void
+orc_ready (void)
+{
+  static gsize done = 0;
+
+  if (g_once_init_enter (&done)) {
+    orc_init ();
+    g_once_init_leave (&done, 1);
+  }
+}
+
+void
+sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
+    const SonarComplex * b, guint n)
+{
+  orc_ready ();
+  sonar_orc_multiply ((float *) out, (const float *) a, (const float *) b,
+      (int) n);
+}
+
+void
+sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
+    float scale, gboolean accumulate)
+{
+  orc_ready ();
+  if (accumulate)
+    sonar_orc_envelope_max (out, (const float *) x, scale, (int) n);
+  else
+    sonar_orc_envelope (out, (const float *) x, scale, (int) n);
 }

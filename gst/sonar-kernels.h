@@ -3,8 +3,9 @@
  * Each kernel has a plain scalar reference definition (_generic) and the
  * version the chain calls, written for the vectoriser: the phase ramp
  * advances in LANES independent lanes instead of one serial recurrence.
- * tests/test-kernels.c checks every fast kernel against its reference, as
- * VOLK does.
+ * The simplest (complex products, envelopes) are ORC programs
+ * (sonar-orc.orc), compiled for the running CPU. tests/test-kernels.c
+ * checks every fast kernel against its reference, as VOLK does.
  */
 #ifndef SONAR_KERNELS_H
 #define SONAR_KERNELS_H
@@ -57,13 +58,18 @@ SonarComplex sonar_kernel_steer_sum (const SonarComplex * x, guint n,
 SonarComplex sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
     double phase0, double dphase);
 
-/* out[k] = a[k] * b[k]. */
+/* out[k] = a[k] * b[k]. An ORC kernel (sonar-orc.orc). */
 void sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
     const SonarComplex * b, guint n);
+void sonar_kernel_multiply_generic (SonarComplex * out, const SonarComplex * a,
+    const SonarComplex * b, guint n);
 
-/* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). */
+/* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). An ORC
+ * kernel. */
 void sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate);
+void sonar_kernel_envelope_generic (float *out, const SonarComplex * x,
+    guint n, float scale, gboolean accumulate);
 
 G_END_DECLS
 

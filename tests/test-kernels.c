@@ -194,6 +194,44 @@ test_block_sums_at_lag_offsets (void)
   g_assert_cmpfloat (worst / peak, <, 2e-3);
 }
 
+/* The ORC kernels against their references: the same float operations,
+ * so equal to a rounding (ORC's sqrt and fused forms may differ in the
+ * last bit). Run under ORC_CODE=backup too (tools/test runs the suite both ways). */
+static void
+test_orc_multiply_envelope (void)
+{
+  SonarRng rng;
+  SonarComplex a[2882], b[2882], orc[2882], reference[2882];
+  float env[2882], env_reference[2882];
+
+  sonar_rng_init (&rng, 17, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    random_spectrum (&rng, a, n);
+    random_spectrum (&rng, b, n);
+    sonar_kernel_multiply (orc, a, b, n);
+    sonar_kernel_multiply_generic (reference, a, b, n);
+    for (guint k = 0; k < n; k++)
+      g_assert_cmpfloat (cabsf (orc[k] - reference[k]), <=,
+          1e-6f * cabsf (a[k]) * cabsf (b[k]));
+    for (int accumulate = 0; accumulate < 2; accumulate++) {
+      for (guint k = 0; k < n; k++)
+        env[k] = env_reference[k] = (float) (k % 5);
+      sonar_kernel_envelope (env, a, n, 0.75f, accumulate);
+      sonar_kernel_envelope_generic (env_reference, a, n, 0.75f, accumulate);
+      for (guint k = 0; k < n; k++) {
+        g_assert_cmpfloat (fabsf (env[k] - env_reference[k]), <=,
+            1e-6f * env_reference[k]);
+        if (accumulate)
+          g_assert_cmpfloat (env[k], >=, (float) (k % 5));
+        else
+          g_assert_cmpfloat (fabsf (env[k] - 0.75f * cabsf (a[k])), <=,
+              1e-6f * env[k]);
+      }
+    }
+  }
+}
+
 /* The fast phase ramp is right in absolute terms, not only against the
  * reference: a single bin recovers exp(i phase) to float precision. */
 static void
@@ -257,6 +295,8 @@ main (int argc, char **argv)
   g_test_add_func ("/kernels/steer-sum", test_steer_sum);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
+  g_test_add_func ("/kernels/orc-multiply-envelope",
+      test_orc_multiply_envelope);
   g_test_add_func ("/kernels/phase-ramp-exact", test_phase_ramp_exact);
   g_test_add_func ("/kernels/long-sums-against-double",
       test_long_sums_against_double);

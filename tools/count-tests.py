@@ -1,39 +1,41 @@
 #!/usr/bin/env python3
-"""Counts test cases in meson's testlog.json (TAP subtests included) and
-prints the closing line 'N passed, N failed[, N skipped]'."""
+"""Counts test cases in meson's testlog.json files (TAP subtests included;
+several files: several runs of the suite, added up) and prints the closing
+line 'N passed, N failed[, N skipped]'."""
 import json
 import re
 import sys
 
 passed = failed = skipped = 0
-with open(sys.argv[1]) as log:
-    for line in log:
-        test = json.loads(line)
-        cases = [l for l in test.get("stdout", "").splitlines()
-                 if re.match(r"(not )?ok \d+", l)]
-        if not cases or test["result"] == "TIMEOUT":
-            # Not TAP (or killed): the program counts as one case.
-            if test["result"] in ("OK", "EXPECTEDFAIL"):
-                passed += 1
-            elif test["result"] == "SKIP":
-                skipped += 1
-            else:
-                failed += 1
-            continue
-        for case in cases:
-            if case.startswith("not ok"):
-                # A known, documented failure (TAP TODO) is not a pass.
-                if "# TODO" in case:
+for path in sys.argv[1:]:
+    with open(path) as log:
+        for line in log:
+            test = json.loads(line)
+            cases = [l for l in test.get("stdout", "").splitlines()
+                     if re.match(r"(not )?ok \d+", l)]
+            if not cases or test["result"] == "TIMEOUT":
+                # Not TAP (or killed): the program counts as one case.
+                if test["result"] in ("OK", "EXPECTEDFAIL"):
+                    passed += 1
+                elif test["result"] == "SKIP":
                     skipped += 1
                 else:
                     failed += 1
-            elif "# SKIP" in case:
-                skipped += 1
-            else:
-                passed += 1
-        if test["result"] not in ("OK", "SKIP", "EXPECTEDFAIL") and \
-                not any(c.startswith("not ok") for c in cases):
-            failed += 1   # crashed after its last reported case
+                continue
+            for case in cases:
+                if case.startswith("not ok"):
+                    # A known, documented failure (TAP TODO) is not a pass.
+                    if "# TODO" in case:
+                        skipped += 1
+                    else:
+                        failed += 1
+                elif "# SKIP" in case:
+                    skipped += 1
+                else:
+                    passed += 1
+            if test["result"] not in ("OK", "SKIP", "EXPECTEDFAIL") and \
+                    not any(c.startswith("not ok") for c in cases):
+                failed += 1   # crashed after its last reported case
 line = f"{passed} passed, {failed} failed"
 if skipped:
     line += f", {skipped} skipped"

@@ -1,0 +1,62 @@
+# sonar-orc.orc: the kernels simple enough for ORC, which compiles them for
+# the running CPU (SSE, AVX, NEON) or runs its C backup (ORC_CODE=backup).
+# Complex arrays are pairs of floats: real in the low half of each 8-byte
+# element, imaginary in the high half. sonar-kernels.c has the plain C
+# reference of each; tests/test-kernels.c compares them.
+
+# out = a * b, complex.
+.function sonar_orc_multiply
+.dest 8 out float
+.source 8 a float
+.source 8 b float
+.temp 4 ar
+.temp 4 ai
+.temp 4 br
+.temp 4 bi
+.temp 4 t1
+.temp 4 t2
+.temp 4 re
+.temp 4 im
+
+splitql ai, ar, a
+splitql bi, br, b
+mulf t1, ar, br
+mulf t2, ai, bi
+subf re, t1, t2
+mulf t1, ar, bi
+mulf t2, ai, br
+addf im, t1, t2
+mergelq out, re, im
+
+# out = scale * |x|.
+.function sonar_orc_envelope
+.dest 4 out float
+.source 8 x float
+.floatparam 4 scale
+.temp 8 sq
+.temp 4 re
+.temp 4 im
+.temp 4 m
+
+x2 mulf sq, x, x
+splitql im, re, sq
+addf m, re, im
+sqrtf m, m
+mulf out, m, scale
+
+# out = max (out, scale * |x|).
+.function sonar_orc_envelope_max
+.dest 4 out float
+.source 8 x float
+.floatparam 4 scale
+.temp 8 sq
+.temp 4 re
+.temp 4 im
+.temp 4 m
+
+x2 mulf sq, x, x
+splitql im, re, sq
+addf m, re, im
+sqrtf m, m
+mulf m, m, scale
+maxf out, out, m

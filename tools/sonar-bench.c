@@ -25,7 +25,12 @@
  * velocity with the velocity read at each centroid's pixel, against the
  * proposed chain on the first fig10 ping with a -1..1 m/s bank; the
  * paper's Fig. 11 measured on the Doppler-ACF curves at the true
- * reflectors).
+ * reflectors), coarse-spacing and refine-db (the imager's coarse to fine
+ * pass: coarse grid 0-6 degrees, refinement level 10-30 dB) and
+ * hemisphere (issue 5's 3-D goal: 91 x 91 directions at 2 degrees, one
+ * fig10 ping, coarse grids of 4, 6 and 8 degrees and the dense image).
+ * The "work" column is the share of the dense image's direction x zone
+ * units the imager computed in full.
  *
  * The sensor is sonarsrc's default, built by a copy of its make_setup ()
  * logic; the velocity stage shares the centroids between worker threads as
@@ -172,6 +177,9 @@ typedef struct
   double sum_error, near_sum_error, max_error;
   double centroids;             /* per ping */
   double ms[N_STAGES];          /* medians over the pings */
+  /* The imager's direction x zone units imaged in full over the dense
+   * image's, mean over the pings (coarse to fine). */
+  double work_fraction;
   double ms_total;
   /* CPU time of the whole chain: other processes on the machine inflate
    * the wall-clock times, not this. */
@@ -463,13 +471,15 @@ config_key (const Config * c)
   const SonarVelocityParams *v = &c->velocity;
 
   return g_strdup_printf ("%s %u %d %d | %.17g %.17g %.17g %d %.17g | "
-      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u | %d %.17g %.17g "
+      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g | %d "
+      "%.17g %.17g "
       "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u",
       c->scene->name, c->n_pings, c->method, c->measure_curves, c->v_min,
       c->v_max, c->v_step, c->template_interp, c->hypothesis_spacing,
       i->azimuth_min, i->azimuth_max, i->n_azimuth, i->elevation_min,
       i->elevation_max, i->n_elevation, i->range_min, i->range_max,
-      i->range_resolution, i->focus_zones, k->range_compensation,
+      i->range_resolution, i->focus_zones, i->coarse_spacing, i->refine_db,
+      k->range_compensation,
       k->threshold_db, k->absolute_threshold, k->linkage, k->stop,
       k->inconsistency, k->depth, k->distance, k->max_peaks,
       v->window_directions, v->window_ranges, v->refine, v->min_variance,
@@ -986,6 +996,11 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     stage_start (&clock);
     chain_imaging (ch);
     t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
+    {
+      guint imaged, dense;
+      sonar_imager_last_work (ch->imager, &imaged, &dense);
+      r->work_fraction += (double) imaged / dense / n_pings;
+    }
     stage_start (&clock);
     n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,
         ch->centroids, MAX_CENTROIDS);
@@ -1127,6 +1142,40 @@ apply_focus_zones (Config * c, guint i, char *label, gsize size)
 }
 
 static void
+apply_coarse_spacing (Config * c, guint i, char *label, gsize size)
+{
+  static const double spacings[] = { 0.0, 2.0, 3.0, 4.0, 6.0 };
+
+  c->imager.coarse_spacing = spacings[i];
+  g_snprintf (label, size, "%g", spacings[i]);
+}
+
+static void
+apply_refine_db (Config * c, guint i, char *label, gsize size)
+{
+  static const double levels[] = { 10.0, 15.0, 20.0, 30.0 };
+
+  c->imager.refine_db = levels[i];
+  g_snprintf (label, size, "%g", levels[i]);
+}
+
+/* Issue 5's 3-D goal: the frontal hemisphere at 2 degrees (91 x 91
+ * directions), the Fig. 10 bank, one ping; coarse spacings of 4 to 8
+ * degrees (0: dense, every direction in full). */
+static void
+apply_hemisphere (Config * c, guint i, char *label, gsize size)
+{
+  static const double spacings[] = { 4.0, 6.0, 8.0, 0.0 };
+
+  c->n_pings = 1;
+  c->imager.n_azimuth = c->imager.n_elevation = 91;
+  c->imager.elevation_min = -90.0;
+  c->imager.elevation_max = 90.0;
+  c->imager.coarse_spacing = spacings[i];
+  g_snprintf (label, size, "%g", spacings[i]);
+}
+
+static void
 apply_hypotheses (Config * c, guint i, char *label, gsize size)
 {
   static const double spacings[] = { 0.15, 0.3, 0.6 };
@@ -1216,6 +1265,9 @@ static const Sweep sweeps[] = {
   {"reflectors", SCENE_FIG10, N_SCENES - SCENE_RANDOM_FIRST,
       apply_reflectors},
   {"datacube", SCENE_FIG10, 2, apply_datacube},
+  {"coarse-spacing", SCENE_FIG10, 5, apply_coarse_spacing},
+  {"refine-db", SCENE_FIG10, 4, apply_refine_db},
+  {"hemisphere", SCENE_FIG10, 4, apply_hemisphere},
 };
 
 static const Sweep *
@@ -1243,15 +1295,15 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   "ms_total,pings_per_second,cpu_ms_total,mb_bank,mb_spectra,mb_imaging," \
   "mb_clustering,mb_velocity,mb_chain,peak_rss_mb,centroids," \
   "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
-  "lobe_width,n_range,range_step"
+  "lobe_width,n_range,range_step,imaging_work"
 
 static void
 print_header (const Sweep * sweep)
 {
   g_print ("\n%s\n", sweep->name);
-  g_print ("  %-9s %-6s %5s %7s %3s %9s %9s %5s %8s %8s %8s %9s %9s %8s "
-      "%9s\n", "value", "scene", "pings", "found", "FP", "mean m/s",
-      "max m/s", "cent", "spectra", "imaging", "cluster", "velocity",
+  g_print ("  %-9s %-6s %5s %7s %3s %9s %9s %5s %8s %8s %5s %8s %9s %9s "
+      "%8s %9s\n", "value", "scene", "pings", "found", "FP", "mean m/s",
+      "max m/s", "cent", "spectra", "imaging", "work", "cluster", "velocity",
       "total ms", "pings/s", "cpu ms");
 }
 
@@ -1261,12 +1313,12 @@ print_row (const char *value, const Config * c, const Result * r,
 {
   g_autofree char *found = g_strdup_printf ("%u/%u", r->found, r->total);
 
-  g_print ("  %-9s %-6s %5u %7s %3u %9.4f %9.4f %5.1f %8.1f %8.1f %8.1f "
-      "%9.1f %9.1f %8.3f %9.1f", value, c->scene->name, r->pings, found,
-      r->false_positives, mean_error (r), r->max_error, r->centroids,
-      r->ms[STAGE_SPECTRA], r->ms[STAGE_IMAGING], r->ms[STAGE_CLUSTERING],
-      r->ms[STAGE_VELOCITY], r->ms_total, 1e3 / r->ms_total,
-      r->cpu_ms_total);
+  g_print ("  %-9s %-6s %5u %7s %3u %9.4f %9.4f %5.1f %8.1f %8.1f %5.2f "
+      "%8.1f %9.1f %9.1f %8.3f %9.1f", value, c->scene->name, r->pings,
+      found, r->false_positives, mean_error (r), r->max_error, r->centroids,
+      r->ms[STAGE_SPECTRA], r->ms[STAGE_IMAGING], r->work_fraction,
+      r->ms[STAGE_CLUSTERING], r->ms[STAGE_VELOCITY], r->ms_total,
+      1e3 / r->ms_total, r->cpu_ms_total);
   if (same_as)
     g_print ("  (the %s run)", same_as);
   g_print ("\n");
@@ -1321,12 +1373,12 @@ write_csv_row (FILE * csv, const char *sweep, const char *value,
       r->cpu_ms_total, r->bank_mb);
   for (guint k = 0; k < N_STAGES; k++)
     fprintf (csv, ",%.6g", r->mb[k]);
-  fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g\n",
+  fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.4g\n",
       chain_mb (r), r->peak_rss_mb, r->centroids, r->bank_velocities,
       ms_per_centroid (r), r->template_error_db,
       r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN,
       r->n_curves ? mean_of (r->width, r->n_curves) : NAN, r->n_range,
-      r->range_step);
+      r->range_step, r->work_fraction);
   fflush (csv);
 }
 
@@ -1586,7 +1638,13 @@ main (int argc, char **argv)
       "chain, first fig10\n"
       "                            ping, bank -1..1 m/s; Doppler-ACF "
       "peak-to-sidelobe ratios\n"
-      "                            (paper Fig. 11)\n");
+      "                            (paper Fig. 11)\n"
+      "  coarse-spacing, refine-db  the imager's coarse grid (0: dense) and "
+      "refinement level\n"
+      "  hemisphere                3-D, 91 x 91 directions at 2 degrees, "
+      "one fig10 ping,\n"
+      "                            coarse grids of 4, 6, 8 degrees and "
+      "dense\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, &argc, &argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);

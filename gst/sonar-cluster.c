@@ -21,6 +21,11 @@
 #include <math.h>
 #include <string.h>
 
+/* Range bins per gather of noise_floors (). */
+#define FLOOR_BLOCK 32
+/* Directions, at most, in the noise floor's quartile. */
+#define FLOOR_DIRECTIONS 1024
+
 #define MAX_PEAKS 4096
 
 /* Scratch for the clustering of up to @capacity points of @dims
@@ -731,7 +736,8 @@ struct _SonarClusterer
   int *slot;                    /* per label: output index, or -1 */
   float *compensated;           /* the image times r^2, with range_compensation */
   float *floor;                 /* per range bin: threshold over the noise floor */
-  float *column;                /* one range bin's values over the directions */
+  float *columns;               /* FLOOR_BLOCK range bins' values over the
+                                 * directions, one column per bin */
 };
 
 void
@@ -811,7 +817,8 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   if (params->range_compensation)
     c->compensated = g_new (float, sonar_image_grid_size (grid));
   c->floor = g_new (float, grid->n_range);
-  c->column = g_new (float, (gsize) grid->n_azimuth * grid->n_elevation);
+  c->columns = g_new (float, (gsize) FLOOR_BLOCK * grid->n_azimuth *
+      grid->n_elevation);
   return c;
 }
 
@@ -830,7 +837,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->slot);
   g_free (c->compensated);
   g_free (c->floor);
-  g_free (c->column);
+  g_free (c->columns);
   g_free (c);
 }
 
@@ -936,23 +943,37 @@ select_kth (float *v, gsize n, gsize k)
 
 /* Per range bin: floor_db above the lower quartile over the directions.
  * Not the median: a reflector near +-90 degrees smears over most of the
- * fan and would lift it. */
+ * fan and would lift it. The columns are gathered FLOOR_BLOCK range bins
+ * at a time, each direction's bins read in one run: gathering one bin at
+ * a time reads a cache line per value (300 ms for a 3-D image of 14
+ * million pixels). A 3-D image's quartile is taken over every k-th
+ * direction, at most FLOOR_DIRECTIONS of them: from a thousand samples a
+ * quartile is steady to a few per cent. */
 static void
 noise_floors (SonarClusterer * c, const float *image)
 {
   const SonarImageGrid *g = &c->grid;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
   const float gain = (float) pow (10.0, c->params.floor_db / 20.0);
+  gsize counts[FLOOR_BLOCK];
 
-  for (guint i = 0; i < g->n_range; i++) {
-    gsize n = 0;
-    for (gsize d = 0; d < n_dirs; d++) {
-      const float v = image[d * g->n_range + i];
-      if (isfinite (v))
-        c->column[n++] = v;
+  if (!(c->params.floor_db > 0.0)) {
+    memset (c->floor, 0, sizeof (float) * g->n_range);
+    return;
+  }
+  for (guint i0 = 0; i0 < g->n_range; i0 += FLOOR_BLOCK) {
+    const guint block = MIN (FLOOR_BLOCK, g->n_range - i0);
+    memset (counts, 0, sizeof counts);
+    for (gsize d = 0; d < n_dirs; d += stride) {
+      const float *pixels = image + d * g->n_range + i0;
+      for (guint b = 0; b < block; b++)
+        if (isfinite (pixels[b]))
+          c->columns[b * n_dirs + counts[b]++] = pixels[b];
     }
-    c->floor[i] = n > 0 && c->params.floor_db > 0.0 ?
-        gain * select_kth (c->column, n, n / 4) : 0.0f;
+    for (guint b = 0; b < block; b++)
+      c->floor[i0 + b] = counts[b] > 0 ? gain * select_kth (c->columns +
+          b * n_dirs, counts[b], counts[b] / 4) : 0.0f;
   }
 }
 

@@ -267,7 +267,10 @@ static double parabola_offset (double a, double b, double c);
 
 /* On a coarse grid, moves (*azimuth, *elevation) to the strongest
  * sub-direction within half a grid step (steps of a quarter), at the
- * detection hypotheses; *coherence receives the coherence factor there. */
+ * detection hypotheses; *coherence receives the coherence factor there.
+ * The search is along azimuth, then along elevation from the best
+ * azimuth: 9 evaluations instead of 25 on a 3-D grid, the beam being
+ * close to separable over half a step. */
 static void
 refine_direction (SonarVelocityEstimator * est, const SonarComplex * spectra,
     double range, double *azimuth, double *elevation, double *coherence)
@@ -281,13 +284,18 @@ refine_direction (SonarVelocityEstimator * est, const SonarComplex * spectra,
       DIRECTION_SUBSTEPS : 0;
   double best_strength = -1.0, best_az = *azimuth, best_el = *elevation;
 
-  for (int j = -qe; j <= qe; j++) {
-    for (int i = -qa; i <= qa; i++) {
-      const double az = CLAMP (*azimuth + i * da, -90.0, 90.0);
-      const double el = CLAMP (*elevation + j * de, -90.0, 90.0);
-      double strength;
-      const double cf = coherence_over (est, spectra, range, az, el,
-          est->hypotheses, est->n_hypotheses, &strength);
+  for (int axis = 0; axis < 2; axis++) {
+    const int q = axis == 0 ? qa : qe;
+    const double az0 = best_az, el0 = best_el;
+    for (int i = -q; i <= q; i++) {
+      const double az = axis == 0 ? CLAMP (az0 + i * da, -90.0, 90.0) : az0;
+      const double el = axis == 1 ? CLAMP (el0 + i * de, -90.0, 90.0) : el0;
+      double strength, cf;
+      /* The centre of the elevation line is the azimuth line's best. */
+      if (axis == 1 && i == 0 && best_strength >= 0.0)
+        continue;
+      cf = coherence_over (est, spectra, range, az, el, est->hypotheses,
+          est->n_hypotheses, &strength);
       if (strength > best_strength) {
         best_strength = strength;
         best_az = az;

@@ -55,6 +55,35 @@ sonar_kernel_steer_accumulate_conj_generic (SonarComplex * acc,
   }
 }
 
+void
+sonar_kernel_steer_accumulate_split_generic (float *acc_re, float *acc_im,
+    const float *x_re, const float *x_im, guint n, double phase0,
+    double dphase, gboolean conj_x)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+  const float sign = conj_x ? -1.0f : 1.0f;
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      const SonarComplex y = (x_re[k] + I * sign * x_im[k]) * p;
+      acc_re[k] += crealf (y);
+      acc_im[k] += cimagf (y);
+      p *= rotation;
+    }
+  }
+}
+
+void
+sonar_kernel_split (float *re, float *im, const SonarComplex * x, guint n)
+{
+  for (guint k = 0; k < n; k++) {
+    re[k] = crealf (x[k]);
+    im[k] = cimagf (x[k]);
+  }
+}
+
 SonarComplex
 sonar_kernel_steer_dot_conj_generic (const SonarComplex * a,
     const SonarComplex * b, guint n, double phase0, double dphase)
@@ -117,8 +146,8 @@ sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
  * elsewhere the references run (the lane code emulated on 128-bit SSE2 is
  * slower than the scalar reference). */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define FAST_TARGET __attribute__ ((target ("avx2")))
-#define HAVE_FAST() __builtin_cpu_supports ("avx2")
+#define FAST_TARGET __attribute__ ((target ("avx2,fma")))
+#define HAVE_FAST() (__builtin_cpu_supports ("avx2") && __builtin_cpu_supports ("fma"))
 #else
 #define FAST_TARGET
 #define HAVE_FAST() FALSE
@@ -269,6 +298,41 @@ steer_dot_conj_fast (const SonarComplex * a, const SonarComplex * b,
   return sum;
 }
 
+FAST_TARGET static void
+steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
+    const float *x_im, guint n, double phase0, double dphase,
+    gboolean conj_x)
+{
+  const guint whole = n - n % LANES;
+  const float sign = conj_x ? -1.0f : 1.0f;
+  Lanes p;
+
+  lanes_init (&p, phase0, dphase);
+  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
+    lanes_seed (&p);
+    for (guint k = k0; k < k1; k += LANES) {
+      Vec xr, xi, ar, ai;
+      memcpy (&xr, x_re + k, sizeof xr);
+      memcpy (&xi, x_im + k, sizeof xi);
+      memcpy (&ar, acc_re + k, sizeof ar);
+      memcpy (&ai, acc_im + k, sizeof ai);
+      xi *= sign;
+      ar += xr * p.re - xi * p.im;
+      ai += xr * p.im + xi * p.re;
+      memcpy (acc_re + k, &ar, sizeof ar);
+      memcpy (acc_im + k, &ai, sizeof ai);
+      LANES_ADVANCE (p);
+    }
+  }
+  for (guint k = whole; k < n; k++) {
+    const SonarComplex y = (x_re[k] + I * sign * x_im[k]) *
+        unit_phasor (phase0 + k * dphase);
+    acc_re[k] += crealf (y);
+    acc_im[k] += cimagf (y);
+  }
+}
+
 /* Block sums: the lane products are summed over a block, then across the
  * lanes. */
 FAST_TARGET static void
@@ -356,6 +420,19 @@ sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
     steer_accumulate_fast (acc, x, n, phase0, dphase, TRUE);
   else
     sonar_kernel_steer_accumulate_conj_generic (acc, x, n, phase0, dphase);
+}
+
+void
+sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
+    const float *x_re, const float *x_im, guint n, double phase0,
+    double dphase, gboolean conj_x)
+{
+  if (HAVE_FAST ())
+    steer_accumulate_split_fast (acc_re, acc_im, x_re, x_im, n, phase0,
+        dphase, conj_x);
+  else
+    sonar_kernel_steer_accumulate_split_generic (acc_re, acc_im, x_re, x_im,
+        n, phase0, dphase, conj_x);
 }
 
 SonarComplex

@@ -24,6 +24,20 @@ void sonar_kernel_steer_accumulate (SonarComplex * acc, const SonarComplex * x,
 void sonar_kernel_steer_accumulate_generic (SonarComplex * acc,
     const SonarComplex * x, guint n, double phase0, double dphase);
 
+/* The same on split arrays, real and imaginary parts apart (x_im * -1
+ * when @conj_x): the imager's sums, which then need no shuffling of
+ * interleaved pairs. */
+void sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
+    const float *x_re, const float *x_im, guint n, double phase0,
+    double dphase, gboolean conj_x);
+void sonar_kernel_steer_accumulate_split_generic (float *acc_re,
+    float *acc_im, const float *x_re, const float *x_im, guint n,
+    double phase0, double dphase, gboolean conj_x);
+
+/* re[k] = creal (x[k]), im[k] = cimag (x[k]). */
+void sonar_kernel_split (float *re, float *im, const SonarComplex * x,
+    guint n);
+
 /* Same with conj (x[k]): the matched filter's conjugated template. */
 void sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
     const SonarComplex * x, guint n, double phase0, double dphase);

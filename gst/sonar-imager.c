@@ -24,11 +24,13 @@ typedef struct
   double *emitter_path;         /* [direction][emitter] e_n, m */
 } FocusZone;
 
-/* Delay and sum output of one direction, then its inverse transform. */
+/* Delay and sum output of one direction, then its inverse transform. The
+ * sums are kept split, real and imaginary parts apart: the steering
+ * kernels then need no shuffling of interleaved pairs (twice as fast). */
 typedef struct
 {
-  SonarComplex *receive;        /* K: sum over microphones */
-  SonarComplex *transmit;       /* K: sum over emitters */
+  float *receive_re, *receive_im;       /* K: sum over microphones */
+  float *transmit_re, *transmit_im;     /* K: sum over emitters */
   SonarComplex *baseband;       /* M */
 } Scratch;
 
@@ -37,9 +39,7 @@ typedef struct
 {
   const guint *units;           /* UNIT (direction, zone) */
   guint n_units;
-  const SonarComplex *mic_spectra;
   guint n_hypotheses;
-  const SonarComplex *const *templates;
   const double *velocities;
   int emitter;
   float *image;
@@ -70,7 +70,11 @@ struct _SonarImager
   guint ifft_size;              /* M */
   guint first_lag;              /* IFFT sample of range bin 0 */
   fftwf_plan inverse;           /* made on scratch[0], run on every worker's */
-  SonarComplex *rescaled;       /* microphones x K: see data_exponent () */
+  /* The call's data, split: microphones x K, scaled (data_exponent ()),
+   * and the hypotheses' templates, hypotheses x emitters x K. */
+  float *mic_re, *mic_im;
+  float *template_re, *template_im;
+  guint template_capacity;      /* hypotheses the template arrays hold */
   /* Directions are shared out between workers, each with its scratch. */
   SonarWorkers *workers;
   Scratch scratch[SONAR_MAX_WORKERS];
@@ -259,7 +263,9 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   im->hot = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
   im->imaged = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
 
-  im->rescaled = g_new (SonarComplex, (gsize) band->n_bins *
+  im->mic_re = g_new (float, (gsize) band->n_bins *
+      setup->geometry.n_microphones);
+  im->mic_im = g_new (float, (gsize) band->n_bins *
       setup->geometry.n_microphones);
   im->workers = sonar_workers_new (p->threads, error);
   if (!im->workers) {
@@ -267,8 +273,10 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     return NULL;
   }
   for (guint w = 0; w < sonar_workers_count (im->workers); w++) {
-    im->scratch[w].receive = fftwf_alloc_complex (band->n_bins);
-    im->scratch[w].transmit = fftwf_alloc_complex (band->n_bins);
+    im->scratch[w].receive_re = fftwf_alloc_real (band->n_bins);
+    im->scratch[w].receive_im = fftwf_alloc_real (band->n_bins);
+    im->scratch[w].transmit_re = fftwf_alloc_real (band->n_bins);
+    im->scratch[w].transmit_im = fftwf_alloc_real (band->n_bins);
     im->scratch[w].baseband = fftwf_alloc_complex (im->ifft_size);
   }
   sonar_fftw_lock ();
@@ -301,12 +309,17 @@ sonar_imager_free (SonarImager * im)
     sonar_fftw_unlock ();
   }
   for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
-    fftwf_free (im->scratch[w].receive);
-    fftwf_free (im->scratch[w].transmit);
+    fftwf_free (im->scratch[w].receive_re);
+    fftwf_free (im->scratch[w].receive_im);
+    fftwf_free (im->scratch[w].transmit_re);
+    fftwf_free (im->scratch[w].transmit_im);
     fftwf_free (im->scratch[w].baseband);
   }
   sonar_workers_free (im->workers);
-  g_free (im->rescaled);
+  g_free (im->mic_re);
+  g_free (im->mic_im);
+  g_free (im->template_re);
+  g_free (im->template_im);
   sonar_setup_unref (im->setup);
   g_free (im);
 }
@@ -363,25 +376,30 @@ image_units (gpointer data, guint w, guint n_workers)
     if (count == 0)
       continue;
     /* Receive side: once per direction for every hypothesis. */
-    memset (scratch->receive, 0, sizeof (SonarComplex) * n_bins);
+    memset (scratch->receive_re, 0, sizeof (float) * n_bins);
+    memset (scratch->receive_im, 0, sizeof (float) * n_bins);
     for (guint j = 0; j < g->n_microphones; j++)
-      sonar_kernel_steer_accumulate (scratch->receive,
-          job->mic_spectra + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
-          dk * mic_path[j]);
+      sonar_kernel_steer_accumulate_split (scratch->receive_re,
+          scratch->receive_im, im->mic_re + (gsize) j * n_bins,
+          im->mic_im + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
+          dk * mic_path[j], FALSE);
 
     for (guint h = 0; h < job->n_hypotheses; h++) {
       const double v = job->velocities[h];
       const double stretch = (c + v) / (c - v); /* 1 / alpha */
 
-      memset (scratch->transmit, 0, sizeof (SonarComplex) * n_bins);
+      memset (scratch->transmit_re, 0, sizeof (float) * n_bins);
+      memset (scratch->transmit_im, 0, sizeof (float) * n_bins);
       for (guint n = n_first; n < n_end; n++) {
         const double path = emitter_path[n] * stretch;
-        sonar_kernel_steer_accumulate_conj (scratch->transmit,
-            job->templates[h] + (gsize) n * n_bins, n_bins, k0 * path,
-            dk * path);
+        const gsize t = ((gsize) h * g->n_emitters + n) * n_bins;
+        sonar_kernel_steer_accumulate_split (scratch->transmit_re,
+            scratch->transmit_im, im->template_re + t, im->template_im + t,
+            n_bins, k0 * path, dk * path, TRUE);
       }
-      sonar_kernel_multiply (scratch->baseband, scratch->receive,
-          scratch->transmit, n_bins);
+      sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
+          scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
+          n_bins);
       memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
           (im->ifft_size - n_bins));
       fftwf_execute_dft (im->inverse, scratch->baseband, scratch->baseband);
@@ -542,8 +560,9 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
     guint n_hypotheses, const SonarComplex * const *templates,
     const double *velocities, int emitter, float *image, gsize stride)
 {
-  const gsize n_data = (gsize) im->setup->geometry.n_microphones *
-      im->band.n_bins;
+  const guint n_bins = im->band.n_bins;
+  const guint n_emitters = im->setup->geometry.n_emitters;
+  const gsize n_data = (gsize) im->setup->geometry.n_microphones * n_bins;
   const gsize n_units = (gsize) im->n_directions * (im->n_zones + 1);
   /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
   float scale = 2.0f / im->band.fft_size;
@@ -553,16 +572,30 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
    * the envelope scaled back. */
   const int exponent = data_exponent (mic_spectra, n_data);
 
+  sonar_kernel_split (im->mic_re, im->mic_im, mic_spectra, n_data);
   if (ABS (exponent) > 30) {
     const float factor = ldexpf (1.0f, -exponent);
-    for (gsize i = 0; i < n_data; i++)
-      im->rescaled[i] = mic_spectra[i] * factor;
-    mic_spectra = im->rescaled;
+    for (gsize i = 0; i < n_data; i++) {
+      im->mic_re[i] *= factor;
+      im->mic_im[i] *= factor;
+    }
     scale = ldexpf (scale, exponent);
   }
-  im->job.mic_spectra = mic_spectra;
+  /* Grown when a call brings more hypotheses than any before: a stream's
+   * calls bring the same number, so steady state allocates nothing. */
+  if (n_hypotheses > im->template_capacity) {
+    const gsize size = (gsize) n_hypotheses * n_emitters * n_bins;
+    g_free (im->template_re);
+    g_free (im->template_im);
+    im->template_re = g_new (float, size);
+    im->template_im = g_new (float, size);
+    im->template_capacity = n_hypotheses;
+  }
+  for (guint h = 0; h < n_hypotheses; h++)
+    sonar_kernel_split (im->template_re + (gsize) h * n_emitters * n_bins,
+        im->template_im + (gsize) h * n_emitters * n_bins, templates[h],
+        (gsize) n_emitters * n_bins);
   im->job.n_hypotheses = n_hypotheses;
-  im->job.templates = templates;
   im->job.velocities = velocities;
   im->job.emitter = emitter;
   im->job.image = image;

@@ -76,9 +76,9 @@ sonar_kernel_steer_accumulate_split_generic (float *acc_re, float *acc_im,
 }
 
 void
-sonar_kernel_split (float *re, float *im, const SonarComplex * x, guint n)
+sonar_kernel_split (float *re, float *im, const SonarComplex * x, gsize n)
 {
-  for (guint k = 0; k < n; k++) {
+  for (gsize k = 0; k < n; k++) {
     re[k] = crealf (x[k]);
     im[k] = cimagf (x[k]);
   }
@@ -465,11 +465,11 @@ sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
 }
 
 void
-sonar_kernel_multiply_generic (SonarComplex * out, const SonarComplex * a,
-    const SonarComplex * b, guint n)
+sonar_kernel_multiply_split_generic (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n)
 {
   for (guint k = 0; k < n; k++)
-    out[k] = a[k] * b[k];
+    out[k] = (a_re[k] + I * a_im[k]) * (b_re[k] + I * b_im[k]);
 }
 
 void
@@ -496,12 +496,11 @@ orc_ready (void)
 }
 
 void
-sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
-    const SonarComplex * b, guint n)
+sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n)
 {
   orc_ready ();
-  sonar_orc_multiply ((float *) out, (const float *) a, (const float *) b,
-      (int) n);
+  sonar_orc_multiply_split ((float *) out, a_re, a_im, b_re, b_im, (int) n);
 }
 
 void

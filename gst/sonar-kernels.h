@@ -36,7 +36,7 @@ void sonar_kernel_steer_accumulate_split_generic (float *acc_re,
 
 /* re[k] = creal (x[k]), im[k] = cimag (x[k]). */
 void sonar_kernel_split (float *re, float *im, const SonarComplex * x,
-    guint n);
+    gsize n);
 
 /* Same with conj (x[k]): the matched filter's conjugated template. */
 void sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
@@ -72,11 +72,13 @@ SonarComplex sonar_kernel_steer_sum (const SonarComplex * x, guint n,
 SonarComplex sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
     double phase0, double dphase);
 
-/* out[k] = a[k] * b[k]. An ORC kernel (sonar-orc.orc). */
-void sonar_kernel_multiply (SonarComplex * out, const SonarComplex * a,
-    const SonarComplex * b, guint n);
-void sonar_kernel_multiply_generic (SonarComplex * out, const SonarComplex * a,
-    const SonarComplex * b, guint n);
+/* out[k] = (a_re[k] + i a_im[k]) (b_re[k] + i b_im[k]): split operands,
+ * interleaved product. An ORC kernel (sonar-orc.orc). */
+void sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n);
+void sonar_kernel_multiply_split_generic (SonarComplex * out,
+    const float *a_re, const float *a_im, const float *b_re,
+    const float *b_im, guint n);
 
 /* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). An ORC
  * kernel. */

@@ -1,25 +1,21 @@
 # sonar-orc.orc: the kernels simple enough for ORC, which compiles them for
 # the running CPU (SSE, AVX, NEON) or runs its C backup (ORC_CODE=backup).
-# Complex arrays are pairs of floats: real in the low half of each 8-byte
+# Interleaved complex arrays are pairs of floats: real in the low half of each 8-byte
 # element, imaginary in the high half. sonar-kernels.c has the plain C
 # reference of each; tests/test-kernels.c compares them.
 
-# out = a * b, complex.
-.function sonar_orc_multiply
+# out = (ar + i ai) (br + i bi): split operands, an interleaved product.
+.function sonar_orc_multiply_split
 .dest 8 out float
-.source 8 a float
-.source 8 b float
-.temp 4 ar
-.temp 4 ai
-.temp 4 br
-.temp 4 bi
+.source 4 ar float
+.source 4 ai float
+.source 4 br float
+.source 4 bi float
 .temp 4 t1
 .temp 4 t2
 .temp 4 re
 .temp 4 im
 
-splitql ai, ar, a
-splitql bi, br, b
 mulf t1, ar, br
 mulf t2, ai, bi
 subf re, t1, t2

@@ -61,6 +61,46 @@ test_steer_accumulate (void)
   }
 }
 
+/* The split kernel against its reference, and against the interleaved
+ * kernel on the same data. */
+static void
+test_steer_accumulate_split (void)
+{
+  SonarRng rng;
+  SonarComplex x[2882], acc[2882];
+  float x_re[2882], x_im[2882], fast_re[2882], fast_im[2882];
+  float ref_re[2882], ref_im[2882];
+
+  sonar_rng_init (&rng, 18, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    for (int conj_x = 0; conj_x < 2; conj_x++) {
+      const double phase0 = -321.5 * (t + 1), dphase = 0.053 * (t + 1);
+      random_spectrum (&rng, x, n);
+      random_spectrum (&rng, acc, n);
+      sonar_kernel_split (x_re, x_im, x, n);
+      sonar_kernel_split (fast_re, fast_im, acc, n);
+      sonar_kernel_split (ref_re, ref_im, acc, n);
+      sonar_kernel_steer_accumulate_split (fast_re, fast_im, x_re, x_im, n,
+          phase0, dphase, conj_x);
+      sonar_kernel_steer_accumulate_split_generic (ref_re, ref_im, x_re,
+          x_im, n, phase0, dphase, conj_x);
+      if (conj_x)
+        sonar_kernel_steer_accumulate_conj_generic (acc, x, n, phase0,
+            dphase);
+      else
+        sonar_kernel_steer_accumulate_generic (acc, x, n, phase0, dphase);
+      for (guint k = 0; k < n; k++) {
+        const double scale = MAX (cabsf (x[k]), 1e-6f);
+        g_assert_cmpfloat (cabsf (fast_re[k] + I * fast_im[k] - (ref_re[k] +
+                    I * ref_im[k])) / scale, <, 2e-5);
+        g_assert_cmpfloat (cabsf (ref_re[k] + I * ref_im[k] - acc[k]) /
+            scale, <, 2e-5);
+      }
+    }
+  }
+}
+
 static void
 test_steer_dot_conj (void)
 {
@@ -203,14 +243,22 @@ test_orc_multiply_envelope (void)
   SonarRng rng;
   SonarComplex a[2882], b[2882], orc[2882], reference[2882];
   float env[2882], env_reference[2882];
+  float a_re[2882], a_im[2882], b_re[2882], b_im[2882];
 
   sonar_rng_init (&rng, 17, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
     const guint n = lengths[t];
     random_spectrum (&rng, a, n);
     random_spectrum (&rng, b, n);
-    sonar_kernel_multiply (orc, a, b, n);
-    sonar_kernel_multiply_generic (reference, a, b, n);
+    for (guint k = 0; k < n; k++) {
+      a_re[k] = crealf (a[k]);
+      a_im[k] = cimagf (a[k]);
+      b_re[k] = crealf (b[k]);
+      b_im[k] = cimagf (b[k]);
+    }
+    sonar_kernel_multiply_split (orc, a_re, a_im, b_re, b_im, n);
+    sonar_kernel_multiply_split_generic (reference, a_re, a_im, b_re, b_im,
+        n);
     for (guint k = 0; k < n; k++)
       g_assert_cmpfloat (cabsf (orc[k] - reference[k]), <=,
           1e-6f * cabsf (a[k]) * cabsf (b[k]));
@@ -290,6 +338,8 @@ main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/kernels/steer-accumulate", test_steer_accumulate);
+  g_test_add_func ("/kernels/steer-accumulate-split",
+      test_steer_accumulate_split);
   g_test_add_func ("/kernels/steer-dot-conj", test_steer_dot_conj);
   g_test_add_func ("/kernels/steer-block-sums", test_steer_block_sums);
   g_test_add_func ("/kernels/steer-sum", test_steer_sum);

@@ -40,22 +40,6 @@ sonar_kernel_steer_accumulate_generic (SonarComplex * acc,
 }
 
 void
-sonar_kernel_steer_accumulate_conj_generic (SonarComplex * acc,
-    const SonarComplex * x, guint n, double phase0, double dphase)
-{
-  const SonarComplex rotation = unit_phasor (dphase);
-
-  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
-    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
-    for (guint k = k0; k < k1; k++) {
-      acc[k] += conjf (x[k]) * p;
-      p *= rotation;
-    }
-  }
-}
-
-void
 sonar_kernel_steer_accumulate_split_generic (float *acc_re, float *acc_im,
     const float *x_re, const float *x_im, guint n, double phase0,
     double dphase, gboolean conj_x)
@@ -82,24 +66,6 @@ sonar_kernel_split (float *re, float *im, const SonarComplex * x, gsize n)
     re[k] = crealf (x[k]);
     im[k] = cimagf (x[k]);
   }
-}
-
-SonarComplex
-sonar_kernel_steer_dot_conj_generic (const SonarComplex * a,
-    const SonarComplex * b, guint n, double phase0, double dphase)
-{
-  const SonarComplex rotation = unit_phasor (dphase);
-  SonarComplex sum = 0.0f;
-
-  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
-    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
-    for (guint k = k0; k < k1; k++) {
-      sum += a[k] * conjf (b[k]) * p;
-      p *= rotation;
-    }
-  }
-  return sum;
 }
 
 void
@@ -239,10 +205,9 @@ lanes_seed (Lanes * p)
 
 FAST_TARGET static void
 steer_accumulate_fast (SonarComplex * acc, const SonarComplex * x, guint n,
-    double phase0, double dphase, gboolean conj_x)
+    double phase0, double dphase)
 {
   const guint whole = n - n % LANES;
-  const float sign = conj_x ? -1.0f : 1.0f;
   Lanes p;
 
   lanes_init (&p, phase0, dphase);
@@ -253,7 +218,6 @@ steer_accumulate_fast (SonarComplex * acc, const SonarComplex * x, guint n,
       Vec xr, xi, ar, ai;
       LOAD_SPLIT (x + k, xr, xi);
       LOAD_SPLIT (acc + k, ar, ai);
-      xi *= sign;
       ar += xr * p.re - xi * p.im;
       ai += xr * p.im + xi * p.re;
       STORE_JOINED (acc + k, ar, ai);
@@ -262,40 +226,7 @@ steer_accumulate_fast (SonarComplex * acc, const SonarComplex * x, guint n,
   }
   /* The last n % LANES bins. */
   for (guint k = whole; k < n; k++)
-    acc[k] += (conj_x ? conjf (x[k]) : x[k]) * unit_phasor (phase0 +
-        k * dphase);
-}
-
-FAST_TARGET static SonarComplex
-steer_dot_conj_fast (const SonarComplex * a, const SonarComplex * b,
-    guint n, double phase0, double dphase)
-{
-  const guint whole = n - n % LANES;
-  Vec sum_re = { 0 }, sum_im = { 0 };
-  SonarComplex sum = 0.0f;
-  Lanes p;
-
-  lanes_init (&p, phase0, dphase);
-  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p);
-    for (guint k = k0; k < k1; k += LANES) {
-      Vec ar, ai, br, bi, tr, ti;
-      LOAD_SPLIT (a + k, ar, ai);
-      LOAD_SPLIT (b + k, br, bi);
-      /* a * conj (b), then times the phasor. */
-      tr = ar * br + ai * bi;
-      ti = ai * br - ar * bi;
-      sum_re += tr * p.re - ti * p.im;
-      sum_im += tr * p.im + ti * p.re;
-      LANES_ADVANCE (p);
-    }
-  }
-  for (int l = 0; l < LANES; l++)
-    sum += sum_re[l] + I * sum_im[l];
-  for (guint k = whole; k < n; k++)
-    sum += a[k] * conjf (b[k]) * unit_phasor (phase0 + k * dphase);
-  return sum;
+    acc[k] += x[k] * unit_phasor (phase0 + k * dphase);
 }
 
 FAST_TARGET static void
@@ -407,19 +338,9 @@ sonar_kernel_steer_accumulate (SonarComplex * acc, const SonarComplex * x,
     guint n, double phase0, double dphase)
 {
   if (HAVE_FAST ())
-    steer_accumulate_fast (acc, x, n, phase0, dphase, FALSE);
+    steer_accumulate_fast (acc, x, n, phase0, dphase);
   else
     sonar_kernel_steer_accumulate_generic (acc, x, n, phase0, dphase);
-}
-
-void
-sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
-    const SonarComplex * x, guint n, double phase0, double dphase)
-{
-  if (HAVE_FAST ())
-    steer_accumulate_fast (acc, x, n, phase0, dphase, TRUE);
-  else
-    sonar_kernel_steer_accumulate_conj_generic (acc, x, n, phase0, dphase);
 }
 
 void
@@ -433,14 +354,6 @@ sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
   else
     sonar_kernel_steer_accumulate_split_generic (acc_re, acc_im, x_re, x_im,
         n, phase0, dphase, conj_x);
-}
-
-SonarComplex
-sonar_kernel_steer_dot_conj (const SonarComplex * a, const SonarComplex * b,
-    guint n, double phase0, double dphase)
-{
-  return HAVE_FAST ()? steer_dot_conj_fast (a, b, n, phase0, dphase) :
-      sonar_kernel_steer_dot_conj_generic (a, b, n, phase0, dphase);
 }
 
 void

@@ -38,20 +38,6 @@ void sonar_kernel_steer_accumulate_split_generic (float *acc_re,
 void sonar_kernel_split (float *re, float *im, const SonarComplex * x,
     gsize n);
 
-/* Same with conj (x[k]): the matched filter's conjugated template. */
-void sonar_kernel_steer_accumulate_conj (SonarComplex * acc,
-    const SonarComplex * x, guint n, double phase0, double dphase);
-void sonar_kernel_steer_accumulate_conj_generic (SonarComplex * acc,
-    const SonarComplex * x, guint n, double phase0, double dphase);
-
-/* sum over k < n of a[k] * conj (b[k]) * exp(i (phase0 + k * dphase)):
- * one output sample of a matched filter (template b) of a delayed signal
- * (a), without transforming the whole spectrum back. */
-SonarComplex sonar_kernel_steer_dot_conj (const SonarComplex * a,
-    const SonarComplex * b, guint n, double phase0, double dphase);
-SonarComplex sonar_kernel_steer_dot_conj_generic (const SonarComplex * a,
-    const SonarComplex * b, guint n, double phase0, double dphase);
-
 /* out[i] = the sum over the bins k of block i (block bins from i * block;
  * the last block takes what is left) of a[k] * conj (b[k]) * exp(i
  * (phase0 + k * dphase)): writes ceil (n / block) sums. @block divides 64

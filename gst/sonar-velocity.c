@@ -8,8 +8,9 @@
 #include <string.h>
 
 /* Added to every Doppler-ACF value before its logarithm: silence gives a
- * flat curve, not -inf. */
-#define ACF_FLOOR 1e-30
+ * flat curve, not -inf. Far below the smallest float amplitude (1.4e-45),
+ * so that it flattens no curve of a faint echo. */
+#define ACF_FLOOR 1e-300
 
 /* Doppler hypotheses of the prescreen, m/s apart: within one emitter's
  * Doppler main lobe (about 0.33 m/s at -3 dB), like the detection image. */
@@ -186,16 +187,19 @@ coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
       receive_beam (est, spectra, point, range);
       for (guint i = 0; i < n_v; i++) {
         for (int dr = -wr; dr <= wr; dr++) {
-          SonarComplex sum = 0.0f;
-          double power = 0.0;
+          /* In double: float squares underflow below amplitudes of about
+           * 1e-19 and overflow above 1e19. */
+          double complex sum = 0.0;
+          double power = 0.0, sum2;
           for (guint n = 0; n < est->n_emitters; n++) {
-            const SonarComplex y = emitter_output (est, n, vs[i], point,
+            const double complex y = emitter_output (est, n, vs[i], point,
                 range, range + dr * grid->range_step);
             sum += y;
-            power += crealf (y * conjf (y));
+            power += creal (y) * creal (y) + cimag (y) * cimag (y);
           }
-          if (crealf (sum * conjf (sum)) > best_sum) {
-            best_sum = crealf (sum * conjf (sum));
+          sum2 = creal (sum) * creal (sum) + cimag (sum) * cimag (sum);
+          if (sum2 > best_sum) {
+            best_sum = sum2;
             best = power > 0.0 ? best_sum / (est->n_emitters * power) : 0.0;
           }
         }

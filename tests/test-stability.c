@@ -2,6 +2,7 @@
  * time: state changes, long runs (memory stays flat), extreme scenes and
  * amplitudes. SONAR_LONG_RUN=1 runs the issue's 10,000 pings. */
 #include <gst/app/gstappsink.h>
+#include <json-glib/json-glib.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -95,6 +96,233 @@ test_long_run (void)
   g_assert_cmpuint (count, ==, pings);
   g_assert_cmpfloat (resident_mb () - mb_warm, <, 8.0);
   gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
+/* What one ping through the whole chain gave: its JSON line, metas and bus
+ * messages, each checked for non-finite numbers. */
+typedef struct
+{
+  char *json;
+  SonarDetection *detections;
+  guint n_detections;
+  guint n_centroids;
+  guint n_centroid_messages, n_detection_messages;
+  char *warning;                /* the first warning's text, or NULL */
+} ChainRun;
+
+static void
+chain_run_clear (ChainRun * r)
+{
+  g_free (r->json);
+  g_free (r->detections);
+  g_free (r->warning);
+  memset (r, 0, sizeof (*r));
+}
+
+/* Rewrites every sample of a ping in place (interleaved float32). */
+typedef void (*SampleEdit) (float *samples, gsize n, gpointer data);
+
+typedef struct
+{
+  SampleEdit edit;
+  gpointer data;
+} EditProbe;
+
+static GstPadProbeReturn
+edit_samples (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
+{
+  const EditProbe *probe = user_data;
+  GstBuffer *buffer = gst_buffer_make_writable (GST_PAD_PROBE_INFO_BUFFER
+      (info));
+  GstMapInfo map;
+
+  g_assert_true (gst_buffer_map (buffer, &map, GST_MAP_READWRITE));
+  probe->edit ((float *) map.data, map.size / sizeof (float), probe->data);
+  gst_buffer_unmap (buffer, &map);
+  GST_PAD_PROBE_INFO_DATA (info) = buffer;
+  return GST_PAD_PROBE_OK;
+}
+
+/* Every number in the JSON document is finite (json-glib refuses "nan" and
+ * "inf" outright, so a non-finite number fails the parse). */
+static void
+assert_json_finite (JsonNode * node)
+{
+  switch (JSON_NODE_TYPE (node)) {
+    case JSON_NODE_OBJECT:{
+      g_autoptr (GList) members =
+          json_object_get_values (json_node_get_object (node));
+      for (GList * l = members; l; l = l->next)
+        assert_json_finite (l->data);
+      break;
+    }
+    case JSON_NODE_ARRAY:{
+      g_autoptr (GList) elements =
+          json_array_get_elements (json_node_get_array (node));
+      for (GList * l = elements; l; l = l->next)
+        assert_json_finite (l->data);
+      break;
+    }
+    case JSON_NODE_VALUE:
+      if (json_node_get_value_type (node) == G_TYPE_DOUBLE)
+        g_assert_true (isfinite (json_node_get_double (node)));
+      break;
+    case JSON_NODE_NULL:
+      /* Only a rejected centroid's velocity may be null (keep-rejected). */
+      g_assert_not_reached ();
+  }
+}
+
+static gboolean
+assert_field_finite (GQuark field, const GValue * value, gpointer user_data)
+{
+  if (G_VALUE_HOLDS_DOUBLE (value)) {
+    if (!isfinite (g_value_get_double (value)))
+      g_error ("%s: field %s is %g", (const char *) user_data,
+          g_quark_to_string (field), g_value_get_double (value));
+  } else if (GST_VALUE_HOLDS_ARRAY (value)) {
+    for (guint i = 0; i < gst_value_array_get_size (value); i++) {
+      const GValue *item = gst_value_array_get_value (value, i);
+      if (GST_VALUE_HOLDS_STRUCTURE (item))
+        gst_structure_foreach (gst_value_get_structure (item),
+            assert_field_finite, user_data);
+    }
+  }
+  return TRUE;
+}
+
+static void
+assert_detection_finite (const SonarDetection * d)
+{
+  const double values[] = { d->range, d->azimuth, d->elevation,
+    d->position.x, d->position.y, d->position.z, d->radial_velocity,
+    d->confidence, d->peak_db, d->variance
+  };
+  for (guint i = 0; i < G_N_ELEMENTS (values); i++)
+    g_assert_true (isfinite (values[i]));
+}
+
+static void
+assert_centroid_finite (const SonarCentroid * c)
+{
+  const double values[] = { c->range, c->azimuth, c->elevation,
+    c->position.x, c->position.y, c->position.z, c->peak_value, c->energy
+  };
+  for (guint i = 0; i < G_N_ELEMENTS (values); i++)
+    g_assert_true (isfinite (values[i]));
+}
+
+/* Runs one ping of @scene_json (sonarsrc properties @src) through @chain,
+ * with @edit (may be NULL) applied to the recording on its way out of
+ * sonarsrc. Fails on a bus error and on any non-finite number in the JSON
+ * line, the detections and centroids metas and the element messages. */
+static void
+run_chain (const char *scene_json, const char *src, const char *chain,
+    SampleEdit edit, gpointer edit_data, ChainRun * r)
+{
+  g_autofree char *scene = sonar_test_write_temp ("scene.json", scene_json);
+  g_autofree char *launch = g_strdup_printf ("sonarsrc name=src "
+      "scene-file=%s num-buffers=1 max-range=2.0 %s ! %s ! appsink name=sink "
+      "sync=false", scene, src, chain);
+  GError *error = NULL;
+  GstElement *pipeline = gst_parse_launch (launch, &error);
+  GstElement *sink, *source;
+  GstBus *bus;
+  GstSample *sample;
+  GstBuffer *buffer;
+  GstMapInfo map;
+  SonarDetectionsMeta *dets;
+  SonarCentroidsMeta *centroids;
+  GstMessage *msg;
+  EditProbe probe = { edit, edit_data };
+  g_autoptr (JsonParser) parser = json_parser_new ();
+
+  g_assert_no_error (error);
+  memset (r, 0, sizeof (*r));
+  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  source = gst_bin_get_by_name (GST_BIN (pipeline), "src");
+  bus = gst_element_get_bus (pipeline);
+  if (edit) {
+    GstPad *pad = gst_element_get_static_pad (source, "src");
+    gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, edit_samples, &probe,
+        NULL);
+    gst_object_unref (pad);
+  }
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  sample = gst_app_sink_pull_sample (GST_APP_SINK (sink));
+  if (!sample && (msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR))) {
+    gst_message_parse_error (msg, &error, NULL);
+    g_error ("%s: %s", GST_OBJECT_NAME (GST_MESSAGE_SRC (msg)),
+        error->message);
+  }
+  g_assert_nonnull (sample);
+  buffer = gst_sample_get_buffer (sample);
+
+  gst_buffer_map (buffer, &map, GST_MAP_READ);
+  r->json = g_strndup ((const char *) map.data, map.size);
+  gst_buffer_unmap (buffer, &map);
+  g_test_message ("%s", r->json);
+  g_assert_true (json_parser_load_from_data (parser, r->json, -1, &error));
+  g_assert_no_error (error);
+  assert_json_finite (json_parser_get_root (parser));
+
+  dets = sonar_buffer_get_detections_meta (buffer);
+  g_assert_nonnull (dets);
+  r->n_detections = dets->n_detections;
+  r->detections = g_memdup2 (dets->detections,
+      sizeof (SonarDetection) * dets->n_detections);
+  for (guint i = 0; i < r->n_detections; i++)
+    assert_detection_finite (&r->detections[i]);
+  centroids = sonar_buffer_get_centroids_meta (buffer);
+  g_assert_nonnull (centroids);
+  r->n_centroids = centroids->n_centroids;
+  for (guint i = 0; i < centroids->n_centroids; i++)
+    assert_centroid_finite (&centroids->centroids[i]);
+  gst_sample_unref (sample);
+  g_assert_null (gst_app_sink_pull_sample (GST_APP_SINK (sink)));
+
+  while ((msg = gst_bus_pop (bus))) {
+    switch (GST_MESSAGE_TYPE (msg)) {
+      case GST_MESSAGE_ERROR:
+        gst_message_parse_error (msg, &error, NULL);
+        g_error ("%s: %s", GST_OBJECT_NAME (GST_MESSAGE_SRC (msg)),
+            error->message);
+        break;
+      case GST_MESSAGE_WARNING:
+        if (!r->warning) {
+          gst_message_parse_warning (msg, &error, NULL);
+          r->warning = g_strdup (error->message);
+          g_clear_error (&error);
+        }
+        break;
+      case GST_MESSAGE_ELEMENT:{
+        const GstStructure *s = gst_message_get_structure (msg);
+        const char *name = gst_structure_get_name (s);
+        gst_structure_foreach (s, assert_field_finite, (gpointer) name);
+        r->n_centroid_messages += gst_message_has_name (msg,
+            SONAR_CENTROIDS_MESSAGE_NAME);
+        r->n_detection_messages += gst_message_has_name (msg,
+            SONAR_DETECTIONS_MESSAGE_NAME);
+        break;
+      }
+      default:
+        break;
+    }
+    gst_message_unref (msg);
+  }
+  g_assert_cmpuint (r->n_centroid_messages, ==, 1);
+  g_assert_cmpuint (r->n_detection_messages, ==, 1);
+  for (guint d = 0; d < r->n_detections; d++)
+    g_test_message ("  %.4f m %+.2f deg %+.4f m/s%s%s",
+        r->detections[d].range, r->detections[d].azimuth,
+        r->detections[d].radial_velocity,
+        r->detections[d].out_of_range ? " (out of range)" : "",
+        r->detections[d].valid ? "" : " (rejected)");
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (source);
   gst_object_unref (sink);
   gst_object_unref (pipeline);
 }
@@ -231,6 +459,158 @@ test_amplitudes (void)
   }
 }
 
+/* The whole chain at its numerical extremes ---------------------------------*/
+
+#define ONE_OBJECT "{\"dimensions\": 2, \"reflectors\": [{\"range\": 1.0, " \
+  "\"azimuth\": 30, \"radial-velocity\": -0.3}]}"
+
+/* The one valid detection of @r is the object of ONE_OBJECT. */
+static void
+assert_one_object (const ChainRun * r)
+{
+  guint valid = 0;
+
+  for (guint i = 0; i < r->n_detections; i++) {
+    const SonarDetection *d = &r->detections[i];
+    if (!d->valid)
+      continue;
+    valid++;
+    g_assert_cmpfloat (fabs (d->range - 1.0), <, 0.01);
+    g_assert_cmpfloat (fabs (d->azimuth - 30.0), <, 2.0);
+    g_assert_cmpfloat (fabs (d->radial_velocity + 0.3), <, 0.02);
+    g_assert_false (d->out_of_range);
+  }
+  g_assert_cmpuint (valid, ==, 1);
+}
+
+static void
+edit_zero (float *x, gsize n, gpointer data)
+{
+  memset (x, 0, sizeof (float) * n);
+}
+
+static void
+edit_scale (float *x, gsize n, gpointer data)
+{
+  const double scale = *(const double *) data;
+
+  for (gsize i = 0; i < n; i++)
+    x[i] = (float) (x[i] * scale);
+}
+
+/* Silence: no centroid, no detection, no warning, and an empty but
+ * well-formed JSON line. */
+static void
+test_silence (void)
+{
+  ChainRun r;
+
+  run_chain (ONE_OBJECT, "", CHAIN, edit_zero, NULL, &r);
+  g_assert_cmpuint (r.n_centroids, ==, 0);
+  g_assert_cmpuint (r.n_detections, ==, 0);
+  g_assert_nonnull (strstr (r.json, "\"detections\": []"));
+  g_assert_null (r.warning);
+  chain_run_clear (&r);
+}
+
+/* A recording of nothing but denormals (|x| <= 1e-40, no echo): nothing is
+ * detected; and the ping of one object scaled into the denormal range
+ * (1e-40 of full scale, some 16 bits left) still gives that object. */
+static void
+edit_denormal_noise (float *x, gsize n, gpointer data)
+{
+  for (gsize i = 0; i < n; i++)
+    x[i] = ((i * 2654435761u) >> 7) % 3 == 0 ? 1e-40f :
+        ((i * 2654435761u) >> 7) % 3 == 1 ? -1e-40f : 0.0f;
+}
+
+static void
+test_denormals (void)
+{
+  ChainRun r;
+  double scale = 1e-40;
+
+  run_chain (ONE_OBJECT, "", CHAIN, edit_denormal_noise, NULL, &r);
+  g_assert_false (isnormal (1e-40f));
+  g_assert_cmpuint (r.n_detections, ==, 0);
+  g_assert_null (r.warning);
+  chain_run_clear (&r);
+
+  run_chain (ONE_OBJECT, "", CHAIN, edit_scale, &scale, &r);
+  assert_one_object (&r);
+  g_assert_null (r.warning);
+  chain_run_clear (&r);
+}
+
+/* Amplitudes of 1e-30 (a reflector of strength 1e-30 in noise of 1e-32)
+ * and of 1e30 (the ping scaled): the same object at the same speed as at
+ * full scale. */
+static void
+test_amplitudes_extreme (void)
+{
+  ChainRun r;
+  double scale = 1e30;
+
+  run_chain ("{\"dimensions\": 2, \"reflectors\": [{\"range\": 1.0, "
+      "\"azimuth\": 30, \"radial-velocity\": -0.3, \"strength\": 1e-30}]}",
+      "noise-amplitude=1e-32", CHAIN, NULL, NULL, &r);
+  assert_one_object (&r);
+  chain_run_clear (&r);
+
+  run_chain (ONE_OBJECT, "", CHAIN, edit_scale, &scale, &r);
+  assert_one_object (&r);
+  chain_run_clear (&r);
+}
+
+/* NaN and infinite samples: the front end reads them as zeros and warns
+ * once; the outputs are exactly those of the ping with zeros there. A ping
+ * of NaN only is silence. */
+static const gsize bad_samples[] = { 3, 32 * 1000 + 5, 32 * 3000 + 17,
+  32 * 3001 + 17, 32 * 5000 + 31
+};
+
+static void
+edit_non_finite (float *x, gsize n, gpointer data)
+{
+  const float values[] = { NAN, INFINITY, -INFINITY, NAN, INFINITY };
+
+  for (guint i = 0; i < G_N_ELEMENTS (bad_samples); i++)
+    x[bad_samples[i]] = data ? 0.0f : values[i];
+}
+
+static void
+edit_all_nan (float *x, gsize n, gpointer data)
+{
+  for (gsize i = 0; i < n; i++)
+    x[i] = NAN;
+}
+
+static void
+test_non_finite_samples (void)
+{
+  ChainRun dirty, zeroed;
+
+  run_chain (ONE_OBJECT, "", CHAIN, edit_non_finite, NULL, &dirty);
+  run_chain (ONE_OBJECT, "", CHAIN, edit_non_finite, GINT_TO_POINTER (1),
+      &zeroed);
+  g_test_message ("warning: %s", dirty.warning);
+  g_assert_cmpstr (dirty.warning, ==, "The recording holds NaN or infinite "
+      "samples (5 in ping 0); they are read as 0");
+  g_assert_null (zeroed.warning);
+  g_assert_cmpstr (dirty.json, ==, zeroed.json);
+  assert_one_object (&dirty);
+  chain_run_clear (&dirty);
+  chain_run_clear (&zeroed);
+
+  run_chain (ONE_OBJECT, "", CHAIN, edit_all_nan, NULL, &dirty);
+  g_assert_nonnull (dirty.warning);
+  g_assert_true (g_str_has_prefix (dirty.warning, "The recording holds NaN "
+          "or infinite samples ("));
+  g_assert_cmpuint (dirty.n_centroids, ==, 0);
+  g_assert_cmpuint (dirty.n_detections, ==, 0);
+  chain_run_clear (&dirty);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -242,5 +622,10 @@ main (int argc, char **argv)
   g_test_add_func ("/stability/two-reflectors-1-cm",
       test_two_reflectors_one_cm);
   g_test_add_func ("/stability/amplitudes", test_amplitudes);
+  g_test_add_func ("/stability/silence", test_silence);
+  g_test_add_func ("/stability/denormals", test_denormals);
+  g_test_add_func ("/stability/amplitudes-1e-30-1e30",
+      test_amplitudes_extreme);
+  g_test_add_func ("/stability/nan-inf-samples", test_non_finite_samples);
   return g_test_run ();
 }

@@ -8,8 +8,9 @@
 #include <string.h>
 
 /* Added to every Doppler-ACF value before its logarithm: silence gives a
- * flat curve, not -inf. */
-#define ACF_FLOOR 1e-30
+ * flat curve, not -inf. Far below the smallest float amplitude (1.4e-45),
+ * so that it flattens no curve of a faint echo. */
+#define ACF_FLOOR 1e-300
 
 /* Doppler hypotheses of the prescreen, m/s apart: within one emitter's
  * Doppler main lobe (about 0.33 m/s at -3 dB), like the detection image. */
@@ -38,7 +39,7 @@ struct _SonarVelocityEstimator
   SonarComplex *blocks;
   guint n_blocks;
   double k0, dk;                /* phase of a metre of path: first bin, per bin */
-  SonarComplex *lag_sums;       /* [range offset]: sums over the emitters */
+  double complex *lag_sums;     /* [range offset]: sums over the emitters */
   double *lag_powers;           /* [range offset] */
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
@@ -115,7 +116,7 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
       setup->speed_of_sound;
   est->dk = 2.0 * M_PI * band->sample_rate / band->fft_size /
       setup->speed_of_sound;
-  est->lag_sums = g_new (SonarComplex, 2 * MAX_WINDOW_RANGES + 1);
+  est->lag_sums = g_new (double complex, 2 * MAX_WINDOW_RANGES + 1);
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
@@ -226,22 +227,25 @@ coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
               CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
       receive_beam (est, spectra, point, range);
       for (guint i = 0; i < n_v; i++) {
-        SonarComplex *sums = est->lag_sums + wr;
+        /* In double: float squares underflow below amplitudes of about
+         * 1e-19 and overflow above 1e19. */
+        double complex *sums = est->lag_sums + wr;
         double *powers = est->lag_powers + wr;
         for (int dr = -wr; dr <= wr; dr++) {
-          sums[dr] = 0.0f;
+          sums[dr] = 0.0;
           powers[dr] = 0.0;
         }
         for (guint n = 0; n < est->n_emitters; n++) {
           emitter_blocks (est, n, vs[i], point, range);
           for (int dr = -wr; dr <= wr; dr++) {
-            const SonarComplex y = output_at (est, dr * grid->range_step);
+            const double complex y = output_at (est, dr * grid->range_step);
             sums[dr] += y;
-            powers[dr] += crealf (y * conjf (y));
+            powers[dr] += creal (y) * creal (y) + cimag (y) * cimag (y);
           }
         }
         for (int dr = -wr; dr <= wr; dr++) {
-          const double sum_power = crealf (sums[dr] * conjf (sums[dr]));
+          const double sum_power = creal (sums[dr]) * creal (sums[dr]) +
+              cimag (sums[dr]) * cimag (sums[dr]);
           if (sum_power > best_sum) {
             best_sum = sum_power;
             best = powers[dr] > 0.0 ? sum_power / (est->n_emitters *

@@ -21,15 +21,18 @@ typedef struct
   SonarVelocityEstimator *est;
 } Fixture;
 
+/* Takes @setup. */
 static void
-fixture_init (Fixture * f, double v_min, double v_max, double v_step)
+fixture_init_setup (Fixture * f, SonarSetup * setup, double v_min,
+    double v_max, double v_step)
 {
   SonarBand band;
   SonarImagerParams ip;
   SonarVelocityParams vp;
   SonarImager *imager;
+  const guint n_mics = setup->geometry.n_microphones;
 
-  f->setup = sonar_test_default_setup (17500);
+  f->setup = setup;
   f->bank = sonar_doppler_bank_new (f->setup, v_min, v_max, v_step, NULL);
   sonar_band_init (&band, f->setup->sample_rate, f->setup->ping_length +
       sonar_doppler_bank_max_length (f->bank), f->setup->band_low,
@@ -37,13 +40,24 @@ fixture_init (Fixture * f, double v_min, double v_max, double v_step)
   sonar_doppler_bank_prepare_band (f->bank, &band);
   f->analyzer = sonar_spectrum_new (&band);
   sonar_imager_params_init_default (&ip);
+  /* Short pings (6000 samples) record 2 m. */
+  if (setup->ping_length < 17500)
+    ip.range_max = 2.0;
   imager = sonar_imager_new (f->setup, &band, &ip, NULL);
+  g_assert_nonnull (imager);
   f->grid = *sonar_imager_grid (imager);
   sonar_imager_free (imager);
-  f->spectra = g_new (SonarComplex, (gsize) band.n_bins * 32);
-  f->ping = g_new (float, (gsize) f->setup->ping_length * 32);
+  f->spectra = g_new (SonarComplex, (gsize) band.n_bins * n_mics);
+  f->ping = g_new (float, (gsize) f->setup->ping_length * n_mics);
   sonar_velocity_params_init_default (&vp);
   f->est = sonar_velocity_estimator_new (f->bank, &f->grid, &vp, NULL);
+}
+
+static void
+fixture_init (Fixture * f, double v_min, double v_max, double v_step)
+{
+  fixture_init_setup (f, sonar_test_default_setup (17500), v_min, v_max,
+      v_step);
 }
 
 static void
@@ -57,10 +71,11 @@ fixture_clear (Fixture * f)
   g_free (f->ping);
 }
 
-/* Simulates @json, estimates at reflector @k's true position. */
+/* Simulates @json, estimates at reflector @k's true position; @curves, if
+ * not NULL, receives the Doppler-ACF curves in dB. */
 static SonarVelocityEstimate
-estimate_at_truth (Fixture * f, const char *json, double noise, guint k,
-    SonarTruth * truth_out)
+estimate_at_truth_curves (Fixture * f, const char *json, double noise,
+    guint k, SonarTruth * truth_out, float *curves)
 {
   SonarScene scene;
   SonarSimulatorParams params;
@@ -74,17 +89,24 @@ estimate_at_truth (Fixture * f, const char *json, double noise, guint k,
   params.seed = 7;
   sim = sonar_simulator_new (f->setup, &params, NULL);
   sonar_simulator_render (sim, &scene, 0, 0.0, f->ping, truth);
-  for (guint j = 0; j < 32; j++)
+  for (guint j = 0; j < f->setup->geometry.n_microphones; j++)
     sonar_spectrum_process (f->analyzer, f->ping + (gsize) j *
         f->setup->ping_length, f->setup->ping_length, 1,
         f->spectra + (gsize) j * sonar_doppler_bank_band (f->bank)->n_bins,
         NULL);
   sonar_velocity_estimate (f->est, f->spectra, truth[k].range,
-      truth[k].azimuth, truth[k].elevation, est, NULL);
+      truth[k].azimuth, truth[k].elevation, est, curves);
   *truth_out = truth[k];
   sonar_simulator_free (sim);
   sonar_scene_clear (&scene);
   return est[0];
+}
+
+static SonarVelocityEstimate
+estimate_at_truth (Fixture * f, const char *json, double noise, guint k,
+    SonarTruth * truth_out)
+{
+  return estimate_at_truth_curves (f, json, noise, k, truth_out, NULL);
 }
 
 /* The Fig. 10 setting: small speeds, fine bank, realistic noise. */
@@ -227,6 +249,104 @@ test_emitters_subset (void)
   fixture_clear (&f);
 }
 
+/* The default sensor with @n_emitters emitters (noise waveforms) on the
+ * default emitters' ellipse (55 x 40 mm), at unevenly spaced angles. */
+static SonarSetup *
+setup_with_emitters (guint n_emitters, guint ping_length)
+{
+  SonarWaveformParams wp;
+  SonarGeometry g;
+  float *w;
+  SonarSetup *setup;
+
+  sonar_waveform_params_init_default (&wp);
+  wp.n_emitters = n_emitters;
+  sonar_geometry_init_default (&g);
+  g.n_emitters = n_emitters;
+  g.emitters = g_renew (SonarVec3, g.emitters, n_emitters);
+  for (guint n = 0; n < n_emitters; n++) {
+    const double a = 2.0 * G_PI * (n + 0.3 * sin (1.7 * n)) / n_emitters;
+    g.emitters[n] = sonar_vec3 (0.055 * cos (a), 0.040 * sin (a), 0.0);
+  }
+  w = g_new (float, wp.n_emitters * wp.length);
+  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
+  setup = sonar_setup_new (wp.sample_rate, SONAR_DEFAULT_SPEED_OF_SOUND,
+      wp.band_low, wp.band_high, &g, wp.length, w, ping_length, NULL);
+  g_assert_nonnull (setup);
+  g_free (w);
+  sonar_geometry_clear (&g);
+  return setup;
+}
+
+/* The Doppler-ACF product does not underflow: an echo at 1e-30 of full
+ * scale (emitter outputs about 1e-31) with 32 emitters, whose product
+ * taken linearly would be some 1e-990, far below double's range, and with
+ * the default 8 emitters on the long bank -7..7 m/s in steps of 0.01
+ * (1401 velocities). Every curve that sonar_velocity_estimate returns is
+ * finite, the product peaks at the true speed, and the estimate is the
+ * full-scale echo's. */
+static void
+test_acf_no_underflow (void)
+{
+  const struct
+  {
+    guint n_emitters;
+    double v_min, v_max, v_step, velocity;
+  } cases[] = {
+    {32, -0.5, 0.5, 0.05, -0.23},
+    {8, -7.0, 7.0, 0.01, 3.21},
+  };
+
+  for (guint c = 0; c < G_N_ELEMENTS (cases); c++) {
+    Fixture f;
+    guint nv, n_curves, peak = 0;
+    float *curves;
+    SonarVelocityEstimate e[2];
+    SonarTruth truth;
+
+    fixture_init_setup (&f, setup_with_emitters (cases[c].n_emitters, 6000),
+        cases[c].v_min, cases[c].v_max, cases[c].v_step);
+    nv = sonar_doppler_bank_n_velocities (f.bank);
+    n_curves = (cases[c].n_emitters + 1) * nv;
+    curves = g_new (float, n_curves);
+    for (guint s = 0; s < 2; s++) {
+      const double strength = s == 0 ? 1.0 : 1e-30;
+      g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{"
+          "\"range\": 1.0, \"azimuth\": 20, \"radial-velocity\": %g, "
+          "\"strength\": %g}]}", cases[c].velocity, strength);
+      e[s] = estimate_at_truth_curves (&f, json, 0.01 * strength, 0, &truth,
+          curves);
+      for (guint i = 0; i < n_curves; i++)
+        g_assert_true (isfinite (curves[i]));
+      for (guint v = 0; v < nv; v++)
+        if (curves[cases[c].n_emitters * nv + v] >
+            curves[cases[c].n_emitters * nv + peak])
+          peak = v;
+      g_test_message ("%u emitters, %u velocities, strength %g: product "
+          "peak %.1f dB at %+.2f m/s; estimate %+.4f m/s (truth %+.4f), "
+          "peak %.1f dB over the median, valid %d", cases[c].n_emitters, nv,
+          strength, curves[cases[c].n_emitters * nv + peak],
+          sonar_doppler_bank_velocity (f.bank, peak), e[s].radial_velocity,
+          truth.radial_velocity, e[s].peak_db, e[s].valid);
+      g_assert_cmpfloat (fabs (sonar_doppler_bank_velocity (f.bank, peak) -
+              truth.radial_velocity), <=, 0.05);
+      g_assert_true (e[s].valid);
+      g_assert_cmpfloat (fabs (e[s].radial_velocity - truth.radial_velocity),
+          <=, 0.02);
+      g_assert_cmpfloat (e[s].peak_db, >, 3.0);
+      if (s == 1) {
+        /* Truly faint: a linear product would have underflowed. */
+        g_assert_cmpfloat (curves[cases[c].n_emitters * nv + peak], <,
+            -500.0);
+        g_assert_cmpfloat (fabs (e[1].radial_velocity -
+                e[0].radial_velocity), <, 1e-3);
+      }
+    }
+    g_free (curves);
+    fixture_clear (&f);
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -234,5 +354,6 @@ main (int argc, char **argv)
   g_test_add_func ("/velocity/slow-objects", test_slow_objects);
   g_test_add_func ("/velocity/fast-movers", test_fast_movers);
   g_test_add_func ("/velocity/emitters-subset", test_emitters_subset);
+  g_test_add_func ("/velocity/acf-no-underflow", test_acf_no_underflow);
   return g_test_run ();
 }

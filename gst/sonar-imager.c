@@ -565,7 +565,7 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   const gsize n_data = (gsize) im->setup->geometry.n_microphones * n_bins;
   const gsize n_units = (gsize) im->n_directions * (im->n_zones + 1);
   /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
-  float scale = 2.0f / im->band.fft_size;
+  const float scale = 2.0f / im->band.fft_size;
   /* The envelope squares float sums of up to N J K products: far from
    * unity (a recording scaled by 1e-30, spikes of 1e30) they underflow or
    * overflow. Such data are imaged scaled by a power of two (exact), and
@@ -579,7 +579,6 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
       im->mic_re[i] *= factor;
       im->mic_im[i] *= factor;
     }
-    scale = ldexpf (scale, exponent);
   }
   /* Grown when a call brings more hypotheses than any before: a stream's
    * calls bring the same number, so steady state allocates nothing. */
@@ -612,7 +611,17 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
         im->units[n++] = UNIT (im, d, z);
     run_units (im, n);
   }
+  /* The envelope scaled back, in C: ORC flushes denormal results, which
+   * the envelope of a recording near 1e-40 is. */
+  if (ABS (exponent) > 30) {
+    const float factor = ldexpf (1.0f, exponent);
+    const gsize size = sonar_image_grid_size (&im->grid);
+    for (guint h = 0; h < (stride ? n_hypotheses : 1); h++)
+      for (gsize i = 0; i < size; i++)
+        image[h * stride + i] *= factor;
+  }
 }
+
 void
 sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
     guint n_hypotheses, const SonarComplex * const *templates,

@@ -396,6 +396,19 @@ sonar_kernel_envelope_generic (float *out, const SonarComplex * x, guint n,
   }
 }
 
+/* ORC's compiled x86 code turns on flush-to-zero and denormals-are-zero
+ * in MXCSR and leaves them on: every float operation after it on that
+ * thread would then read a recording near 1e-40 as silence (seen in
+ * test-stability's denormals case). The calls keep the caller's MXCSR. */
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#define FLOAT_MODE_SAVE() const unsigned int float_mode_ = _mm_getcsr ()
+#define FLOAT_MODE_RESTORE() _mm_setcsr (float_mode_)
+#else
+#define FLOAT_MODE_SAVE() do { } while (0)
+#define FLOAT_MODE_RESTORE() do { } while (0)
+#endif
+
 /* ORC's opcode tables, once per process. */
 static void
 orc_ready (void)
@@ -412,17 +425,23 @@ void
 sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
     const float *a_im, const float *b_re, const float *b_im, guint n)
 {
+  FLOAT_MODE_SAVE ();
+
   orc_ready ();
   sonar_orc_multiply_split ((float *) out, a_re, a_im, b_re, b_im, (int) n);
+  FLOAT_MODE_RESTORE ();
 }
 
 void
 sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate)
 {
+  FLOAT_MODE_SAVE ();
+
   orc_ready ();
   if (accumulate)
     sonar_orc_envelope_max (out, (const float *) x, scale, (int) n);
   else
     sonar_orc_envelope (out, (const float *) x, scale, (int) n);
+  FLOAT_MODE_RESTORE ();
 }

@@ -1,27 +1,54 @@
-/* sonar-workers.c: see sonar-workers.h. */
+/* sonar-workers.c: see sonar-workers.h.
+ *
+ * Plain threads, joined when the set is freed: a thread pool's threads
+ * end some time after the pool is freed, so a pipeline shut down and
+ * freed could still have them running (and valgrind would see their
+ * memory as lost). */
 #include "sonar-workers.h"
 
 struct _SonarWorkers
 {
   guint n;
-  GThreadPool *threads;         /* workers 1 .. n - 1 */
+  GThread *threads[SONAR_MAX_WORKERS];  /* workers 1 .. n - 1 */
   SonarWorkersJob job;
   gpointer data;
   GMutex lock;
-  GCond done;
-  guint pending;
+  GCond start, done;
+  guint64 generation;           /* jobs handed out so far */
+  guint pending;                /* workers still in the current job */
+  gboolean quit;
 };
 
-static void
-run_one (gpointer worker, gpointer user_data)
+typedef struct
 {
-  SonarWorkers *w = user_data;
+  SonarWorkers *set;
+  guint index;
+} WorkerArgs;
 
-  w->job (w->data, GPOINTER_TO_UINT (worker), w->n);
+static gpointer
+worker_main (gpointer data)
+{
+  WorkerArgs *args = data;
+  SonarWorkers *w = args->set;
+  const guint index = args->index;
+  guint64 seen = 0;
+
+  g_free (args);
   g_mutex_lock (&w->lock);
-  if (--w->pending == 0)
-    g_cond_signal (&w->done);
+  for (;;) {
+    while (!w->quit && w->generation == seen)
+      g_cond_wait (&w->start, &w->lock);
+    if (w->quit)
+      break;
+    seen = w->generation;
+    g_mutex_unlock (&w->lock);
+    w->job (w->data, index, w->n);
+    g_mutex_lock (&w->lock);
+    if (--w->pending == 0)
+      g_cond_signal (&w->done);
+  }
   g_mutex_unlock (&w->lock);
+  return NULL;
 }
 
 SonarWorkers *
@@ -30,11 +57,18 @@ sonar_workers_new (guint n, GError ** error)
   SonarWorkers *w = g_new0 (SonarWorkers, 1);
 
   g_mutex_init (&w->lock);
+  g_cond_init (&w->start);
   g_cond_init (&w->done);
   w->n = CLAMP (n ? n : g_get_num_processors (), 1, SONAR_MAX_WORKERS);
-  if (w->n > 1) {
-    w->threads = g_thread_pool_new (run_one, w, w->n - 1, TRUE, error);
-    if (!w->threads) {
+  for (guint i = 1; i < w->n; i++) {
+    WorkerArgs *args = g_new (WorkerArgs, 1);
+    args->set = w;
+    args->index = i;
+    w->threads[i] = g_thread_try_new ("sonar-worker", worker_main, args,
+        error);
+    if (!w->threads[i]) {
+      g_free (args);
+      w->n = i;                 /* the threads made so far are joined */
       sonar_workers_free (w);
       return NULL;
     }
@@ -47,9 +81,14 @@ sonar_workers_free (SonarWorkers * w)
 {
   if (!w)
     return;
-  if (w->threads)
-    g_thread_pool_free (w->threads, FALSE, TRUE);
+  g_mutex_lock (&w->lock);
+  w->quit = TRUE;
+  g_cond_broadcast (&w->start);
+  g_mutex_unlock (&w->lock);
+  for (guint i = 1; i < w->n; i++)
+    g_thread_join (w->threads[i]);
   g_mutex_clear (&w->lock);
+  g_cond_clear (&w->start);
   g_cond_clear (&w->done);
   g_free (w);
 }
@@ -63,11 +102,13 @@ sonar_workers_count (const SonarWorkers * w)
 void
 sonar_workers_run (SonarWorkers * w, SonarWorkersJob job, gpointer data)
 {
+  g_mutex_lock (&w->lock);
   w->job = job;
   w->data = data;
   w->pending = w->n - 1;
-  for (guint i = 1; i < w->n; i++)
-    g_thread_pool_push (w->threads, GUINT_TO_POINTER (i), NULL);
+  w->generation++;
+  g_cond_broadcast (&w->start);
+  g_mutex_unlock (&w->lock);
   job (data, 0, w->n);
   g_mutex_lock (&w->lock);
   while (w->pending > 0)

@@ -22,6 +22,7 @@ memcheck () {
   local n=$1 what=$2 kinds=$3 status summary
   shift 3
   valgrind --leak-check=full --errors-for-leak-kinds="$kinds" \
+    --suppressions="$(dirname "$0")/valgrind.supp" \
     --error-exitcode=3 --num-callers=30 "$@" >"$log" 2>&1
   status=$?
   summary=$(grep -E "ERROR SUMMARY|(definitely|indirectly|possibly) lost:" "$log" \

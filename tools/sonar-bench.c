@@ -36,14 +36,15 @@
  * logic; the velocity stage shares the centroids between worker threads as
  * velocityest does (--threads). Every ping is rendered before anything is
  * timed: the simulator's cost is not counted. Times are wall-clock medians
- * over the pings, ms per ping, plus the chain's CPU time. Set-up work (the
+ * over the pings (after an untimed warm-up on the first), ms per ping,
+ * plus the chain's CPU time. Set-up work (the
  * Doppler bank, FFT plans, the imager's tables) is not timed, as the
  * elements do it once per stream. A configuration two sweeps share
  * (linkage=ward is refine=on) runs once.
  *
  * Memory is the heap each stage holds (glibc mallinfo2: FFTW and GLib
  * allocate through malloc), counted when its objects are made and while
- * it processes the first ping (buffers made on first use); the bank is
+ * it warms up on the first ping (buffers made on first use); the bank is
  * dopplerbank's. Thread stacks are not heap and not counted. Peak RSS is
  * the process's during the configuration's run (Linux resets it per run),
  * rendered pings and banks of earlier runs included.
@@ -936,8 +937,8 @@ measure_curves (Chain * ch, const SonarTruth * truths, guint n, Result * r,
   return TRUE;
 }
 
-/* Times a stage of a ping; on the first ping also charges what the heap
- * grows by to the stage (buffers made on first use are part of what it
+/* Times a stage of a ping; on the warm-up ping charges what the heap grows
+ * by to the stage instead (buffers made on first use are part of what it
  * holds). */
 typedef struct
 {
@@ -982,11 +983,15 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   ok = chain_init (ch, b, c, r, error);
   /* Per ping: the stages, the total, its CPU time. */
   times = g_new (double, (N_STAGES + 2) * n_pings);
-  for (guint p = 0; ok && p < n_pings; p++) {
+  /* Ping -1 is a warm-up on the first ping, neither timed nor scored: it
+   * takes the page faults of fresh buffers and ORC's first compilations,
+   * and its heap growth is the stages' working memory. */
+  for (int q = -1; ok && q < (int) n_pings; q++) {
+    const guint p = MAX (q, 0);
     const float *samples = s->pings + p * length * n_mics;
     const SonarTruth *truths = s->truths + p * s->n_reflectors;
     const double cpu_start = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
-    StageClock clock = { p == 0 };
+    StageClock clock = { q < 0 };
     double t[N_STAGES], total = 0.0;
     guint n_centroids;
 
@@ -996,7 +1001,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     stage_start (&clock);
     chain_imaging (ch);
     t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
-    {
+    if (q >= 0) {
       guint imaged, dense;
       sonar_imager_last_work (ch->imager, &imaged, &dense);
       r->work_fraction += (double) imaged / dense / n_pings;
@@ -1008,6 +1013,8 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     stage_start (&clock);
     chain_velocity (ch, n_centroids);
     t[STAGE_VELOCITY] = stage_stop (&clock, r, STAGE_VELOCITY);
+    if (q < 0)
+      continue;
 
     times[(N_STAGES + 1) * n_pings + p] =
         clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;

@@ -10,6 +10,9 @@ sweeps (linkage=ward is refine=on) are one marker with both labels.
 
 The Pareto front, per scene, joins the configurations that no other one
 beats in both time and error; it is drawn as a line and printed as a table.
+Only its points are labelled (the elements' defaults, shared by most sweeps,
+as "defaults"). The hemisphere sweep (3-D image) and the datacube sweep (a
+wider bank, one ping) are scenes of their own: "fig10 3-D", "fig10 +-1".
 Only configurations that found every object without a false positive are
 candidates: the mean error of one that misses objects is over fewer, easier
 ones. The others are drawn hollow and listed below the table.
@@ -29,8 +32,11 @@ from matplotlib.ticker import FuncFormatter  # noqa: E402
 NUMERIC = ("pings", "found", "total", "false_positives", "mean_error",
            "max_error", "ms_spectra", "ms_imaging", "ms_clustering",
            "ms_velocity", "ms_total", "pings_per_second")
-MARKERS = {"fig10": "o", "fig9": "s"}
-COLOURS = {"fig10": "tab:blue", "fig9": "tab:orange"}
+MARKERS = {"fig10": "o", "fig9": "s", "fig10 3-D": "D", "fig10 +-1": "v"}
+COLOURS = {"fig10": "tab:blue", "fig9": "tab:orange", "fig10 3-D": "tab:green",
+           "fig10 +-1": "tab:purple"}
+# Sweeps whose rows are not comparable with their scene's others.
+OWN_SCENE = {"hemisphere": "fig10 3-D", "datacube": "fig10 +-1"}
 
 
 def parse_args(argv):
@@ -54,14 +60,14 @@ def load_rows(path, scene=None):
                 values = {k: float(row[k]) for k in NUMERIC}
             except (KeyError, ValueError) as e:
                 raise SystemExit(f"{path}: not a sonar-bench CSV ({e})")
-            key = (row["scene"],) + tuple(values[k] for k in NUMERIC)
+            group = OWN_SCENE.get(row["sweep"], row["scene"])
+            key = (group,) + tuple(values[k] for k in NUMERIC)
             label = f"{row['sweep']}={row['value']}"
             if key in merged:
                 if label not in merged[key]["labels"]:
                     merged[key]["labels"].append(label)
             else:
-                merged[key] = dict(values, scene=row["scene"],
-                                   labels=[label])
+                merged[key] = dict(values, scene=group, labels=[label])
     return list(merged.values())
 
 
@@ -87,14 +93,20 @@ def pareto_front(rows):
     return sorted(front, key=lambda r: (r["ms_total"], r["mean_error"]))
 
 
+def name(row):
+    """A row's label: its sweep=value, or "defaults" for the run most
+    sweeps share."""
+    return "defaults" if len(row["labels"]) > 2 else ", ".join(row["labels"])
+
+
 def format_table(rows):
     """Rows as an aligned text table."""
-    lines = [f"  {'configuration':<30} {'scene':<6} {'ms/ping':>9} "
+    lines = [f"  {'configuration':<30} {'scene':<9} {'ms/ping':>9} "
              f"{'pings/s':>8} {'mean m/s':>9} {'max m/s':>8} {'found':>7} "
              f"{'FP':>3}"]
     for r in rows:
         found = f"{r['found']:.0f}/{r['total']:.0f}"
-        lines.append(f"  {', '.join(r['labels']):<30} {r['scene']:<6} "
+        lines.append(f"  {name(r):<30} {r['scene']:<9} "
                      f"{r['ms_total']:9.1f} {r['pings_per_second']:8.3f} "
                      f"{r['mean_error']:9.4f} {r['max_error']:8.4f} "
                      f"{found:>7} {r['false_positives']:3.0f}")
@@ -113,8 +125,9 @@ def minor_labels(axis):
 
 
 def plot(rows, fronts, output):
-    """Draws the markers, their labels and each scene's front."""
-    fig, ax = plt.subplots(figsize=(12, 8))
+    """Draws the markers, the fronts and their points' labels."""
+    fig, ax = plt.subplots(figsize=(12, 7))
+    on_front = {id(r) for front in fronts.values() for r in front}
     for r in rows:
         if not (r["ms_total"] > 0 and r["mean_error"] > 0):
             continue
@@ -123,10 +136,10 @@ def plot(rows, fronts, output):
                    marker=MARKERS.get(r["scene"], "^"),
                    facecolors=colour if complete(r) else "none",
                    edgecolors=colour, zorder=3)
-        # Upright labels: neighbours in time often share an error.
-        ax.annotate(", ".join(r["labels"]), (r["ms_total"], r["mean_error"]),
-                    textcoords="offset points", xytext=(0, 6), rotation=90,
-                    ha="center", va="bottom", fontsize=7)
+        if id(r) in on_front or name(r) == "defaults":
+            ax.annotate(name(r), (r["ms_total"], r["mean_error"]),
+                        textcoords="offset points", xytext=(4, 6),
+                        rotation=30, ha="left", va="bottom", fontsize=8)
     for scene, front in fronts.items():
         ax.plot([r["ms_total"] for r in front],
                 [r["mean_error"] for r in front], "-o",
@@ -136,7 +149,7 @@ def plot(rows, fronts, output):
     ax.set_xscale("log")
     ax.set_yscale("log")
     low, high = ax.get_ylim()
-    ax.set_ylim(low, high * 1.8)  # room for the upright labels
+    ax.set_ylim(low, high * 1.8)  # room for the labels
     for axis in (ax.xaxis, ax.yaxis):
         axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         axis.set_minor_formatter(minor_labels(axis))

@@ -258,7 +258,7 @@ test_point_reflectors_3d (void)
  * (coarse_spacing 0) of the same ping: every pixel wardcluster could keep
  * (r^2-weighted, within its default -10 dB of the maximum) is imaged in
  * full, so bit-identical; the work is at most @max_work_fraction of the
- * dense image's (measured: 47 % for four objects, 11 % for one, 13 % in
+ * dense image's (measured: 48 % for four objects, 11 % for one, 11 % in
  * 3-D for two). */
 static void
 check_coarse_to_fine (Chain * c, SonarDopplerBank * bank,

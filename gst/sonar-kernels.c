@@ -24,22 +24,6 @@ unit_phasor (double phase)
 /* References -------------------------------------------------------------*/
 
 void
-sonar_kernel_steer_accumulate_generic (SonarComplex * acc,
-    const SonarComplex * x, guint n, double phase0, double dphase)
-{
-  const SonarComplex rotation = unit_phasor (dphase);
-
-  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
-    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
-    for (guint k = k0; k < k1; k++) {
-      acc[k] += x[k] * p;
-      p *= rotation;
-    }
-  }
-}
-
-void
 sonar_kernel_steer_accumulate_split_generic (float *acc_re, float *acc_im,
     const float *x_re, const float *x_im, guint n, double phase0,
     double dphase, gboolean conj_x)
@@ -70,8 +54,8 @@ sonar_kernel_split (float *re, float *im, const SonarComplex * x, gsize n)
 
 void
 sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
-    const SonarComplex * a, const SonarComplex * b, guint n, double phase0,
-    double dphase, guint block)
+    const float *a_re, const float *a_im, const SonarComplex * b, guint n,
+    double phase0, double dphase, guint block)
 {
   const SonarComplex rotation = unit_phasor (dphase);
 
@@ -82,7 +66,7 @@ sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
     for (guint k = k0; k < k1; k++) {
       if (k % block == 0)
         out[k / block] = 0.0f;
-      out[k / block] += a[k] * conjf (b[k]) * p;
+      out[k / block] += (a_re[k] + I * a_im[k]) * conjf (b[k]) * p;
       p *= rotation;
     }
   }
@@ -127,8 +111,6 @@ typedef int VecIndex __attribute__ ((vector_size (LANES * sizeof (int))));
 
 static const VecIndex even = { 0, 2, 4, 6, 8, 10, 12, 14 };
 static const VecIndex odd = { 1, 3, 5, 7, 9, 11, 13, 15 };
-static const VecIndex low = { 0, 8, 1, 9, 2, 10, 3, 11 };
-static const VecIndex high = { 4, 12, 5, 13, 6, 14, 7, 15 };
 
 /* The seeds of successive reseeds come from a rotation in double
  * precision, not from a sincos each: over a spectrum's few dozen reseeds
@@ -196,38 +178,6 @@ lanes_seed (Lanes * p)
   (im) = __builtin_shuffle (a_, b_, odd);                               \
 } G_STMT_END
 
-#define STORE_JOINED(x, re, im) G_STMT_START {                          \
-  const Vec a_ = __builtin_shuffle ((re), (im), low);                   \
-  const Vec b_ = __builtin_shuffle ((re), (im), high);                  \
-  memcpy ((x), &a_, sizeof a_);                                         \
-  memcpy ((x) + LANES / 2, &b_, sizeof b_);                             \
-} G_STMT_END
-
-FAST_TARGET static void
-steer_accumulate_fast (SonarComplex * acc, const SonarComplex * x, guint n,
-    double phase0, double dphase)
-{
-  const guint whole = n - n % LANES;
-  Lanes p;
-
-  lanes_init (&p, phase0, dphase);
-  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p);
-    for (guint k = k0; k < k1; k += LANES) {
-      Vec xr, xi, ar, ai;
-      LOAD_SPLIT (x + k, xr, xi);
-      LOAD_SPLIT (acc + k, ar, ai);
-      ar += xr * p.re - xi * p.im;
-      ai += xr * p.im + xi * p.re;
-      STORE_JOINED (acc + k, ar, ai);
-      LANES_ADVANCE (p);
-    }
-  }
-  /* The last n % LANES bins. */
-  for (guint k = whole; k < n; k++)
-    acc[k] += x[k] * unit_phasor (phase0 + k * dphase);
-}
 
 FAST_TARGET static void
 steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
@@ -267,9 +217,9 @@ steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
 /* Block sums: the lane products are summed over a block, then across the
  * lanes. */
 FAST_TARGET static void
-steer_block_sums_conj_fast (SonarComplex * out, const SonarComplex * a,
-    const SonarComplex * b, guint n, double phase0, double dphase,
-    guint block)
+steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
+    const float *a_im, const SonarComplex * b, guint n, double phase0,
+    double dphase, guint block)
 {
   const guint whole = n - n % block;
   Lanes p;
@@ -283,7 +233,8 @@ steer_block_sums_conj_fast (SonarComplex * out, const SonarComplex * a,
       SonarComplex sum = 0.0f;
       for (guint k = kb; k < kb + block; k += LANES) {
         Vec ar, ai, br, bi, tr, ti;
-        LOAD_SPLIT (a + k, ar, ai);
+        memcpy (&ar, a_re + k, sizeof ar);
+        memcpy (&ai, a_im + k, sizeof ai);
         LOAD_SPLIT (b + k, br, bi);
         tr = ar * br + ai * bi;
         ti = ai * br - ar * bi;
@@ -300,7 +251,8 @@ steer_block_sums_conj_fast (SonarComplex * out, const SonarComplex * a,
   if (whole < n) {
     SonarComplex sum = 0.0f;
     for (guint k = whole; k < n; k++)
-      sum += a[k] * conjf (b[k]) * unit_phasor (phase0 + k * dphase);
+      sum += (a_re[k] + I * a_im[k]) * conjf (b[k]) * unit_phasor (phase0 +
+          k * dphase);
     out[whole / block] = sum;
   }
 }
@@ -334,16 +286,6 @@ steer_sum_fast (const SonarComplex * x, guint n, double phase0,
 }
 
 void
-sonar_kernel_steer_accumulate (SonarComplex * acc, const SonarComplex * x,
-    guint n, double phase0, double dphase)
-{
-  if (HAVE_FAST ())
-    steer_accumulate_fast (acc, x, n, phase0, dphase);
-  else
-    sonar_kernel_steer_accumulate_generic (acc, x, n, phase0, dphase);
-}
-
-void
 sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
     const float *x_re, const float *x_im, guint n, double phase0,
     double dphase, gboolean conj_x)
@@ -357,16 +299,16 @@ sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
 }
 
 void
-sonar_kernel_steer_block_sums_conj (SonarComplex * out,
-    const SonarComplex * a, const SonarComplex * b, guint n, double phase0,
+sonar_kernel_steer_block_sums_conj (SonarComplex * out, const float *a_re,
+    const float *a_im, const SonarComplex * b, guint n, double phase0,
     double dphase, guint block)
 {
   g_return_if_fail (block % LANES == 0 && RESEED_INTERVAL % block == 0);
   if (HAVE_FAST ())
-    steer_block_sums_conj_fast (out, a, b, n, phase0, dphase, block);
+    steer_block_sums_conj_fast (out, a_re, a_im, b, n, phase0, dphase, block);
   else
-    sonar_kernel_steer_block_sums_conj_generic (out, a, b, n, phase0, dphase,
-        block);
+    sonar_kernel_steer_block_sums_conj_generic (out, a_re, a_im, b, n,
+        phase0, dphase, block);
 }
 
 SonarComplex

@@ -34,7 +34,9 @@ struct _SonarVelocityEstimator
   SonarVelocityParams params;
   guint n_velocities, n_emitters;
   double main_lobe;             /* m/s: one emitter's Doppler resolution */
-  SonarComplex *receive;        /* n_bins */
+  float *receive_re, *receive_im;       /* n_bins: the receive beam, split */
+  /* sonar_velocity_estimate ()'s spectra, split (microphones x n_bins). */
+  float *spectra_re, *spectra_im;
   /* One emitter's matched filter output by blocks of LAG_BLOCK bins. */
   SonarComplex *blocks;
   guint n_blocks;
@@ -49,6 +51,13 @@ struct _SonarVelocityEstimator
   guint n_hypotheses;           /* the prescreen's Doppler hypotheses */
   guint *hypotheses;
 };
+
+/* A ping's microphone spectra, real and imaginary parts apart: the receive
+ * beams' kernel needs no shuffling then. */
+typedef struct
+{
+  const float *re, *im;         /* microphones x n_bins */
+} SplitSpectra;
 
 void
 sonar_velocity_params_init_default (SonarVelocityParams * p)
@@ -109,7 +118,12 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   /* c / (2 f0 T): the Doppler resolution of one emission (physics notes). */
   est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
           setup->band_high) * setup->waveform_length / setup->sample_rate);
-  est->receive = g_new (SonarComplex, band->n_bins);
+  est->receive_re = g_new (float, band->n_bins);
+  est->receive_im = g_new (float, band->n_bins);
+  est->spectra_re = g_new (float, (gsize) band->n_bins *
+      setup->geometry.n_microphones);
+  est->spectra_im = g_new (float, (gsize) band->n_bins *
+      setup->geometry.n_microphones);
   est->n_blocks = (band->n_bins + LAG_BLOCK - 1) / LAG_BLOCK;
   est->blocks = g_new (SonarComplex, est->n_blocks);
   est->k0 = 2.0 * M_PI * sonar_band_frequency (band, 0) /
@@ -139,7 +153,10 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   if (!est)
     return;
   sonar_doppler_bank_unref (est->bank);
-  g_free (est->receive);
+  g_free (est->receive_re);
+  g_free (est->receive_im);
+  g_free (est->spectra_re);
+  g_free (est->spectra_im);
   g_free (est->blocks);
   g_free (est->lag_sums);
   g_free (est->lag_powers);
@@ -153,25 +170,27 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
 }
 
 /* Receive beam of @spectra focused at @point (range @range) into
- * est->receive. */
+ * est->receive_re, _im. */
 static void
-receive_beam (SonarVelocityEstimator * est, const SonarComplex * spectra,
+receive_beam (SonarVelocityEstimator * est, const SplitSpectra * spectra,
     SonarVec3 point, double range)
 {
   const SonarGeometry *g = &est->setup->geometry;
   const guint n_bins = est->band.n_bins;
 
-  memset (est->receive, 0, sizeof (SonarComplex) * n_bins);
+  memset (est->receive_re, 0, sizeof (float) * n_bins);
+  memset (est->receive_im, 0, sizeof (float) * n_bins);
   for (guint j = 0; j < g->n_microphones; j++) {
     const double path = sonar_vec3_norm (sonar_vec3_sub (point,
             g->microphones[j])) - range;
-    sonar_kernel_steer_accumulate (est->receive, spectra + (gsize) j * n_bins,
-        n_bins, est->k0 * path, est->dk * path);
+    sonar_kernel_steer_accumulate_split (est->receive_re, est->receive_im,
+        spectra->re + (gsize) j * n_bins, spectra->im + (gsize) j * n_bins,
+        n_bins, est->k0 * path, est->dk * path, FALSE);
   }
 }
 
 /* Emitter @n's matched filter output at velocity index @v for the beam in
- * est->receive, at the lag of the pixel at @point (range @range), summed
+ * est->receive_re, _im, at the lag of the pixel at @point (range @range), summed
  * by blocks of LAG_BLOCK bins into est->blocks. Its outputs at the lags
  * of nearby ranges are then short sums over the blocks (output_at ()):
  * over a block, the extra phase of a lag two range bins away turns by
@@ -189,7 +208,8 @@ emitter_blocks (SonarVelocityEstimator * est, guint n, guint v,
   /* The two-way range plus the emitter leg, stretched by 1 / alpha. */
   const double path = 2.0 * range + e_path * (c + vel) / (c - vel);
 
-  sonar_kernel_steer_block_sums_conj (est->blocks, est->receive,
+  sonar_kernel_steer_block_sums_conj (est->blocks, est->receive_re,
+      est->receive_im,
       sonar_doppler_bank_spectra (est->bank, v) + (gsize) n * est->band.n_bins,
       est->band.n_bins, est->k0 * path, est->dk * path, LAG_BLOCK);
 }
@@ -210,7 +230,7 @@ output_at (SonarVelocityEstimator * est, double offset)
  * the window pixel and velocity (of the @n_v indices @vs) where their sum
  * is largest. */
 static double
-coherence_over (SonarVelocityEstimator * est, const SonarComplex * spectra,
+coherence_over (SonarVelocityEstimator * est, const SplitSpectra * spectra,
     double range, double azimuth, double elevation, const guint * vs,
     guint n_v, double *strength)
 {
@@ -276,7 +296,7 @@ static double parabola_offset (double a, double b, double c);
  * azimuth: 9 evaluations instead of 25 on a 3-D grid, the beam being
  * close to separable over half a step. */
 static void
-refine_direction (SonarVelocityEstimator * est, const SonarComplex * spectra,
+refine_direction (SonarVelocityEstimator * est, const SplitSpectra * spectra,
     double range, double *azimuth, double *elevation, double *coherence)
 {
   const SonarImageGrid *g = &est->grid;
@@ -355,7 +375,7 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
 /* Takes the maximum of the window's single-emitter image values into
  * est->acf, at the velocities wanted and not yet done. */
 static void
-evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
+evaluate_window (SonarVelocityEstimator * est, const SplitSpectra * spectra,
     double range, double azimuth, double elevation)
 {
   const SonarImageGrid *grid = &est->grid;
@@ -386,7 +406,7 @@ evaluate_window (SonarVelocityEstimator * est, const SonarComplex * spectra,
 /* Wants the velocities within half a main lobe (plus a coarse step) of
  * index @p, and evaluates them. */
 static void
-evaluate_around (SonarVelocityEstimator * est, const SonarComplex * spectra,
+evaluate_around (SonarVelocityEstimator * est, const SplitSpectra * spectra,
     double range, double azimuth, double elevation, guint p)
 {
   const double vp = sonar_doppler_bank_velocity (est->bank, p);
@@ -486,7 +506,7 @@ compare_doubles (const void *a, const void *b)
 }
 
 static void
-describe_peak (SonarVelocityEstimator * est, const SonarComplex * spectra,
+describe_peak (SonarVelocityEstimator * est, const SplitSpectra * spectra,
     guint p, double median, SonarVelocityEstimate * out)
 {
   const guint nv = est->n_velocities;
@@ -538,10 +558,11 @@ describe_peak (SonarVelocityEstimator * est, const SonarComplex * spectra,
   out->second = FALSE;
 }
 
-guint
-sonar_velocity_estimate (SonarVelocityEstimator * est,
-    const SonarComplex * mic_spectra, double range, double azimuth,
-    double elevation, SonarVelocityEstimate * out, float *curves)
+/* sonar_velocity_estimate () on split spectra. */
+static guint
+estimate (SonarVelocityEstimator * est, const SplitSpectra * mic_spectra,
+    double range, double azimuth, double elevation,
+    SonarVelocityEstimate * out, float *curves)
 {
   const guint nv = est->n_velocities;
   double *lp = est->log_product;
@@ -630,6 +651,18 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
   return count;
 }
 
+guint
+sonar_velocity_estimate (SonarVelocityEstimator * est,
+    const SonarComplex * mic_spectra, double range, double azimuth,
+    double elevation, SonarVelocityEstimate * out, float *curves)
+{
+  const SplitSpectra split = { est->spectra_re, est->spectra_im };
+
+  sonar_kernel_split (est->spectra_re, est->spectra_im, mic_spectra,
+      (gsize) est->setup->geometry.n_microphones * est->band.n_bins);
+  return estimate (est, &split, range, azimuth, elevation, out, curves);
+}
+
 /* The pool -----------------------------------------------------------------*/
 
 struct _SonarVelocityPool
@@ -637,8 +670,10 @@ struct _SonarVelocityPool
   SonarWorkers *workers;
   SonarVelocityEstimator *estimators[SONAR_MAX_WORKERS];
 
-  /* The ping being estimated, shared with the workers. */
-  const SonarComplex *spectra;
+  /* The ping being estimated, shared with the workers: its spectra split
+   * once for all centroids. */
+  float *spectra_re, *spectra_im;
+  SplitSpectra spectra;
   const SonarCentroid *centroids;
   guint n_centroids;
   SonarVelocityEstimate *results;
@@ -653,9 +688,8 @@ estimate_share (gpointer data, guint w, guint n)
 
   for (guint k = w; k < pool->n_centroids; k += n) {
     const SonarCentroid *c = &pool->centroids[k];
-    pool->counts[k] = sonar_velocity_estimate (pool->estimators[w],
-        pool->spectra, c->range, c->azimuth, c->elevation,
-        &pool->results[2 * k], NULL);
+    pool->counts[k] = estimate (pool->estimators[w], &pool->spectra,
+        c->range, c->azimuth, c->elevation, &pool->results[2 * k], NULL);
   }
 }
 
@@ -664,7 +698,14 @@ sonar_velocity_pool_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
     const SonarVelocityParams * params, guint n_threads, GError ** error)
 {
   SonarVelocityPool *pool = g_new0 (SonarVelocityPool, 1);
+  const SonarBand *band = sonar_doppler_bank_band (bank);
+  const gsize size = band ? (gsize) band->n_bins *
+      sonar_doppler_bank_get_setup (bank)->geometry.n_microphones : 0;
 
+  pool->spectra_re = g_new (float, size);
+  pool->spectra_im = g_new (float, size);
+  pool->spectra.re = pool->spectra_re;
+  pool->spectra.im = pool->spectra_im;
   pool->workers = sonar_workers_new (n_threads, error);
   if (!pool->workers)
     goto failed;
@@ -689,6 +730,8 @@ sonar_velocity_pool_free (SonarVelocityPool * pool)
   for (guint w = 0; w < SONAR_MAX_WORKERS; w++)
     sonar_velocity_estimator_free (pool->estimators[w]);
   sonar_workers_free (pool->workers);
+  g_free (pool->spectra_re);
+  g_free (pool->spectra_im);
   g_free (pool);
 }
 
@@ -697,7 +740,9 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts)
 {
-  pool->spectra = mic_spectra;
+  sonar_kernel_split (pool->spectra_re, pool->spectra_im, mic_spectra,
+      (gsize) pool->estimators[0]->setup->geometry.n_microphones *
+      pool->estimators[0]->band.n_bins);
   pool->centroids = centroids;
   pool->n_centroids = n_centroids;
   pool->results = results;

@@ -32,6 +32,8 @@ typedef struct
   float *receive_re, *receive_im;       /* K: sum over microphones */
   float *transmit_re, *transmit_im;     /* K: sum over emitters */
   SonarComplex *baseband;       /* M */
+  float *envelope;              /* one hypothesis's, over the grid's ranges */
+  guint passes;                 /* unit x hypothesis passes of this call */
 } Scratch;
 
 /* One call's arguments, for the workers. */
@@ -39,6 +41,12 @@ typedef struct
 {
   const guint *units;           /* UNIT (direction, zone) */
   guint n_units;
+  /* Coarse pass: per UNIT (coarse direction, zone) x hypothesis, the
+   * hypothesis's r^2-weighted peak over the zone; else NULL. */
+  float *zone_peaks;
+  /* Fine pass: per UNIT (coarse direction, zone) x hypothesis, whether a
+   * unit with that coarse corner images the hypothesis; NULL: all. */
+  const guint8 *wanted;
   guint n_hypotheses;
   const double *velocities;
   int emitter;
@@ -66,6 +74,7 @@ struct _SonarImager
   guint8 *hot;                  /* [direction x zone]: coarse, above the level */
   guint8 *imaged;               /* [direction x zone]: imaged in full */
   guint n_imaged;               /* units imaged by the last call */
+  guint n_passes;               /* unit x hypothesis passes of the last call */
 
   guint ifft_size;              /* M */
   guint first_lag;              /* IFFT sample of range bin 0 */
@@ -75,6 +84,10 @@ struct _SonarImager
   float *mic_re, *mic_im;
   float *template_re, *template_im;
   guint template_capacity;      /* hypotheses the template arrays hold */
+  /* [UNIT x hypothesis], as job.zone_peaks and job.wanted, for as many
+   * hypotheses as the templates. */
+  float *zone_peaks;
+  guint8 *wanted;
   /* Directions are shared out between workers, each with its scratch. */
   SonarWorkers *workers;
   Scratch scratch[SONAR_MAX_WORKERS];
@@ -278,6 +291,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     im->scratch[w].transmit_re = fftwf_alloc_real (band->n_bins);
     im->scratch[w].transmit_im = fftwf_alloc_real (band->n_bins);
     im->scratch[w].baseband = fftwf_alloc_complex (im->ifft_size);
+    im->scratch[w].envelope = g_new (float, grid->n_range);
   }
   sonar_fftw_lock ();
   /* FFTW's allocator aligns every array alike: the plan runs on each
@@ -314,12 +328,15 @@ sonar_imager_free (SonarImager * im)
     fftwf_free (im->scratch[w].transmit_re);
     fftwf_free (im->scratch[w].transmit_im);
     fftwf_free (im->scratch[w].baseband);
+    g_free (im->scratch[w].envelope);
   }
   sonar_workers_free (im->workers);
   g_free (im->mic_re);
   g_free (im->mic_im);
   g_free (im->template_re);
   g_free (im->template_im);
+  g_free (im->zone_peaks);
+  g_free (im->wanted);
   sonar_setup_unref (im->setup);
   g_free (im);
 }
@@ -343,83 +360,6 @@ data_exponent (const SonarComplex * x, gsize n)
   if (peak > 0.0f && isfinite (peak))
     frexpf (peak, &exponent);
   return exponent;
-}
-
-/* Worker @w's share of a call: units w, w + n, ... */
-static void
-image_units (gpointer data, guint w, guint n_workers)
-{
-  SonarImager *im = data;
-  const ImageJob *job = &im->job;
-  const Scratch *scratch = &im->scratch[w];
-  const SonarGeometry *g = &im->setup->geometry;
-  const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
-  const double c = im->setup->speed_of_sound;
-  /* Phase of a path difference of one metre, at the first bin and per bin. */
-  const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
-  const double dk = 2.0 * M_PI * im->setup->sample_rate /
-      im->band.fft_size / c;
-  const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
-  const guint n_end = job->emitter < 0 ? g->n_emitters :
-      (guint) job->emitter + 1;
-
-  for (guint u = w; u < job->n_units; u += n_workers) {
-    const guint d = UNIT_DIRECTION (im, job->units[u]);
-    const FocusZone *zone = &im->zones[UNIT_ZONE (im, job->units[u])];
-    const guint first = zone->first_range;
-    const guint count = zone->end_range - zone->first_range;
-    const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
-    const double *emitter_path = zone->emitter_path +
-        (gsize) d * g->n_emitters;
-    const gsize pixels = (gsize) d * n_range + first;
-
-    if (count == 0)
-      continue;
-    /* Receive side: once per direction for every hypothesis. */
-    memset (scratch->receive_re, 0, sizeof (float) * n_bins);
-    memset (scratch->receive_im, 0, sizeof (float) * n_bins);
-    for (guint j = 0; j < g->n_microphones; j++)
-      sonar_kernel_steer_accumulate_split (scratch->receive_re,
-          scratch->receive_im, im->mic_re + (gsize) j * n_bins,
-          im->mic_im + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
-          dk * mic_path[j], FALSE);
-
-    for (guint h = 0; h < job->n_hypotheses; h++) {
-      const double v = job->velocities[h];
-      const double stretch = (c + v) / (c - v); /* 1 / alpha */
-
-      memset (scratch->transmit_re, 0, sizeof (float) * n_bins);
-      memset (scratch->transmit_im, 0, sizeof (float) * n_bins);
-      for (guint n = n_first; n < n_end; n++) {
-        const double path = emitter_path[n] * stretch;
-        const gsize t = ((gsize) h * g->n_emitters + n) * n_bins;
-        sonar_kernel_steer_accumulate_split (scratch->transmit_re,
-            scratch->transmit_im, im->template_re + t, im->template_im + t,
-            n_bins, k0 * path, dk * path, TRUE);
-      }
-      sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
-          scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
-          n_bins);
-      memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
-          (im->ifft_size - n_bins));
-      fftwf_execute_dft (im->inverse, scratch->baseband, scratch->baseband);
-      sonar_kernel_envelope (job->image + h * job->stride + pixels,
-          scratch->baseband + im->first_lag + first, count, job->scale,
-          job->stride == 0 && h > 0);
-    }
-  }
-}
-
-/* Images the @n units listed in im->units. */
-static void
-run_units (SonarImager * im, guint n)
-{
-  im->job.units = im->units;
-  im->job.n_units = n;
-  sonar_workers_run (im->workers, image_units, im);
-  for (guint u = 0; u < n; u++)
-    im->imaged[im->units[u]] = TRUE;
-  im->n_imaged += n;
 }
 
 /* Coarse indices of a grid axis of @n points: every @step-th and the
@@ -453,32 +393,146 @@ coarse_corners (const SonarImager * im, guint d, guint corners[4])
   corners[3] = e1 * n_az + a1;
 }
 
-/* Flags hot the (coarse direction, zone) whose r^2-weighted peak in the
- * coarse image comes within the refine level of the coarse image's. */
+/* Worker @w's share of a call: units w, w + n, ... */
 static void
-mark_hot (SonarImager * im, const float *image, guint n_coarse)
+image_units (gpointer data, guint w, guint n_workers)
 {
-  const guint n_range = im->grid.n_range;
+  SonarImager *im = data;
+  const ImageJob *job = &im->job;
+  const Scratch *scratch = &im->scratch[w];
+  const SonarGeometry *g = &im->setup->geometry;
+  const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
+  const double c = im->setup->speed_of_sound;
+  /* Phase of a path difference of one metre, at the first bin and per bin. */
+  const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
+  const double dk = 2.0 * M_PI * im->setup->sample_rate /
+      im->band.fft_size / c;
+  const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
+  const guint n_end = job->emitter < 0 ? g->n_emitters :
+      (guint) job->emitter + 1;
+
+  for (guint u = w; u < job->n_units; u += n_workers) {
+    const guint d = UNIT_DIRECTION (im, job->units[u]);
+    const FocusZone *zone = &im->zones[UNIT_ZONE (im, job->units[u])];
+    const guint first = zone->first_range;
+    const guint count = zone->end_range - zone->first_range;
+    const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
+    const double *emitter_path = zone->emitter_path +
+        (gsize) d * g->n_emitters;
+    const gsize pixels = (gsize) d * n_range + first;
+    const guint n_hyp = job->n_hypotheses;
+    gboolean first_hypothesis = TRUE;
+    guint corners[4];
+
+    if (count == 0)
+      continue;
+    if (job->wanted)
+      coarse_corners (im, d, corners);
+    /* Receive side: once per direction for every hypothesis. */
+    memset (scratch->receive_re, 0, sizeof (float) * n_bins);
+    memset (scratch->receive_im, 0, sizeof (float) * n_bins);
+    for (guint j = 0; j < g->n_microphones; j++)
+      sonar_kernel_steer_accumulate_split (scratch->receive_re,
+          scratch->receive_im, im->mic_re + (gsize) j * n_bins,
+          im->mic_im + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
+          dk * mic_path[j], FALSE);
+
+    for (guint h = 0; h < n_hyp; h++) {
+      const double v = job->velocities[h];
+      const double stretch = (c + v) / (c - v); /* 1 / alpha */
+      const guint z = UNIT_ZONE (im, job->units[u]);
+      const SonarComplex *lags;
+
+      if (job->wanted && !job->wanted[UNIT (im, corners[0], z) * n_hyp + h]
+          && !job->wanted[UNIT (im, corners[1], z) * n_hyp + h]
+          && !job->wanted[UNIT (im, corners[2], z) * n_hyp + h]
+          && !job->wanted[UNIT (im, corners[3], z) * n_hyp + h])
+        continue;
+      memset (scratch->transmit_re, 0, sizeof (float) * n_bins);
+      memset (scratch->transmit_im, 0, sizeof (float) * n_bins);
+      for (guint n = n_first; n < n_end; n++) {
+        const double path = emitter_path[n] * stretch;
+        const gsize t = ((gsize) h * g->n_emitters + n) * n_bins;
+        sonar_kernel_steer_accumulate_split (scratch->transmit_re,
+            scratch->transmit_im, im->template_re + t, im->template_im + t,
+            n_bins, k0 * path, dk * path, TRUE);
+      }
+      sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
+          scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
+          n_bins);
+      memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
+          (im->ifft_size - n_bins));
+      fftwf_execute_dft (im->inverse, scratch->baseband, scratch->baseband);
+      lags = scratch->baseband + im->first_lag + first;
+      if (job->zone_peaks) {
+        /* Coarse unit (the whole range): each zone's peak of this
+         * hypothesis, then the maximum over the hypotheses. */
+        sonar_kernel_envelope (scratch->envelope, lags, count, job->scale,
+            FALSE);
+        for (guint zz = 0; zz < im->n_zones; zz++) {
+          const FocusZone *part = &im->zones[zz];
+          float peak = 0.0f;
+          for (guint i = part->first_range; i < part->end_range; i++)
+            peak = MAX (peak, scratch->envelope[i] * im->range_weight[i]);
+          job->zone_peaks[UNIT (im, d, zz) * n_hyp + h] = peak;
+        }
+        for (guint i = 0; i < count; i++)
+          job->image[pixels + i] = first_hypothesis ? scratch->envelope[i] :
+              MAX (job->image[pixels + i], scratch->envelope[i]);
+      } else {
+        sonar_kernel_envelope (job->image + h * job->stride + pixels, lags,
+            count, job->scale, job->stride == 0 && !first_hypothesis);
+      }
+      first_hypothesis = FALSE;
+      im->scratch[w].passes++;
+    }
+  }
+}
+
+/* Images the @n units listed in im->units. */
+static void
+run_units (SonarImager * im, guint n)
+{
+  im->job.units = im->units;
+  im->job.n_units = n;
+  for (guint w = 0; w < sonar_workers_count (im->workers); w++)
+    im->scratch[w].passes = 0;
+  sonar_workers_run (im->workers, image_units, im);
+  for (guint u = 0; u < n; u++)
+    im->imaged[im->units[u]] = TRUE;
+  im->n_imaged += n;
+  for (guint w = 0; w < sonar_workers_count (im->workers); w++)
+    im->n_passes += im->scratch[w].passes;
+}
+
+/* From the coarse pass's zone peaks: a (coarse direction, zone) is hot
+ * when a hypothesis's r^2-weighted peak there comes within the refine
+ * level of the coarse image's maximum, and the fine units around it image
+ * those hypotheses only. A pixel wardcluster could keep (10 dB below the
+ * maximum at most) has its best hypothesis among them: 1.5 degrees off,
+ * at a coarse corner, the beam loses at most 6 dB of the 20. */
+static void
+mark_hot (SonarImager * im, guint n_coarse)
+{
+  const guint n_hyp = im->job.n_hypotheses;
   float top = 0.0f, level;
 
   for (guint u = 0; u < n_coarse; u++) {
-    const float *pixels = image + (gsize) UNIT_DIRECTION (im, im->units[u]) *
-        n_range;
-    for (guint i = 0; i < n_range; i++)
-      top = MAX (top, pixels[i] * im->range_weight[i]);
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    for (guint z = 0; z < im->n_zones; z++)
+      for (guint h = 0; h < n_hyp; h++)
+        top = MAX (top, im->zone_peaks[UNIT (im, d, z) * n_hyp + h]);
   }
   level = top * im->refine_ratio;
   memset (im->hot, 0, (gsize) im->n_directions * (im->n_zones + 1));
   for (guint u = 0; u < n_coarse; u++) {
     const guint d = UNIT_DIRECTION (im, im->units[u]);
-    const float *pixels = image + (gsize) d * n_range;
     for (guint z = 0; z < im->n_zones; z++) {
-      const FocusZone *zone = &im->zones[z];
-      for (guint i = zone->first_range; i < zone->end_range; i++) {
-        if (pixels[i] * im->range_weight[i] >= level) {
-          im->hot[UNIT (im, d, z)] = TRUE;
-          break;
-        }
+      const gsize unit = UNIT (im, d, z);
+      for (guint h = 0; h < n_hyp; h++) {
+        im->wanted[unit * n_hyp + h] = im->zone_peaks[unit * n_hyp + h] >=
+            level;
+        im->hot[unit] |= im->wanted[unit * n_hyp + h];
       }
     }
   }
@@ -539,8 +593,10 @@ image_coarse_to_fine (SonarImager * im, float *image)
       im->units[n++] = UNIT (im, d, coarse_zone);
   }
   n_coarse = n;
+  im->job.zone_peaks = im->zone_peaks;
   run_units (im, n_coarse);
-  mark_hot (im, image, n_coarse);
+  im->job.zone_peaks = NULL;
+  mark_hot (im, n_coarse);
 
   n = 0;
   for (guint d = 0; d < im->n_directions; d++) {
@@ -556,7 +612,9 @@ image_coarse_to_fine (SonarImager * im, float *image)
         im->units[n++] = UNIT (im, d, z);
     }
   }
+  im->job.wanted = im->wanted;
   run_units (im, n);
+  im->job.wanted = NULL;
   interpolate_rest (im, image);
 }
 
@@ -594,8 +652,12 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
     const gsize size = (gsize) n_hypotheses * n_emitters * n_bins;
     g_free (im->template_re);
     g_free (im->template_im);
+    g_free (im->zone_peaks);
+    g_free (im->wanted);
     im->template_re = g_new (float, size);
     im->template_im = g_new (float, size);
+    im->zone_peaks = g_new (float, n_units * n_hypotheses);
+    im->wanted = g_new (guint8, n_units * n_hypotheses);
     im->template_capacity = n_hypotheses;
   }
   for (guint h = 0; h < n_hypotheses; h++)
@@ -610,6 +672,7 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   im->job.scale = scale;
   memset (im->imaged, 0, n_units);
   im->n_imaged = 0;
+  im->n_passes = 0;
   if (stride == 0 && im->coarse_azimuth * im->coarse_elevation > 1) {
     image_coarse_to_fine (im, image);
   } else {
@@ -650,9 +713,11 @@ sonar_imager_process_each (SonarImager * im,
 }
 
 void
-sonar_imager_last_work (const SonarImager * im, guint * imaged,
-    guint * dense)
+sonar_imager_last_work (const SonarImager * im, guint * units,
+    guint * dense_units, guint * passes, guint * dense_passes)
 {
-  *imaged = im->n_imaged;
-  *dense = im->n_directions * im->n_zones;
+  *units = im->n_imaged;
+  *dense_units = im->n_directions * im->n_zones;
+  *passes = im->n_passes;
+  *dense_passes = *dense_units * im->job.n_hypotheses;
 }

@@ -100,10 +100,11 @@ void sonar_imager_process_each (SonarImager * imager,
     const SonarComplex * const *templates, const double *velocities,
     int emitter, float *images, gsize stride);
 
-/* Direction x zone units the last process () imaged in full, and how many
- * the dense grid has: the work done against the work saved. */
-void sonar_imager_last_work (const SonarImager * imager, guint * imaged,
-    guint * dense);
+/* The work of the last process () against the dense image's: direction
+ * x zone units imaged in full (each a receive sum), and unit x hypothesis
+ * passes (each a transmit sum and an inverse transform). */
+void sonar_imager_last_work (const SonarImager * imager, guint * units,
+    guint * dense_units, guint * passes, guint * dense_passes);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarImager, sonar_imager_free)
 

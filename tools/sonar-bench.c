@@ -29,8 +29,8 @@
  * pass: coarse grid 0-6 degrees, refinement level 10-30 dB) and
  * hemisphere (issue 5's 3-D goal: 91 x 91 directions at 2 degrees, one
  * fig10 ping, coarse grids of 4, 6 and 8 degrees and the dense image).
- * The "work" column is the share of the dense image's direction x zone
- * units the imager computed in full.
+ * The "work" column is the share of the dense image's direction x zone x
+ * hypothesis passes the imager made.
  *
  * The sensor is sonarsrc's default, built by a copy of its make_setup ()
  * logic; the velocity stage shares the centroids between worker threads as
@@ -178,7 +178,7 @@ typedef struct
   double sum_error, near_sum_error, max_error;
   double centroids;             /* per ping */
   double ms[N_STAGES];          /* medians over the pings */
-  /* The imager's direction x zone units imaged in full over the dense
+  /* The imager's direction x zone x hypothesis passes over the dense
    * image's, mean over the pings (coarse to fine). */
   double work_fraction;
   double ms_total;
@@ -1002,9 +1002,10 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     chain_imaging (ch);
     t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
     if (q >= 0) {
-      guint imaged, dense;
-      sonar_imager_last_work (ch->imager, &imaged, &dense);
-      r->work_fraction += (double) imaged / dense / n_pings;
+      guint units, dense_units, passes, dense_passes;
+      sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
+          &dense_passes);
+      r->work_fraction += (double) passes / dense_passes / n_pings;
     }
     stage_start (&clock);
     n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,

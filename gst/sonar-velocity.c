@@ -137,9 +137,10 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   est->scratch = g_new (double, est->n_velocities);
   est->wanted = g_new (guint8, est->n_velocities);
   est->done = g_new (guint8, est->n_velocities);
-  /* The curves are a main lobe wide: sampled every quarter of it, their
+  /* The curves are a main lobe wide: sampled every half of it (a quarter
+   * measured the same errors in sonar-bench for twice the work), their
    * peak is found, then the bank is evaluated in full around it only. */
-  est->coarse_stride = MAX (1, (guint) round (0.25 * est->main_lobe /
+  est->coarse_stride = MAX (1, (guint) round (0.5 * est->main_lobe /
           sonar_doppler_bank_step (bank)));
   est->hypotheses = g_new (guint, est->n_velocities + 2);
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,

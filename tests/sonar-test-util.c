@@ -226,21 +226,29 @@ sonar_test_init_gst (int *argc, char ***argv)
 }
 
 SonarSetup *
-sonar_test_default_setup (guint ping_length)
+sonar_test_setup_new (SonarGeometry * geometry, guint ping_length)
 {
   SonarWaveformParams wp;
-  SonarGeometry g;
   float *w;
   SonarSetup *setup;
 
   sonar_waveform_params_init_default (&wp);
-  sonar_geometry_init_default (&g);
+  wp.n_emitters = geometry->n_emitters;
   w = g_new (float, wp.n_emitters * wp.length);
   g_assert_true (sonar_waveform_generate (&wp, w, NULL));
   setup = sonar_setup_new (wp.sample_rate, SONAR_DEFAULT_SPEED_OF_SOUND,
-      wp.band_low, wp.band_high, &g, wp.length, w, ping_length, NULL);
+      wp.band_low, wp.band_high, geometry, wp.length, w, ping_length, NULL);
   g_assert_nonnull (setup);
   g_free (w);
-  sonar_geometry_clear (&g);
+  sonar_geometry_clear (geometry);
   return setup;
+}
+
+SonarSetup *
+sonar_test_default_setup (guint ping_length)
+{
+  SonarGeometry g;
+
+  sonar_geometry_init_default (&g);
+  return sonar_test_setup_new (&g, ping_length);
 }

@@ -42,6 +42,11 @@ G_BEGIN_DECLS
  * c = 343 m/s) with @ping_length samples per ping. */
 SonarSetup *sonar_test_default_setup (guint ping_length);
 
+/* A set-up of @geometry (cleared here) with the default noise waveforms,
+ * one per emitter. */
+SonarSetup *sonar_test_setup_new (SonarGeometry * geometry,
+    guint ping_length);
+
 /* Runs a gst-launch style pipeline to EOS (or the first error). Returns
  * NULL on success, else the error message (and its debug text after a
  * newline): g_free it. @pipeline_out, if not NULL, receives the pipeline

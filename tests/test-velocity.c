@@ -254,13 +254,8 @@ test_emitters_subset (void)
 static SonarSetup *
 setup_with_emitters (guint n_emitters, guint ping_length)
 {
-  SonarWaveformParams wp;
   SonarGeometry g;
-  float *w;
-  SonarSetup *setup;
 
-  sonar_waveform_params_init_default (&wp);
-  wp.n_emitters = n_emitters;
   sonar_geometry_init_default (&g);
   g.n_emitters = n_emitters;
   g.emitters = g_renew (SonarVec3, g.emitters, n_emitters);
@@ -268,14 +263,7 @@ setup_with_emitters (guint n_emitters, guint ping_length)
     const double a = 2.0 * G_PI * (n + 0.3 * sin (1.7 * n)) / n_emitters;
     g.emitters[n] = sonar_vec3 (0.055 * cos (a), 0.040 * sin (a), 0.0);
   }
-  w = g_new (float, wp.n_emitters * wp.length);
-  g_assert_true (sonar_waveform_generate (&wp, w, NULL));
-  setup = sonar_setup_new (wp.sample_rate, SONAR_DEFAULT_SPEED_OF_SOUND,
-      wp.band_low, wp.band_high, &g, wp.length, w, ping_length, NULL);
-  g_assert_nonnull (setup);
-  g_free (w);
-  sonar_geometry_clear (&g);
-  return setup;
+  return sonar_test_setup_new (&g, ping_length);
 }
 
 /* The Doppler-ACF product does not underflow: an echo at 1e-30 of full

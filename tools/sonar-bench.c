@@ -1081,6 +1081,18 @@ ms_per_centroid (const Result * r)
 
 /* Sweeps ------------------------------------------------------------------*/
 
+/* A sweep that sets one field of the configuration to each of a list of
+ * values, labelled with the value. */
+#define FIELD_SWEEP(name, field, type, format, ...)                       \
+static void                                                             \
+name (Config * c, guint i, char *label, gsize size)                     \
+{                                                                       \
+  static const type values[] = { __VA_ARGS__ };                         \
+                                                                        \
+  c->field = values[i];                                                 \
+  g_snprintf (label, size, format, values[i]);                          \
+}
+
 static void
 apply_baseline (Config * c, guint i, char *label, gsize size)
 {
@@ -1122,50 +1134,17 @@ apply_window (Config * c, guint i, char *label, gsize size)
       c->velocity.window_ranges);
 }
 
-static void
-apply_bank_step (Config * c, guint i, char *label, gsize size)
-{
-  static const double steps[] = { 0.01, 0.02, 0.05, 0.1 };
+FIELD_SWEEP (apply_bank_step, v_step, double, "%g", 0.01, 0.02, 0.05, 0.1)
 
-  c->v_step = steps[i];
-  g_snprintf (label, size, "%g", steps[i]);
-}
+FIELD_SWEEP (apply_directions, imager.n_azimuth, guint, "%u", 61, 91, 181, 361)
 
-static void
-apply_directions (Config * c, guint i, char *label, gsize size)
-{
-  static const guint counts[] = { 61, 91, 181, 361 };
+FIELD_SWEEP (apply_focus_zones, imager.focus_zones, guint, "%u", 1, 2, 4, 8)
 
-  c->imager.n_azimuth = counts[i];
-  g_snprintf (label, size, "%u", counts[i]);
-}
+FIELD_SWEEP (apply_coarse_spacing, imager.coarse_spacing, double, "%g",
+    0.0, 2.0, 3.0, 4.0, 6.0)
 
-static void
-apply_focus_zones (Config * c, guint i, char *label, gsize size)
-{
-  static const guint zones[] = { 1, 2, 4, 8 };
-
-  c->imager.focus_zones = zones[i];
-  g_snprintf (label, size, "%u", zones[i]);
-}
-
-static void
-apply_coarse_spacing (Config * c, guint i, char *label, gsize size)
-{
-  static const double spacings[] = { 0.0, 2.0, 3.0, 4.0, 6.0 };
-
-  c->imager.coarse_spacing = spacings[i];
-  g_snprintf (label, size, "%g", spacings[i]);
-}
-
-static void
-apply_refine_db (Config * c, guint i, char *label, gsize size)
-{
-  static const double levels[] = { 10.0, 15.0, 20.0, 30.0 };
-
-  c->imager.refine_db = levels[i];
-  g_snprintf (label, size, "%g", levels[i]);
-}
+FIELD_SWEEP (apply_refine_db, imager.refine_db, double, "%g",
+    10.0, 15.0, 20.0, 30.0)
 
 /* Issue 5's 3-D goal: the frontal hemisphere at 2 degrees (91 x 91
  * directions), the Fig. 10 bank, one ping; coarse spacings of 4 to 8
@@ -1183,14 +1162,7 @@ apply_hemisphere (Config * c, guint i, char *label, gsize size)
   g_snprintf (label, size, "%g", spacings[i]);
 }
 
-static void
-apply_hypotheses (Config * c, guint i, char *label, gsize size)
-{
-  static const double spacings[] = { 0.15, 0.3, 0.6 };
-
-  c->hypothesis_spacing = spacings[i];
-  g_snprintf (label, size, "%g", spacings[i]);
-}
+FIELD_SWEEP (apply_hypotheses, hypothesis_spacing, double, "%g", 0.15, 0.3, 0.6)
 
 static void
 apply_emitters (Config * c, guint i, char *label, gsize size)
@@ -1213,16 +1185,10 @@ apply_template_interp (Config * c, guint i, char *label, gsize size)
   g_strlcpy (label, template_interp_names[template_interps[i]], size);
 }
 
-static void
-apply_range_resolution (Config * c, guint i, char *label, gsize size)
-{
-  /* The image's step is also bounded by the band: with the default
-   * sensor, 2.8 mm at most, so the coarser values change nothing. */
-  static const double steps[] = { 0.001, 0.002, 0.005, 0.01, 0.02, 0.04 };
-
-  c->imager.range_resolution = steps[i];
-  g_snprintf (label, size, "%g", steps[i]);
-}
+/* The image's step is also bounded by the band: with the default
+ * sensor, 2.8 mm at most, so the coarser values change nothing. */
+FIELD_SWEEP (apply_range_resolution, imager.range_resolution, double, "%g",
+    0.001, 0.002, 0.005, 0.01, 0.02, 0.04)
 
 static void
 apply_bank_size (Config * c, guint i, char *label, gsize size)

@@ -115,7 +115,9 @@ static const VecIndex odd = { 1, 3, 5, 7, 9, 11, 13, 15 };
 /* The seeds of successive reseeds come from a rotation in double
  * precision, not from a sincos each: over a spectrum's few dozen reseeds
  * its rounding stays near 1e-15, and the sincos calls cost as much as the
- * bins between them. */
+ * bins between them. A ramp takes two sincos in all (its start and its
+ * step); the rotations by LANES and RESEED_INTERVAL bins are powers of
+ * the step, and the bins after the last whole vector read the lanes. */
 typedef struct
 {
   Vec re, im;
@@ -137,12 +139,18 @@ lanes_init (Lanes * p, double phase0, double dphase)
     p->offset_re[l] = p->offset_re[l - 1] * c - p->offset_im[l - 1] * s;
     p->offset_im[l] = p->offset_re[l - 1] * s + p->offset_im[l - 1] * c;
   }
-  p->step_re = (float) cos (LANES * dphase);
-  p->step_im = (float) sin (LANES * dphase);
+  /* exp(i LANES dphase), then squared up to exp(i RESEED_INTERVAL dphase). */
+  p->jump_re = p->offset_re[LANES - 1] * c - p->offset_im[LANES - 1] * s;
+  p->jump_im = p->offset_re[LANES - 1] * s + p->offset_im[LANES - 1] * c;
+  p->step_re = (float) p->jump_re;
+  p->step_im = (float) p->jump_im;
+  for (int k = LANES; k < RESEED_INTERVAL; k *= 2) {
+    const double re = p->jump_re * p->jump_re - p->jump_im * p->jump_im;
+    p->jump_im = 2.0 * p->jump_re * p->jump_im;
+    p->jump_re = re;
+  }
   p->seed_re = cos (phase0);
   p->seed_im = sin (phase0);
-  p->jump_re = cos (RESEED_INTERVAL * dphase);
-  p->jump_im = sin (RESEED_INTERVAL * dphase);
 }
 
 /* Lane l = exp(i (phase + l dphase)) at the next reseed's bin (every
@@ -158,6 +166,19 @@ lanes_seed (Lanes * p)
   p->seed_re = c * p->jump_re - s * p->jump_im;
   p->seed_im = c * p->jump_im + s * p->jump_re;
 }
+
+/* The phasor of bin @k, after the whole vectors up to bin @whole: lane
+ * (k - whole) % LANES, the lanes moved on every LANES bins (and seeded
+ * first when @whole starts a reseed interval, the last vector having
+ * ended one). */
+#define LANES_TAIL_PHASOR(p, k, whole) ({                                 \
+  const guint t_ = (k) - (whole);                                        \
+  if (t_ == 0 && (whole) % RESEED_INTERVAL == 0)                         \
+    lanes_seed (&(p));                                                   \
+  else if (t_ > 0 && t_ % LANES == 0)                                    \
+    LANES_ADVANCE (p);                                                   \
+  (p).re[t_ % LANES] + I * (p).im[t_ % LANES];                           \
+})
 
 /* The vector helpers are macros, not functions: a function compiled for the
  * baseline would not be inlined into the AVX2 clones. */
@@ -208,7 +229,7 @@ steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
   }
   for (guint k = whole; k < n; k++) {
     const SonarComplex y = (x_re[k] + I * sign * x_im[k]) *
-        unit_phasor (phase0 + k * dphase);
+        LANES_TAIL_PHASOR (p, k, whole);
     acc_re[k] += crealf (y);
     acc_im[k] += cimagf (y);
   }
@@ -251,8 +272,8 @@ steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
   if (whole < n) {
     SonarComplex sum = 0.0f;
     for (guint k = whole; k < n; k++)
-      sum += (a_re[k] + I * a_im[k]) * conjf (b[k]) * unit_phasor (phase0 +
-          k * dphase);
+      sum += (a_re[k] + I * a_im[k]) * conjf (b[k]) *
+          LANES_TAIL_PHASOR (p, k, whole);
     out[whole / block] = sum;
   }
 }
@@ -281,7 +302,7 @@ steer_sum_fast (const SonarComplex * x, guint n, double phase0,
   for (int l = 0; l < LANES; l++)
     sum += sum_re[l] + I * sum_im[l];
   for (guint k = whole; k < n; k++)
-    sum += x[k] * unit_phasor (phase0 + k * dphase);
+    sum += x[k] * LANES_TAIL_PHASOR (p, k, whole);
   return sum;
 }
 

@@ -592,6 +592,7 @@ estimate (SonarVelocityEstimator * est, const SplitSpectra * mic_spectra,
     out[0].peak_db = out[0].variance = 0.0;
     out[0].agreeing_emitters = 0;
     out[0].at_bank_edge = out[0].valid = out[0].second = FALSE;
+    out[0].evaluated_velocities = 0;
     if (curves)
       for (gsize i = 0; i < (gsize) (est->n_emitters + 1) * nv; i++)
         curves[i] = NAN;
@@ -639,6 +640,11 @@ estimate (SonarVelocityEstimator * est, const SplitSpectra * mic_spectra,
     out[1].second = TRUE;
     count = out[1].valid ? 2 : 1;
   }
+  out[0].evaluated_velocities = 0;
+  for (guint v = 0; v < nv; v++)
+    out[0].evaluated_velocities += est->done[v];
+  if (count == 2)
+    out[1].evaluated_velocities = out[0].evaluated_velocities;
 
   if (curves) {
     for (guint n = 0; n < est->n_emitters; n++)

@@ -59,6 +59,9 @@ typedef struct
   gboolean at_bank_edge;        /* the peak is the bank's first or last velocity */
   gboolean valid;               /* passed the false-positive tests */
   gboolean second;              /* a second reflector in the same centroid */
+  /* Bank velocities whose Doppler-ACF values were evaluated (coarse pass
+   * and around the peaks); 0 when the prescreen rejected the centroid. */
+  guint evaluated_velocities;
 } SonarVelocityEstimate;
 
 typedef struct _SonarVelocityEstimator SonarVelocityEstimator;

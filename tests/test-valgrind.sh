@@ -39,10 +39,12 @@ memcheck () {
   fi
 }
 
+# 181 directions: the imager's coarse-to-fine path (31 directions, in
+# stability-cycles, image every direction in full).
 memcheck 1 "whole chain" definite,indirect \
   gst-launch-1.0 -q sonarsrc num-buffers=2 max-range=2.0 \
   ! dopplerbank velocity-min=-0.3 velocity-max=0.3 velocity-step=0.05 \
-  ! mimobeamform azimuth-count=31 range-max=2.0 threads=2 \
+  ! mimobeamform range-max=2.0 threads=2 \
   ! wardcluster ! velocityest threads=2 ! fakesink
 
 # The program ends with gst_deinit (), so even "possibly lost" counts: a

@@ -188,6 +188,9 @@ typedef struct
   double bank_mb, mb[N_STAGES]; /* heap held */
   double peak_rss_mb;
   guint bank_velocities;
+  /* Per ping: bank velocities the velocity stage evaluated, summed over
+   * the centroids (its work grows with this, not with the image). */
+  double evaluated_velocities;
   double template_error_db;     /* the bank's templates against exact ones */
   /* Fig. 11, per true reflector of the first ping (NaN where the curve
    * has none): peak-to-sidelobe ratio in dB (a lower bound where the main
@@ -251,8 +254,9 @@ typedef struct
   SonarCentroid centroids[MAX_CENTROIDS];
   SonarVelocityEstimate results[2 * MAX_CENTROIDS];
   guint counts[MAX_CENTROIDS];
-  /* Detections of the ping. */
+  /* Detections of the ping, and the bank velocities evaluated for it. */
   guint n_detections;
+  guint evaluated_velocities;
   SonarVec3 positions[2 * MAX_CENTROIDS];
   double velocities[2 * MAX_CENTROIDS];
 } Chain;
@@ -838,9 +842,11 @@ chain_velocity (Chain * ch, guint n_centroids)
   }
   sonar_velocity_pool_estimate (ch->workers, ch->spectra, ch->centroids,
       n_centroids, ch->results, ch->counts);
+  ch->evaluated_velocities = 0;
   for (guint k = 0; k < n_centroids; k++) {
     const SonarVelocityEstimate *e = &ch->results[2 * k];
 
+    ch->evaluated_velocities += e[0].evaluated_velocities;
     for (guint i = 0; i < ch->counts[k]; i++) {
       if (!e[i].valid)
         continue;
@@ -1025,6 +1031,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     }
     times[N_STAGES * n_pings + p] = total;
     total_centroids += n_centroids;
+    r->evaluated_velocities += (double) ch->evaluated_velocities / n_pings;
     score_ping (r, truths, s->n_reflectors, ch->positions, ch->velocities,
         ch->n_detections);
     if (p == 0 && c->measure_curves)
@@ -1077,6 +1084,14 @@ static double
 ms_per_centroid (const Result * r)
 {
   return r->centroids > 0.0 ? r->ms[STAGE_VELOCITY] / r->centroids : NAN;
+}
+
+/* Velocity-stage time per evaluated bank velocity, microseconds. */
+static double
+us_per_evaluation (const Result * r)
+{
+  return r->evaluated_velocities > 0.0 ? 1e3 * r->ms[STAGE_VELOCITY] /
+      r->evaluated_velocities : NAN;
 }
 
 /* Sweeps ------------------------------------------------------------------*/
@@ -1269,7 +1284,8 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   "ms_total,pings_per_second,cpu_ms_total,mb_bank,mb_spectra,mb_imaging," \
   "mb_clustering,mb_velocity,mb_chain,peak_rss_mb,centroids," \
   "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
-  "lobe_width,n_range,range_step,imaging_work"
+  "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
+  "us_velocity_per_evaluation"
 
 static void
 print_header (const Sweep * sweep)
@@ -1313,10 +1329,10 @@ print_memory_header (void)
 {
   g_print ("  memory held (MB; bank: dopplerbank's templates and spectra) "
       "and growth\n");
-  g_print ("  %-9s %-6s %7s %7s %7s %7s %8s %7s %7s %6s %9s %8s %7s %7s "
-      "%6s %6s\n", "value", "scene", "bank", "spectra", "imaging",
-      "cluster", "velocity", "chain", "RSS", "bank v", "ms/cent", "tmpl dB",
-      "PSR dB", "3dB m/s", "ranges", "dr mm");
+  g_print ("  %-9s %-6s %7s %7s %7s %7s %8s %7s %7s %6s %9s %6s %7s %8s "
+      "%7s %7s %6s %6s\n", "value", "scene", "bank", "spectra", "imaging",
+      "cluster", "velocity", "chain", "RSS", "bank v", "ms/cent", "evals",
+      "us/eval", "tmpl dB", "PSR dB", "3dB m/s", "ranges", "dr mm");
 }
 
 static void
@@ -1328,6 +1344,8 @@ print_memory_row (const char *value, const Config * c, const Result * r)
   g_print (" %7.1f %7.0f %6u", chain_mb (r), r->peak_rss_mb,
       r->bank_velocities);
   print_number (ms_per_centroid (r), 9, 2);
+  print_number (r->evaluated_velocities, 6, 0);
+  print_number (us_per_evaluation (r), 7, 1);
   print_number (r->template_error_db, 8, 1);
   print_number (r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN, 7, 1);
   print_number (r->n_curves ? mean_of (r->width, r->n_curves) : NAN, 7, 3);
@@ -1347,12 +1365,13 @@ write_csv_row (FILE * csv, const char *sweep, const char *value,
       r->cpu_ms_total, r->bank_mb);
   for (guint k = 0; k < N_STAGES; k++)
     fprintf (csv, ",%.6g", r->mb[k]);
-  fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.4g\n",
-      chain_mb (r), r->peak_rss_mb, r->centroids, r->bank_velocities,
-      ms_per_centroid (r), r->template_error_db,
+  fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.4g,%.6g,"
+      "%.6g\n", chain_mb (r), r->peak_rss_mb, r->centroids,
+      r->bank_velocities, ms_per_centroid (r), r->template_error_db,
       r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN,
       r->n_curves ? mean_of (r->width, r->n_curves) : NAN, r->n_range,
-      r->range_step, r->work_fraction);
+      r->range_step, r->work_fraction, r->evaluated_velocities,
+      us_per_evaluation (r));
   fflush (csv);
 }
 

@@ -98,9 +98,8 @@ struct _GstMimoBeamform
   ImageMode active_mode;
   int active_emitter;
   guint n_hypotheses;
-  guint *hypotheses;            /* bank velocity indices */
-  const SonarComplex **templates;
-  double *velocities;
+  guint *indices;               /* the hypotheses' bank velocity indices */
+  SonarHypothesis *hypotheses;
 };
 
 G_DEFINE_TYPE (GstMimoBeamform, gst_mimo_beamform, GST_TYPE_SONAR_FILTER);
@@ -154,11 +153,11 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   if (!self->imager)
     return NULL;
 
-  self->hypotheses = g_new (guint, n_bank + 2);
+  self->indices = g_new (guint, n_bank + 2);
   switch (self->active_mode) {
     case IMAGE_MODE_DETECTION:
       self->n_hypotheses = sonar_doppler_bank_hypotheses (bank, spacing,
-          self->hypotheses);
+          self->indices);
       break;
     case IMAGE_MODE_FIXED:{
       const guint i = sonar_doppler_bank_nearest (bank, velocity);
@@ -170,24 +169,20 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
             sonar_doppler_bank_velocity (bank, n_bank - 1));
         return NULL;
       }
-      self->hypotheses[0] = i;
+      self->indices[0] = i;
       self->n_hypotheses = 1;
       break;
     }
     case IMAGE_MODE_DATACUBE:
       for (guint i = 0; i < n_bank; i++)
-        self->hypotheses[i] = i;
+        self->indices[i] = i;
       self->n_hypotheses = n_bank;
       break;
   }
-  self->templates = g_new (const SonarComplex *, self->n_hypotheses);
-  self->velocities = g_new (double, self->n_hypotheses);
-  for (guint h = 0; h < self->n_hypotheses; h++) {
-    self->templates[h] = sonar_doppler_bank_spectra (bank,
-        self->hypotheses[h]);
-    self->velocities[h] = sonar_doppler_bank_velocity (bank,
-        self->hypotheses[h]);
-  }
+  self->hypotheses = g_new (SonarHypothesis, self->n_hypotheses);
+  for (guint h = 0; h < self->n_hypotheses; h++)
+    self->hypotheses[h] = sonar_doppler_bank_hypothesis (bank,
+        self->indices[h]);
   GST_INFO_OBJECT (self, "%u Doppler hypotheses", self->n_hypotheses);
   records = self->active_mode == IMAGE_MODE_DATACUBE ? self->n_hypotheses : 1;
   out_caps = sonar_energyscape_caps_new (sonar_imager_grid (self->imager),
@@ -209,9 +204,8 @@ gst_mimo_beamform_unconfigure (GstSonarFilter * filter)
   GstMimoBeamform *self = GST_MIMO_BEAMFORM (filter);
 
   g_clear_pointer (&self->imager, sonar_imager_free);
+  g_clear_pointer (&self->indices, g_free);
   g_clear_pointer (&self->hypotheses, g_free);
-  g_clear_pointer (&self->templates, g_free);
-  g_clear_pointer (&self->velocities, g_free);
 }
 
 static GstFlowReturn
@@ -246,18 +240,18 @@ gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
   for (guint r = 0; r < records; r++)
     sonar_energyscape_header_init ((SonarEnergyscapeHeader *) (out_map.data +
             r * record_size), grid, GST_BUFFER_OFFSET (buffer),
-        datacube || self->n_hypotheses == 1 ? self->velocities[r] : NAN,
+        datacube || self->n_hypotheses == 1 ?
+        self->hypotheses[r].velocity : NAN,
         self->active_emitter);
   if (datacube)
     sonar_imager_process_each (self->imager,
         (const SonarComplex *) in_map.data, self->n_hypotheses,
-        self->templates, self->velocities, self->active_emitter,
+        self->hypotheses, self->active_emitter,
         (float *) (out_map.data + sizeof (SonarEnergyscapeHeader)),
         record_size / sizeof (float));
   else
     sonar_imager_process (self->imager, (const SonarComplex *) in_map.data,
-        self->n_hypotheses, self->templates, self->velocities,
-        self->active_emitter,
+        self->n_hypotheses, self->hypotheses, self->active_emitter,
         (float *) (out_map.data + sizeof (SonarEnergyscapeHeader)));
   gst_buffer_unmap (out, &out_map);
   gst_buffer_unmap (buffer, &in_map);

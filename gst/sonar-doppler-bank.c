@@ -1,5 +1,6 @@
 /* sonar-doppler-bank.c: see sonar-doppler-bank.h. */
 #include "sonar-doppler-bank.h"
+#include "sonar-kernels.h"
 #include "sonar-interp.h"
 
 #include <gio/gio.h>
@@ -16,7 +17,9 @@ struct _SonarDopplerBank
   float *templates;             /* [n][i][max_length] */
   gboolean has_band;
   SonarBand band;
-  SonarComplex *spectra;        /* [i][n][n_bins] */
+  /* [i][n][n_bins], real and imaginary parts apart: the steering kernels
+   * read them so, and splitting them per ping would redo set-up work. */
+  float *spectra_re, *spectra_im;
 };
 
 double
@@ -131,7 +134,8 @@ sonar_doppler_bank_unref (SonarDopplerBank * bank)
     sonar_setup_unref (bank->setup);
     g_free (bank->lengths);
     g_free (bank->templates);
-    g_free (bank->spectra);
+    g_free (bank->spectra_re);
+    g_free (bank->spectra_im);
     g_free (bank);
   }
 }
@@ -213,17 +217,22 @@ sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
   const guint n_emitters = bank->setup->geometry.n_emitters;
   const gsize per_velocity = (gsize) n_emitters * band->n_bins;
   g_autoptr (SonarSpectrum) analyzer = sonar_spectrum_new (band);
+  g_autofree SonarComplex *spectrum = g_new (SonarComplex, band->n_bins);
 
-  g_free (bank->spectra);
-  bank->spectra = g_new (SonarComplex, per_velocity * bank->n_velocities);
+  g_free (bank->spectra_re);
+  g_free (bank->spectra_im);
+  bank->spectra_re = g_new (float, per_velocity * bank->n_velocities);
+  bank->spectra_im = g_new (float, per_velocity * bank->n_velocities);
   bank->band = *band;
   bank->has_band = TRUE;
   for (guint i = 0; i < bank->n_velocities; i++) {
     for (guint n = 0; n < n_emitters; n++) {
+      const gsize at = i * per_velocity + (gsize) n * band->n_bins;
       guint length;
       const float *t = sonar_doppler_bank_template (bank, n, i, &length);
-      sonar_spectrum_process (analyzer, t, length, 1,
-          bank->spectra + i * per_velocity + (gsize) n * band->n_bins, NULL);
+      sonar_spectrum_process (analyzer, t, length, 1, spectrum, NULL);
+      sonar_kernel_split (bank->spectra_re + at, bank->spectra_im + at,
+          spectrum, band->n_bins);
     }
   }
 }
@@ -245,10 +254,25 @@ sonar_doppler_bank_band (const SonarDopplerBank * bank)
   return bank->has_band ? &bank->band : NULL;
 }
 
-const SonarComplex *
+SonarSplitSpectra
 sonar_doppler_bank_spectra (const SonarDopplerBank * bank, guint i)
 {
-  g_return_val_if_fail (bank->has_band, NULL);
-  return bank->spectra + (gsize) i * bank->setup->geometry.n_emitters *
+  const gsize at = (gsize) i * bank->setup->geometry.n_emitters *
       bank->band.n_bins;
+  SonarSplitSpectra spectra = { NULL, NULL };
+
+  g_return_val_if_fail (bank->has_band, spectra);
+  spectra.re = bank->spectra_re + at;
+  spectra.im = bank->spectra_im + at;
+  return spectra;
+}
+
+SonarHypothesis
+sonar_doppler_bank_hypothesis (const SonarDopplerBank * bank, guint i)
+{
+  SonarHypothesis h;
+
+  h.velocity = sonar_doppler_bank_velocity (bank, i);
+  h.templates = sonar_doppler_bank_spectra (bank, i);
+  return h;
 }

@@ -78,8 +78,20 @@ void sonar_doppler_bank_prepare_ping_band (SonarDopplerBank * bank);
 /* The band the spectra are on (NULL before prepare_band). */
 const SonarBand *sonar_doppler_bank_band (const SonarDopplerBank * bank);
 /* Spectra of all emitters' templates at velocity index @i:
- * n_emitters x n_bins of the prepared band. */
-const SonarComplex *sonar_doppler_bank_spectra (const SonarDopplerBank *
+ * n_emitters x n_bins of the prepared band, split. */
+SonarSplitSpectra sonar_doppler_bank_spectra (const SonarDopplerBank * bank,
+    guint i);
+
+/* A Doppler hypothesis, what the imager images for: a radial velocity and
+ * its templates' spectra. */
+typedef struct
+{
+  double velocity;              /* m/s */
+  SonarSplitSpectra templates;  /* n_emitters x n_bins */
+} SonarHypothesis;
+
+/* Velocity index @i as a hypothesis (after prepare_band). */
+SonarHypothesis sonar_doppler_bank_hypothesis (const SonarDopplerBank *
     bank, guint i);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarDopplerBank, sonar_doppler_bank_unref)

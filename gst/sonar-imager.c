@@ -48,7 +48,7 @@ typedef struct
    * unit with that coarse corner images the hypothesis; NULL: all. */
   const guint8 *wanted;
   guint n_hypotheses;
-  const double *velocities;
+  const SonarHypothesis *hypotheses;
   int emitter;
   float *image;
   gsize stride;
@@ -71,7 +71,7 @@ struct _SonarImager
   float refine_ratio;           /* 10^(-refine_db / 20) */
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
-  guint8 *hot;                  /* [direction x zone]: coarse, above the level */
+  guint8 *hot;                  /* [direction x zone]: coarse, at the level */
   guint8 *imaged;               /* [direction x zone]: imaged in full */
   guint n_imaged;               /* units imaged by the last call */
   guint n_passes;               /* unit x hypothesis passes of the last call */
@@ -79,13 +79,11 @@ struct _SonarImager
   guint ifft_size;              /* M */
   guint first_lag;              /* IFFT sample of range bin 0 */
   fftwf_plan inverse;           /* made on scratch[0], run on every worker's */
-  /* The call's data, split: microphones x K, scaled (data_exponent ()),
-   * and the hypotheses' templates, hypotheses x emitters x K. */
+  /* The call's data, split: microphones x K, scaled (data_exponent ()). */
   float *mic_re, *mic_im;
-  float *template_re, *template_im;
-  guint template_capacity;      /* hypotheses the template arrays hold */
-  /* [UNIT x hypothesis], as job.zone_peaks and job.wanted, for as many
-   * hypotheses as the templates. */
+  /* [UNIT x hypothesis], as job.zone_peaks and job.wanted, for
+   * hypothesis_capacity hypotheses. */
+  guint hypothesis_capacity;
   float *zone_peaks;
   guint8 *wanted;
   /* Directions are shared out between workers, each with its scratch. */
@@ -333,8 +331,6 @@ sonar_imager_free (SonarImager * im)
   sonar_workers_free (im->workers);
   g_free (im->mic_re);
   g_free (im->mic_im);
-  g_free (im->template_re);
-  g_free (im->template_im);
   g_free (im->zone_peaks);
   g_free (im->wanted);
   sonar_setup_unref (im->setup);
@@ -438,7 +434,8 @@ image_units (gpointer data, guint w, guint n_workers)
           dk * mic_path[j], FALSE);
 
     for (guint h = 0; h < n_hyp; h++) {
-      const double v = job->velocities[h];
+      const SonarHypothesis *hypothesis = &job->hypotheses[h];
+      const double v = hypothesis->velocity;
       const double stretch = (c + v) / (c - v); /* 1 / alpha */
       const guint z = UNIT_ZONE (im, job->units[u]);
       const SonarComplex *lags;
@@ -452,9 +449,10 @@ image_units (gpointer data, guint w, guint n_workers)
       memset (scratch->transmit_im, 0, sizeof (float) * n_bins);
       for (guint n = n_first; n < n_end; n++) {
         const double path = emitter_path[n] * stretch;
-        const gsize t = ((gsize) h * g->n_emitters + n) * n_bins;
+        const gsize t = (gsize) n * n_bins;
         sonar_kernel_steer_accumulate_split (scratch->transmit_re,
-            scratch->transmit_im, im->template_re + t, im->template_im + t,
+            scratch->transmit_im, hypothesis->templates.re + t,
+            hypothesis->templates.im + t,
             n_bins, k0 * path, dk * path, TRUE);
       }
       sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
@@ -623,11 +621,10 @@ image_coarse_to_fine (SonarImager * im, float *image)
  * half, is made once per direction and zone for all of them. */
 static void
 image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
-    guint n_hypotheses, const SonarComplex * const *templates,
-    const double *velocities, int emitter, float *image, gsize stride)
+    guint n_hypotheses, const SonarHypothesis * hypotheses, int emitter,
+    float *image, gsize stride)
 {
   const guint n_bins = im->band.n_bins;
-  const guint n_emitters = im->setup->geometry.n_emitters;
   const gsize n_data = (gsize) im->setup->geometry.n_microphones * n_bins;
   const gsize n_units = (gsize) im->n_directions * (im->n_zones + 1);
   /* 2 / N: the analytic signal of an inverse real FFT's positive half. */
@@ -648,24 +645,15 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   }
   /* Grown when a call brings more hypotheses than any before: a stream's
    * calls bring the same number, so steady state allocates nothing. */
-  if (n_hypotheses > im->template_capacity) {
-    const gsize size = (gsize) n_hypotheses * n_emitters * n_bins;
-    g_free (im->template_re);
-    g_free (im->template_im);
+  if (n_hypotheses > im->hypothesis_capacity) {
     g_free (im->zone_peaks);
     g_free (im->wanted);
-    im->template_re = g_new (float, size);
-    im->template_im = g_new (float, size);
     im->zone_peaks = g_new (float, n_units * n_hypotheses);
     im->wanted = g_new (guint8, n_units * n_hypotheses);
-    im->template_capacity = n_hypotheses;
+    im->hypothesis_capacity = n_hypotheses;
   }
-  for (guint h = 0; h < n_hypotheses; h++)
-    sonar_kernel_split (im->template_re + (gsize) h * n_emitters * n_bins,
-        im->template_im + (gsize) h * n_emitters * n_bins, templates[h],
-        (gsize) n_emitters * n_bins);
   im->job.n_hypotheses = n_hypotheses;
-  im->job.velocities = velocities;
+  im->job.hypotheses = hypotheses;
   im->job.emitter = emitter;
   im->job.image = image;
   im->job.stride = stride;
@@ -695,21 +683,21 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
 
 void
 sonar_imager_process (SonarImager * im, const SonarComplex * mic_spectra,
-    guint n_hypotheses, const SonarComplex * const *templates,
-    const double *velocities, int emitter, float *image)
+    guint n_hypotheses, const SonarHypothesis * hypotheses, int emitter,
+    float *image)
 {
-  image_hypotheses (im, mic_spectra, n_hypotheses, templates, velocities,
-      emitter, image, 0);
+  image_hypotheses (im, mic_spectra, n_hypotheses, hypotheses, emitter,
+      image, 0);
 }
 
 void
 sonar_imager_process_each (SonarImager * im,
     const SonarComplex * mic_spectra, guint n_hypotheses,
-    const SonarComplex * const *templates, const double *velocities,
-    int emitter, float *images, gsize stride)
+    const SonarHypothesis * hypotheses, int emitter, float *images,
+    gsize stride)
 {
-  image_hypotheses (im, mic_spectra, n_hypotheses, templates, velocities,
-      emitter, images, stride);
+  image_hypotheses (im, mic_spectra, n_hypotheses, hypotheses, emitter,
+      images, stride);
 }
 
 void

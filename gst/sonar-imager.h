@@ -28,6 +28,7 @@
 #ifndef SONAR_IMAGER_H
 #define SONAR_IMAGER_H
 
+#include "sonar-doppler-bank.h"
 #include "sonar-setup.h"
 #include "sonar-spectrum.h"
 #include "sonar-workers.h"
@@ -81,24 +82,22 @@ void sonar_imager_free (SonarImager * imager);
 const SonarImageGrid *sonar_imager_grid (const SonarImager * imager);
 
 /* Images the echoes in @mic_spectra (n_microphones x n_bins, the band's
- * spectra of one ping) for @n_hypotheses Doppler hypotheses: hypothesis h
- * has radial velocity velocities[h] and the spectra of the emissions
- * scaled for it in templates[h] (n_emitters x n_bins). @image receives,
+ * spectra of one ping) for @n_hypotheses Doppler hypotheses (their
+ * templates on the same band). @image receives,
  * per pixel, the maximum over the hypotheses. @emitter < 0 sums every
  * emitter (the MIMO image); else only that emitter's echoes are imaged
  * (the single-emitter, MISO image). */
 void sonar_imager_process (SonarImager * imager,
     const SonarComplex * mic_spectra, guint n_hypotheses,
-    const SonarComplex * const *templates, const double *velocities,
-    int emitter, float *image);
+    const SonarHypothesis * hypotheses, int emitter, float *image);
 
 /* Same, but one image per hypothesis: hypothesis h's at images + h *
  * stride (stride >= the grid's size, in floats): the datacube, imaged at
  * every direction (no coarse pass). */
 void sonar_imager_process_each (SonarImager * imager,
     const SonarComplex * mic_spectra, guint n_hypotheses,
-    const SonarComplex * const *templates, const double *velocities,
-    int emitter, float *images, gsize stride);
+    const SonarHypothesis * hypotheses, int emitter, float *images,
+    gsize stride);
 
 /* The work of the last process () against the dense image's: direction
  * x zone units imaged in full (each a receive sum), and unit x hypothesis

@@ -54,8 +54,8 @@ sonar_kernel_split (float *re, float *im, const SonarComplex * x, gsize n)
 
 void
 sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
-    const float *a_re, const float *a_im, const SonarComplex * b, guint n,
-    double phase0, double dphase, guint block)
+    const float *a_re, const float *a_im, const float *b_re,
+    const float *b_im, guint n, double phase0, double dphase, guint block)
 {
   const SonarComplex rotation = unit_phasor (dphase);
 
@@ -66,7 +66,8 @@ sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
     for (guint k = k0; k < k1; k++) {
       if (k % block == 0)
         out[k / block] = 0.0f;
-      out[k / block] += (a_re[k] + I * a_im[k]) * conjf (b[k]) * p;
+      out[k / block] += (a_re[k] + I * a_im[k]) * (b_re[k] - I * b_im[k]) *
+          p;
       p *= rotation;
     }
   }
@@ -97,7 +98,8 @@ sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
  * slower than the scalar reference). */
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define FAST_TARGET __attribute__ ((target ("avx2,fma")))
-#define HAVE_FAST() (__builtin_cpu_supports ("avx2") && __builtin_cpu_supports ("fma"))
+#define HAVE_FAST() (__builtin_cpu_supports ("avx2") \
+    && __builtin_cpu_supports ("fma"))
 #else
 #define FAST_TARGET
 #define HAVE_FAST() FALSE
@@ -239,8 +241,8 @@ steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
  * lanes. */
 FAST_TARGET static void
 steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
-    const float *a_im, const SonarComplex * b, guint n, double phase0,
-    double dphase, guint block)
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase, guint block)
 {
   const guint whole = n - n % block;
   Lanes p;
@@ -256,7 +258,8 @@ steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
         Vec ar, ai, br, bi, tr, ti;
         memcpy (&ar, a_re + k, sizeof ar);
         memcpy (&ai, a_im + k, sizeof ai);
-        LOAD_SPLIT (b + k, br, bi);
+        memcpy (&br, b_re + k, sizeof br);
+        memcpy (&bi, b_im + k, sizeof bi);
         tr = ar * br + ai * bi;
         ti = ai * br - ar * bi;
         sum_re += tr * p.re - ti * p.im;
@@ -272,7 +275,7 @@ steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
   if (whole < n) {
     SonarComplex sum = 0.0f;
     for (guint k = whole; k < n; k++)
-      sum += (a_re[k] + I * a_im[k]) * conjf (b[k]) *
+      sum += (a_re[k] + I * a_im[k]) * (b_re[k] - I * b_im[k]) *
           LANES_TAIL_PHASOR (p, k, whole);
     out[whole / block] = sum;
   }
@@ -321,15 +324,16 @@ sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
 
 void
 sonar_kernel_steer_block_sums_conj (SonarComplex * out, const float *a_re,
-    const float *a_im, const SonarComplex * b, guint n, double phase0,
-    double dphase, guint block)
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase, guint block)
 {
   g_return_if_fail (block % LANES == 0 && RESEED_INTERVAL % block == 0);
   if (HAVE_FAST ())
-    steer_block_sums_conj_fast (out, a_re, a_im, b, n, phase0, dphase, block);
+    steer_block_sums_conj_fast (out, a_re, a_im, b_re, b_im, n, phase0,
+        dphase, block);
   else
-    sonar_kernel_steer_block_sums_conj_generic (out, a_re, a_im, b, n,
-        phase0, dphase, block);
+    sonar_kernel_steer_block_sums_conj_generic (out, a_re, a_im, b_re, b_im,
+        n, phase0, dphase, block);
 }
 
 SonarComplex

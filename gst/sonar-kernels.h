@@ -34,17 +34,18 @@ void sonar_kernel_split (float *re, float *im, const SonarComplex * x,
 
 /* out[i] = the sum over the bins k of block i (block bins from i * block;
  * the last block takes what is left) of a[k] * conj (b[k]) * exp(i
- * (phase0 + k * dphase)), a[k] = a_re[k] + i a_im[k] (split):
- * writes ceil (n / block) sums. @block divides 64 and is a multiple of 8. A matched filter's output at lags near the one
- * the phase ramp delays to is then a short sum over the blocks (see
+ * (phase0 + k * dphase)), a and b split (a[k] = a_re[k] + i a_im[k]):
+ * writes ceil (n / block) sums. @block divides 64 and is a multiple of
+ * 8. A matched filter's output at lags near the one the phase ramp
+ * delays to is then a short sum over the blocks (see
  * sonar_kernel_steer_sum): over a block the extra phase of a small lag
  * offset barely turns. */
 void sonar_kernel_steer_block_sums_conj (SonarComplex * out,
-    const float *a_re, const float *a_im, const SonarComplex * b, guint n,
-    double phase0, double dphase, guint block);
+    const float *a_re, const float *a_im, const float *b_re,
+    const float *b_im, guint n, double phase0, double dphase, guint block);
 void sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
-    const float *a_re, const float *a_im, const SonarComplex * b, guint n,
-    double phase0, double dphase, guint block);
+    const float *a_re, const float *a_im, const float *b_re,
+    const float *b_im, guint n, double phase0, double dphase, guint block);
 
 /* sum over k < n of x[k] * exp(i (phase0 + k * dphase)). */
 SonarComplex sonar_kernel_steer_sum (const SonarComplex * x, guint n,

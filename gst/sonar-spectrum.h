@@ -24,6 +24,13 @@ typedef struct
   guint n_bins;                 /* K: kept bins k0 .. k0 + K - 1 */
 } SonarBand;
 
+/* Spectra with real and imaginary parts in two arrays (the steering
+ * kernels' layout, sonar-kernels.h); k-th value re[k] + i im[k]. */
+typedef struct
+{
+  const float *re, *im;
+} SonarSplitSpectra;
+
 /* Smallest 2^a 3^b 5^c >= n: a size FFTW transforms fast. */
 guint sonar_fft_good_size (guint n);
 

@@ -40,7 +40,8 @@ struct _SonarVelocityEstimator
   /* One emitter's matched filter output by blocks of LAG_BLOCK bins. */
   SonarComplex *blocks;
   guint n_blocks;
-  double k0, dk;                /* phase of a metre of path: first bin, per bin */
+  /* Phase of a metre of path: at the first bin, per bin. */
+  double k0, dk;
   double complex *lag_sums;     /* [range offset]: sums over the emitters */
   double *lag_powers;           /* [range offset] */
   double *acf;                  /* [emitter][velocity], linear */
@@ -51,13 +52,6 @@ struct _SonarVelocityEstimator
   guint n_hypotheses;           /* the prescreen's Doppler hypotheses */
   guint *hypotheses;
 };
-
-/* A ping's microphone spectra, real and imaginary parts apart: the receive
- * beams' kernel needs no shuffling then. */
-typedef struct
-{
-  const float *re, *im;         /* microphones x n_bins */
-} SplitSpectra;
 
 void
 sonar_velocity_params_init_default (SonarVelocityParams * p)
@@ -173,8 +167,8 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
 /* Receive beam of @spectra focused at @point (range @range) into
  * est->receive_re, _im. */
 static void
-receive_beam (SonarVelocityEstimator * est, const SplitSpectra * spectra,
-    SonarVec3 point, double range)
+receive_beam (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * spectra, SonarVec3 point, double range)
 {
   const SonarGeometry *g = &est->setup->geometry;
   const guint n_bins = est->band.n_bins;
@@ -191,9 +185,9 @@ receive_beam (SonarVelocityEstimator * est, const SplitSpectra * spectra,
 }
 
 /* Emitter @n's matched filter output at velocity index @v for the beam in
- * est->receive_re, _im, at the lag of the pixel at @point (range @range), summed
- * by blocks of LAG_BLOCK bins into est->blocks. Its outputs at the lags
- * of nearby ranges are then short sums over the blocks (output_at ()):
+ * est->receive_re, _im, at the lag of the pixel at @point (range @range),
+ * summed by blocks of LAG_BLOCK bins into est->blocks. Its outputs at the
+ * lags of nearby ranges are then short sums over the blocks (output_at ()):
  * over a block, the extra phase of a lag two range bins away turns by
  * 0.06 rad, an error of -60 dB (tests/test-kernels.c). The window's
  * dozen lags cost one pass over the bins instead of a dozen. */
@@ -208,10 +202,12 @@ emitter_blocks (SonarVelocityEstimator * est, guint n, guint v,
           g->emitters[n])) - range;
   /* The two-way range plus the emitter leg, stretched by 1 / alpha. */
   const double path = 2.0 * range + e_path * (c + vel) / (c - vel);
+  const SonarSplitSpectra templates = sonar_doppler_bank_spectra (est->bank,
+      v);
+  const gsize at = (gsize) n * est->band.n_bins;
 
   sonar_kernel_steer_block_sums_conj (est->blocks, est->receive_re,
-      est->receive_im,
-      sonar_doppler_bank_spectra (est->bank, v) + (gsize) n * est->band.n_bins,
+      est->receive_im, templates.re + at, templates.im + at,
       est->band.n_bins, est->k0 * path, est->dk * path, LAG_BLOCK);
 }
 
@@ -231,9 +227,9 @@ output_at (SonarVelocityEstimator * est, double offset)
  * the window pixel and velocity (of the @n_v indices @vs) where their sum
  * is largest. */
 static double
-coherence_over (SonarVelocityEstimator * est, const SplitSpectra * spectra,
-    double range, double azimuth, double elevation, const guint * vs,
-    guint n_v, double *strength)
+coherence_over (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * spectra, double range, double azimuth,
+    double elevation, const guint * vs, guint n_v, double *strength)
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
@@ -297,8 +293,9 @@ static double parabola_offset (double a, double b, double c);
  * azimuth: 9 evaluations instead of 25 on a 3-D grid, the beam being
  * close to separable over half a step. */
 static void
-refine_direction (SonarVelocityEstimator * est, const SplitSpectra * spectra,
-    double range, double *azimuth, double *elevation, double *coherence)
+refine_direction (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * spectra, double range, double *azimuth,
+    double *elevation, double *coherence)
 {
   const SonarImageGrid *g = &est->grid;
   const double da = g->azimuth_step / (2 * DIRECTION_SUBSTEPS);
@@ -376,8 +373,9 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
 /* Takes the maximum of the window's single-emitter image values into
  * est->acf, at the velocities wanted and not yet done. */
 static void
-evaluate_window (SonarVelocityEstimator * est, const SplitSpectra * spectra,
-    double range, double azimuth, double elevation)
+evaluate_window (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * spectra, double range, double azimuth,
+    double elevation)
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
@@ -407,8 +405,9 @@ evaluate_window (SonarVelocityEstimator * est, const SplitSpectra * spectra,
 /* Wants the velocities within half a main lobe (plus a coarse step) of
  * index @p, and evaluates them. */
 static void
-evaluate_around (SonarVelocityEstimator * est, const SplitSpectra * spectra,
-    double range, double azimuth, double elevation, guint p)
+evaluate_around (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * spectra, double range, double azimuth,
+    double elevation, guint p)
 {
   const double vp = sonar_doppler_bank_velocity (est->bank, p);
   const double reach = 0.5 * est->main_lobe + est->coarse_stride *
@@ -507,8 +506,9 @@ compare_doubles (const void *a, const void *b)
 }
 
 static void
-describe_peak (SonarVelocityEstimator * est, const SplitSpectra * spectra,
-    guint p, double median, SonarVelocityEstimate * out)
+describe_peak (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * spectra, guint p, double median,
+    SonarVelocityEstimate * out)
 {
   const guint nv = est->n_velocities;
   const double step = sonar_doppler_bank_step (est->bank);
@@ -561,7 +561,7 @@ describe_peak (SonarVelocityEstimator * est, const SplitSpectra * spectra,
 
 /* sonar_velocity_estimate () on split spectra. */
 static guint
-estimate (SonarVelocityEstimator * est, const SplitSpectra * mic_spectra,
+estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
     double range, double azimuth, double elevation,
     SonarVelocityEstimate * out, float *curves)
 {
@@ -663,7 +663,7 @@ sonar_velocity_estimate (SonarVelocityEstimator * est,
     const SonarComplex * mic_spectra, double range, double azimuth,
     double elevation, SonarVelocityEstimate * out, float *curves)
 {
-  const SplitSpectra split = { est->spectra_re, est->spectra_im };
+  const SonarSplitSpectra split = { est->spectra_re, est->spectra_im };
 
   sonar_kernel_split (est->spectra_re, est->spectra_im, mic_spectra,
       (gsize) est->setup->geometry.n_microphones * est->band.n_bins);
@@ -680,7 +680,7 @@ struct _SonarVelocityPool
   /* The ping being estimated, shared with the workers: its spectra split
    * once for all centroids. */
   float *spectra_re, *spectra_im;
-  SplitSpectra spectra;
+  SonarSplitSpectra spectra;
   const SonarCentroid *centroids;
   guint n_centroids;
   SonarVelocityEstimate *results;

@@ -125,19 +125,15 @@ static float *
 chain_image (Chain * c, SonarImager * imager, const guint * indices, guint n,
     int emitter, float *image)
 {
-  const SonarComplex **templates = g_new (const SonarComplex *, n);
-  double *velocities = g_new (double, n);
+  SonarHypothesis *hypotheses = g_new (SonarHypothesis, n);
 
   if (!image)
     image = g_new (float, sonar_image_grid_size (sonar_imager_grid (imager)));
-  for (guint h = 0; h < n; h++) {
-    templates[h] = sonar_doppler_bank_spectra (c->bank, indices[h]);
-    velocities[h] = sonar_doppler_bank_velocity (c->bank, indices[h]);
-  }
-  sonar_imager_process (imager, c->mic_spectra, n, templates, velocities,
-      emitter, image);
-  g_free (templates);
-  g_free (velocities);
+  for (guint h = 0; h < n; h++)
+    hypotheses[h] = sonar_doppler_bank_hypothesis (c->bank, indices[h]);
+  sonar_imager_process (imager, c->mic_spectra, n, hypotheses, emitter,
+      image);
+  g_free (hypotheses);
   return image;
 }
 

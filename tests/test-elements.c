@@ -308,8 +308,7 @@ test_chain_output (void)
       SonarImager *imager;
       guint *hyps = g_new (guint, 283);
       const guint n_hyps = sonar_doppler_bank_hypotheses (bank, 0.3, hyps);
-      const SonarComplex **templates = g_new (const SonarComplex *, n_hyps);
-      double *velocities = g_new (double, n_hyps);
+      SonarHypothesis *hypotheses = g_new (SonarHypothesis, n_hyps);
       float *image = g_new (float, pixels);
       GstMapInfo smap;
       GError *error = NULL;
@@ -321,20 +320,17 @@ test_chain_output (void)
       imager = sonar_imager_new (setup, &band, &p, &error);
       g_assert_no_error (error);
       assert_grid_equal (sonar_imager_grid (imager), &grid);
-      for (guint h = 0; h < n_hyps; h++) {
-        templates[h] = sonar_doppler_bank_spectra (bank, hyps[h]);
-        velocities[h] = sonar_doppler_bank_velocity (bank, hyps[h]);
-      }
+      for (guint h = 0; h < n_hyps; h++)
+        hypotheses[h] = sonar_doppler_bank_hypothesis (bank, hyps[h]);
       gst_buffer_map (spectra->spectra, &smap, GST_MAP_READ);
       sonar_imager_process (imager, (const SonarComplex *) smap.data,
-          n_hyps, templates, velocities, -1, image);
+          n_hyps, hypotheses, -1, image);
       gst_buffer_unmap (spectra->spectra, &smap);
       g_assert_cmpmem (image, sizeof (float) * pixels, rec.pixels,
           sizeof (float) * pixels);
       sonar_imager_free (imager);
       g_free (image);
-      g_free (velocities);
-      g_free (templates);
+      g_free (hypotheses);
       g_free (hyps);
     }
     gst_buffer_unmap (buffer, &map);

@@ -76,24 +76,20 @@ chain_image (Chain * c, SonarDopplerBank * bank, const guint * indices,
 {
   GError *error = NULL;
   SonarImager *imager = sonar_imager_new (c->setup, &c->band, params, &error);
-  const SonarComplex **templates = g_new (const SonarComplex *, n);
-  double *velocities = g_new (double, n);
+  SonarHypothesis *hypotheses = g_new (SonarHypothesis, n);
   float *image;
 
   g_assert_no_error (error);
   if (!sonar_doppler_bank_band (bank))
     sonar_doppler_bank_prepare_band (bank, &c->band);
-  for (guint h = 0; h < n; h++) {
-    templates[h] = sonar_doppler_bank_spectra (bank, indices[h]);
-    velocities[h] = sonar_doppler_bank_velocity (bank, indices[h]);
-  }
+  for (guint h = 0; h < n; h++)
+    hypotheses[h] = sonar_doppler_bank_hypothesis (bank, indices[h]);
   image = g_new (float, sonar_image_grid_size (sonar_imager_grid (imager)));
-  sonar_imager_process (imager, c->mic_spectra, n, templates, velocities,
-      emitter, image);
+  sonar_imager_process (imager, c->mic_spectra, n, hypotheses, emitter,
+      image);
   *grid_out = sonar_imager_grid (imager);
   *imager_out = imager;
-  g_free (templates);
-  g_free (velocities);
+  g_free (hypotheses);
   return image;
 }
 

@@ -90,7 +90,7 @@ test_steer_block_sums (void)
   static const guint blocks[] = { 8, 16, 32, 64 };
   SonarRng rng;
   SonarComplex a[2882], b[2882], prod[2882], fast[361], reference[361];
-  float a_re[2882], a_im[2882];
+  float a_re[2882], a_im[2882], b_re[2882], b_im[2882];
 
   sonar_rng_init (&rng, 14, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
@@ -106,10 +106,11 @@ test_steer_block_sums (void)
       for (guint k = 0; k < n; k++)
         prod[k] = a[k] * conjf (b[k]);
       sonar_kernel_split (a_re, a_im, a, n);
-      sonar_kernel_steer_block_sums_conj (fast, a_re, a_im, b, n, phase0,
-          dphase, block);
-      sonar_kernel_steer_block_sums_conj_generic (reference, a_re, a_im, b, n,
+      sonar_kernel_split (b_re, b_im, b, n);
+      sonar_kernel_steer_block_sums_conj (fast, a_re, a_im, b_re, b_im, n,
           phase0, dphase, block);
+      sonar_kernel_steer_block_sums_conj_generic (reference, a_re, a_im, b_re,
+          b_im, n, phase0, dphase, block);
       for (guint j = 0; j < n_blocks; j++) {
         const double scale = MAX (magnitude_sum (prod + j * block,
                 MIN (block, n - j * block)), 1e-6);
@@ -174,7 +175,7 @@ test_block_sums_at_lag_offsets (void)
   const double k0 = 366.4, dk = 0.3814, path = 3.217, bin = 0.0098;
   SonarRng rng;
   SonarComplex a[2882], b[2882], noise[2882], sums[181];
-  float a_re[2882], a_im[2882];
+  float a_re[2882], a_im[2882], b_re[2882], b_im[2882];
   double peak = 0.0, worst = 0.0;
 
   sonar_rng_init (&rng, 16, 0);
@@ -184,8 +185,9 @@ test_block_sums_at_lag_offsets (void)
     a[k] = b[k] * cexp (-I * (k0 + dk * k) * (path + 0.5 * bin))
         + 0.3f * noise[k];
   sonar_kernel_split (a_re, a_im, a, n);
-  sonar_kernel_steer_block_sums_conj (sums, a_re, a_im, b, n, k0 * path,
-      dk * path, block);
+  sonar_kernel_split (b_re, b_im, b, n);
+  sonar_kernel_steer_block_sums_conj (sums, a_re, a_im, b_re, b_im, n,
+      k0 * path, dk * path, block);
   for (int q = -8; q <= 8; q++) {
     /* Quarter bins of 4.9 mm of range, 9.8 mm of path. */
     const double offset = q * 0.25 * bin;
@@ -281,6 +283,7 @@ test_long_sums_against_double (void)
     SonarComplex *a = g_new (SonarComplex, n), *b = g_new (SonarComplex, n);
     SonarComplex *blocks = g_new (SonarComplex, n_blocks);
     float *a_re = g_new (float, n), *a_im = g_new (float, n);
+    float *b_re = g_new (float, n), *b_im = g_new (float, n);
     double complex exact;
     double scale, error_fast, error_generic;
 
@@ -289,12 +292,13 @@ test_long_sums_against_double (void)
     exact = exact_dot_conj (a, b, n, phase0, dphase, &scale);
     /* The velocity stage's sum: 16-bin blocks, then over the blocks. */
     sonar_kernel_split (a_re, a_im, a, n);
-    sonar_kernel_steer_block_sums_conj (blocks, a_re, a_im, b, n, phase0,
-        dphase, 16);
+    sonar_kernel_split (b_re, b_im, b, n);
+    sonar_kernel_steer_block_sums_conj (blocks, a_re, a_im, b_re, b_im, n,
+        phase0, dphase, 16);
     error_fast = cabs (sonar_kernel_steer_sum (blocks, n_blocks, 0.0, 0.0) -
         exact) / scale;
-    sonar_kernel_steer_block_sums_conj_generic (blocks, a_re, a_im, b, n,
-        phase0, dphase, 16);
+    sonar_kernel_steer_block_sums_conj_generic (blocks, a_re, a_im, b_re,
+        b_im, n, phase0, dphase, 16);
     error_generic = cabs (sonar_kernel_steer_sum_generic (blocks, n_blocks,
             0.0, 0.0) - exact) / scale;
     g_test_message ("n %u: error relative to sum |terms|: fast %.2e, "
@@ -306,6 +310,8 @@ test_long_sums_against_double (void)
     g_free (blocks);
     g_free (a_re);
     g_free (a_im);
+    g_free (b_re);
+    g_free (b_im);
   }
 }
 

@@ -245,8 +245,7 @@ typedef struct
   /* The images' Doppler hypotheses: the detection's, or every bank
    * velocity for the datacube. */
   guint n_templates;
-  const SonarComplex **templates;
-  double *template_velocities;
+  SonarHypothesis *hypotheses;
   SonarComplex *spectra;
   float *image;
   float *cube;                  /* METHOD_DATACUBE: n_templates images */
@@ -639,8 +638,7 @@ chain_clear (Chain * ch)
   g_clear_pointer (&ch->imager, sonar_imager_free);
   g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
   g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
-  g_clear_pointer (&ch->templates, g_free);
-  g_clear_pointer (&ch->template_velocities, g_free);
+  g_clear_pointer (&ch->hypotheses, g_free);
   g_clear_pointer (&ch->spectra, g_free);
   g_clear_pointer (&ch->image, g_free);
   g_clear_pointer (&ch->cube, g_free);
@@ -693,13 +691,9 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
     ch->n_templates = sonar_doppler_bank_hypotheses (bank,
         c->hypothesis_spacing, indices);
   }
-  ch->templates = g_new (const SonarComplex *, ch->n_templates);
-  ch->template_velocities = g_new (double, ch->n_templates);
-  for (guint h = 0; h < ch->n_templates; h++) {
-    ch->templates[h] = sonar_doppler_bank_spectra (bank, indices[h]);
-    ch->template_velocities[h] = sonar_doppler_bank_velocity (bank,
-        indices[h]);
-  }
+  ch->hypotheses = g_new (SonarHypothesis, ch->n_templates);
+  for (guint h = 0; h < ch->n_templates; h++)
+    ch->hypotheses[h] = sonar_doppler_bank_hypothesis (bank, indices[h]);
   ch->image = g_new (float, sonar_image_grid_size (ch->grid));
   if (c->method == METHOD_DATACUBE)
     ch->cube = g_new (float, ch->n_templates *
@@ -740,11 +734,11 @@ chain_imaging (Chain * ch)
 
   if (!ch->cube) {
     sonar_imager_process (ch->imager, ch->spectra, ch->n_templates,
-        ch->templates, ch->template_velocities, -1, ch->image);
+        ch->hypotheses, -1, ch->image);
     return;
   }
   sonar_imager_process_each (ch->imager, ch->spectra, ch->n_templates,
-      ch->templates, ch->template_velocities, -1, ch->cube, size);
+      ch->hypotheses, -1, ch->cube, size);
   /* What the datacube detects on: each pixel at its best velocity. */
   memcpy (ch->image, ch->cube, size * sizeof (float));
   for (guint h = 1; h < ch->n_templates; h++)

@@ -184,6 +184,19 @@ receive_beam (SonarVelocityEstimator * est,
   }
 }
 
+/* The point at @range, (@da, @de) image grid steps off (@azimuth,
+ * @elevation), held within +-90 degrees: a pixel of the window. */
+static SonarVec3
+window_point (const SonarVelocityEstimator * est, double range,
+    double azimuth, double elevation, int da, int de)
+{
+  const SonarImageGrid *grid = &est->grid;
+
+  return sonar_vec3_scale (sonar_vec3_from_direction (CLAMP (azimuth +
+              da * grid->azimuth_step, -90, 90), CLAMP (elevation +
+              de * grid->elevation_step, -90, 90)), range);
+}
+
 /* Emitter @n's matched filter output at velocity index @v for the beam in
  * est->receive_re, _im, at the lag of the pixel at @point (range @range),
  * summed by blocks of LAG_BLOCK bins into est->blocks. Its outputs at the
@@ -239,9 +252,8 @@ coherence_over (SonarVelocityEstimator * est,
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
-      const SonarVec3 point = sonar_vec3_scale (sonar_vec3_from_direction
-          (CLAMP (azimuth + da * grid->azimuth_step, -90, 90),
-              CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
+      const SonarVec3 point = window_point (est, range, azimuth, elevation,
+          da, de);
       receive_beam (est, spectra, point, range);
       for (guint i = 0; i < n_v; i++) {
         /* In double: float squares underflow below amplitudes of about
@@ -384,9 +396,8 @@ evaluate_window (SonarVelocityEstimator * est,
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
-      const SonarVec3 point = sonar_vec3_scale (sonar_vec3_from_direction
-          (CLAMP (azimuth + da * grid->azimuth_step, -90, 90),
-              CLAMP (elevation + de * grid->elevation_step, -90, 90)), range);
+      const SonarVec3 point = window_point (est, range, azimuth, elevation,
+          da, de);
       /* Receive beam focused exactly at this pixel's point. */
       receive_beam (est, spectra, point, range);
       for (guint n = 0; n < est->n_emitters; n++) {

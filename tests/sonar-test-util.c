@@ -40,10 +40,8 @@ sonar_test_xcorr (const float *x, gsize nx, const float *y, gsize ny)
   fftw_execute (pa);
   fftw_execute (pb);
   for (gsize k = 0; k < size / 2 + 1; k++) {
-    const double re = fa[k][0] * fb[k][0] + fa[k][1] * fb[k][1];
-    const double im = fa[k][1] * fb[k][0] - fa[k][0] * fb[k][1];
-    fa[k][0] = re / size;
-    fa[k][1] = im / size;
+    /* complex.h comes first (sonar-spectrum.h): fftw_complex is C99's. */
+    fa[k] = fa[k] * conj (fb[k]) / size;
   }
   fftw_execute (pinv);
   /* a[lag mod size] holds lag; negative lags wrap to the end. */
@@ -91,8 +89,7 @@ sonar_test_delay (const float *x, gsize nx, const float *y, gsize ny,
   /* Zero-padding the cross spectrum upsamples the correlation by UP.
    * The Nyquist bin is dropped: the sonar band is far below it. */
   for (gsize k = 0; k < size / 2; k++) {
-    fr[k][0] = (fa[k][0] * fb[k][0] + fa[k][1] * fb[k][1]) / size;
-    fr[k][1] = (fa[k][1] * fb[k][0] - fa[k][0] * fb[k][1]) / size;
+    fr[k] = fa[k] * conj (fb[k]) / size;
   }
   fftw_execute (pinv);
 
@@ -251,4 +248,81 @@ sonar_test_default_setup (guint ping_length)
 
   sonar_geometry_init_default (&g);
   return sonar_test_setup_new (&g, ping_length);
+}
+
+static void
+chain_buffers (SonarTestChain * c, guint max_template)
+{
+  const guint n_mics = c->setup->geometry.n_microphones;
+
+  sonar_band_init (&c->band, c->setup->sample_rate, c->setup->ping_length +
+      max_template, c->setup->band_low, c->setup->band_high);
+  c->analyzer = sonar_spectrum_new (&c->band);
+  c->mic_spectra = g_new0 (SonarComplex, (gsize) c->band.n_bins * n_mics);
+  c->ping = g_new0 (float, (gsize) c->setup->ping_length * n_mics);
+}
+
+void
+sonar_test_chain_init (SonarTestChain * c, guint max_template)
+{
+  c->setup = sonar_test_default_setup (17500);
+  c->bank = NULL;
+  chain_buffers (c, max_template);
+}
+
+void
+sonar_test_chain_init_with_bank (SonarTestChain * c, double v_min,
+    double v_max, double v_step)
+{
+  GError *error = NULL;
+
+  c->setup = sonar_test_default_setup (17500);
+  c->bank = sonar_doppler_bank_new (c->setup, v_min, v_max, v_step, &error);
+  g_assert_no_error (error);
+  chain_buffers (c, sonar_doppler_bank_max_length (c->bank));
+  sonar_doppler_bank_prepare_band (c->bank, &c->band);
+}
+
+void
+sonar_test_chain_clear (SonarTestChain * c)
+{
+  sonar_spectrum_free (c->analyzer);
+  if (c->bank)
+    sonar_doppler_bank_unref (c->bank);
+  g_free (c->mic_spectra);
+  g_free (c->ping);
+  sonar_setup_unref (c->setup);
+}
+
+void
+sonar_test_chain_spectra (SonarTestChain * c)
+{
+  for (guint j = 0; j < c->setup->geometry.n_microphones; j++)
+    sonar_spectrum_process (c->analyzer, c->ping + (gsize) j *
+        c->setup->ping_length, c->setup->ping_length, 1,
+        c->mic_spectra + (gsize) j * c->band.n_bins, NULL);
+}
+
+SonarTruth
+sonar_test_chain_simulate (SonarTestChain * c, const char *json,
+    double noise)
+{
+  SonarScene scene;
+  SonarSimulatorParams params;
+  SonarSimulator *sim;
+  SonarTruth truth[16];
+  GError *error = NULL;
+
+  g_assert_true (sonar_scene_load_data (&scene, json, "test", &error));
+  g_assert_no_error (error);
+  g_assert_cmpuint (scene.n_reflectors, <=, G_N_ELEMENTS (truth));
+  sonar_simulator_params_init_default (&params);
+  params.noise_amplitude = noise;
+  sim = sonar_simulator_new (c->setup, &params, &error);
+  g_assert_no_error (error);
+  sonar_simulator_render (sim, &scene, 0, 0.0, c->ping, truth);
+  sonar_test_chain_spectra (c);
+  sonar_simulator_free (sim);
+  sonar_scene_clear (&scene);
+  return truth[0];
 }

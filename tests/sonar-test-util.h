@@ -34,7 +34,10 @@ G_END_DECLS
 #endif
 
 #include <gst/gst.h>
+#include "sonar-doppler-bank.h"
 #include "sonar-setup.h"
+#include "sonar-simulator.h"
+#include "sonar-spectrum.h"
 
 G_BEGIN_DECLS
 
@@ -46,6 +49,31 @@ SonarSetup *sonar_test_default_setup (guint ping_length);
  * one per emitter. */
 SonarSetup *sonar_test_setup_new (SonarGeometry * geometry,
     guint ping_length);
+
+/* One ping through the core, without a pipeline: the default sensor
+ * (17500 samples per ping), a band for a ping plus a template of up to
+ * max_template samples (with a bank, its longest, and the bank's spectra
+ * prepared on it), the band's analyser and a ping's buffers. */
+typedef struct
+{
+  SonarSetup *setup;
+  SonarDopplerBank *bank;       /* NULL unless made with one */
+  SonarBand band;
+  SonarSpectrum *analyzer;
+  SonarComplex *mic_spectra;    /* microphones x n_bins */
+  float *ping;                  /* microphones x ping_length, planar */
+} SonarTestChain;
+
+void sonar_test_chain_init (SonarTestChain * chain, guint max_template);
+void sonar_test_chain_init_with_bank (SonarTestChain * chain, double v_min,
+    double v_max, double v_step);
+void sonar_test_chain_clear (SonarTestChain * chain);
+/* The microphone spectra of chain->ping. */
+void sonar_test_chain_spectra (SonarTestChain * chain);
+/* Simulates @json (ping 0 at t = 0, noise of rms @noise) into
+ * chain->ping, takes its spectra, returns the truth of reflector 0. */
+SonarTruth sonar_test_chain_simulate (SonarTestChain * chain,
+    const char *json, double noise);
 
 /* Runs a gst-launch style pipeline to EOS (or the first error). Returns
  * NULL on success, else the error message (and its debug text after a

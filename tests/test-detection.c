@@ -11,47 +11,7 @@
 #include "sonar-test-util.h"
 #include "sonar-waveform.h"
 
-/* Set-up, bank, and the band the bank's spectra are on (chosen like
- * dopplerbank does: linear correlation of a ping with the longest
- * template). */
-typedef struct
-{
-  SonarSetup *setup;
-  SonarDopplerBank *bank;
-  SonarBand band;
-  SonarSpectrum *analyzer;
-  SonarComplex *mic_spectra;
-  float *ping;
-} Chain;
-
-static void
-chain_init (Chain * c, double v_min, double v_max, double v_step)
-{
-  GError *error = NULL;
-
-  c->setup = sonar_test_default_setup (17500);
-  c->bank = sonar_doppler_bank_new (c->setup, v_min, v_max, v_step, &error);
-  g_assert_no_error (error);
-  sonar_band_init (&c->band, c->setup->sample_rate, c->setup->ping_length +
-      sonar_doppler_bank_max_length (c->bank), c->setup->band_low,
-      c->setup->band_high);
-  sonar_doppler_bank_prepare_band (c->bank, &c->band);
-  c->analyzer = sonar_spectrum_new (&c->band);
-  c->mic_spectra = g_new0 (SonarComplex, (gsize) c->band.n_bins *
-      c->setup->geometry.n_microphones);
-  c->ping = g_new0 (float, (gsize) c->setup->ping_length *
-      c->setup->geometry.n_microphones);
-}
-
-static void
-chain_clear (Chain * c)
-{
-  sonar_spectrum_free (c->analyzer);
-  sonar_doppler_bank_unref (c->bank);
-  g_free (c->mic_spectra);
-  g_free (c->ping);
-  sonar_setup_unref (c->setup);
-}
+typedef SonarTestChain Chain;
 
 /* The full bank of the paper's Fig. 9 (-7..7 m/s by 0.05), made once for
  * the tests that need it. */
@@ -63,7 +23,7 @@ full_chain (void)
 
   if (!made) {
     gint64 start = g_get_monotonic_time ();
-    chain_init (&chain, -7.0, 7.0, 0.05);
+    sonar_test_chain_init_with_bank (&chain, -7.0, 7.0, 0.05);
     g_test_message ("bank -7..7 m/s by 0.05: %u velocities, FFT %u, %u bins, "
         "made in %.2f s", sonar_doppler_bank_n_velocities (chain.bank),
         chain.band.fft_size, chain.band.n_bins,
@@ -71,41 +31,6 @@ full_chain (void)
     made = TRUE;
   }
   return &chain;
-}
-
-/* Takes the spectra of the ping in c->ping. */
-static void
-chain_spectra (Chain * c)
-{
-  for (guint j = 0; j < c->setup->geometry.n_microphones; j++)
-    sonar_spectrum_process (c->analyzer, c->ping + (gsize) j *
-        c->setup->ping_length, c->setup->ping_length, 1,
-        c->mic_spectra + (gsize) j * c->band.n_bins, NULL);
-}
-
-/* Simulates @json without noise (ping 0 at t = 0) and takes the spectra;
- * returns the truth of reflector 0. */
-static SonarTruth
-chain_simulate (Chain * c, const char *json)
-{
-  SonarScene scene;
-  SonarSimulatorParams params;
-  SonarSimulator *sim;
-  SonarTruth truth[16];
-  GError *error = NULL;
-
-  g_assert_true (sonar_scene_load_data (&scene, json, "test", &error));
-  g_assert_no_error (error);
-  g_assert_cmpuint (scene.n_reflectors, <=, G_N_ELEMENTS (truth));
-  sonar_simulator_params_init_default (&params);
-  params.noise_amplitude = 0.0;
-  sim = sonar_simulator_new (c->setup, &params, &error);
-  g_assert_no_error (error);
-  sonar_simulator_render (sim, &scene, 0, 0.0, c->ping, truth);
-  chain_spectra (c);
-  sonar_simulator_free (sim);
-  sonar_scene_clear (&scene);
-  return truth[0];
 }
 
 static SonarImager *
@@ -204,7 +129,7 @@ test_bank_peak (void)
   for (guint s = 0; s < G_N_ELEMENTS (speeds); s++) {
     g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{\"range\": "
         "2.0, \"azimuth\": 15, \"radial-velocity\": %g}]}", speeds[s]);
-    const SonarTruth truth = chain_simulate (c, json);
+    const SonarTruth truth = sonar_test_chain_simulate (c, json, 0.0);
     SonarImagerParams p;
     SonarImager *imager;
     float *image = NULL;
@@ -276,8 +201,8 @@ test_movers_detection_image (void)
   imager = chain_imager (c, &p);
   grid = sonar_imager_grid (imager);
 
-  truth = chain_simulate (c, "{\"reflectors\": [{\"range\": 2.0, "
-      "\"azimuth\": 40}]}");
+  truth = sonar_test_chain_simulate (c, "{\"reflectors\": [{\"range\": 2.0, "
+      "\"azimuth\": 40}]}", 0.0);
   image = chain_image (c, imager, hyps, n_hyps, -1, image);
   still_det = image_peak (image, grid);
   image = chain_image (c, imager, &zero, 1, -1, image);
@@ -298,7 +223,7 @@ test_movers_detection_image (void)
     Peak det, zero_peak;
     double det_db, zero_db;
 
-    truth = chain_simulate (c, json);
+    truth = sonar_test_chain_simulate (c, json, 0.0);
     image = chain_image (c, imager, hyps, n_hyps, -1, image);
     det = image_peak (image, grid);
     image = chain_image (c, imager, &zero, 1, -1, image);
@@ -374,13 +299,13 @@ test_mimo_beats_single_emitter (void)
   Lobe lobes[2];
   SonarTruth truth;
 
-  chain_init (&c, 0.0, 0.0, 0.05);
+  sonar_test_chain_init_with_bank (&c, 0.0, 0.0, 0.05);
   window_params (&p, -90, 90, 721, 1.9, 2.1, 1);
   imager = chain_imager (&c, &p);
   grid = sonar_imager_grid (imager);
   cut = g_new (double, grid->n_azimuth);
-  truth = chain_simulate (&c, "{\"reflectors\": [{\"range\": 2.0, "
-      "\"azimuth\": 20}]}");
+  truth = sonar_test_chain_simulate (&c, "{\"reflectors\": [{\"range\": 2.0, "
+      "\"azimuth\": 20}]}", 0.0);
   for (guint m = 0; m < 2; m++) {
     const int emitter = m == 0 ? -1 : 0;
     Peak peak;
@@ -406,7 +331,7 @@ test_mimo_beats_single_emitter (void)
   g_free (cut);
   g_free (image);
   sonar_imager_free (imager);
-  chain_clear (&c);
+  sonar_test_chain_clear (&c);
 }
 
 /* 4. Near-field focusing: reflectors at 0.3, 0.5 and 1 m imaged with 1, 4
@@ -421,11 +346,11 @@ test_focus_zones (void)
   double peak[3][3], width[3][3];
   double *cut = NULL;
 
-  chain_init (&c, 0.0, 0.0, 0.05);
+  sonar_test_chain_init_with_bank (&c, 0.0, 0.0, 0.05);
   for (guint r = 0; r < G_N_ELEMENTS (ranges); r++) {
     g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{\"range\": "
         "%g, \"azimuth\": 20}]}", ranges[r]);
-    const SonarTruth truth = chain_simulate (&c, json);
+    const SonarTruth truth = sonar_test_chain_simulate (&c, json, 0.0);
     for (guint z = 0; z < G_N_ELEMENTS (zones); z++) {
       SonarImagerParams p;
       SonarImager *imager;
@@ -470,7 +395,7 @@ test_focus_zones (void)
   g_assert_cmpfloat (db (peak[0][0] / peak[0][2]), <,
       db (peak[0][1] / peak[0][2]) - 0.3);
   g_free (cut);
-  chain_clear (&c);
+  sonar_test_chain_clear (&c);
 }
 
 static gboolean
@@ -497,7 +422,7 @@ test_core_extremes (void)
   SonarTruth truth;
   Peak pk;
 
-  chain_init (&c, -0.1, 0.1, 0.05);
+  sonar_test_chain_init_with_bank (&c, -0.1, 0.1, 0.05);
   for (guint i = 0; i < 5; i++)
     all[i] = i;
   window_params (&p, -90, 90, 61, 0.3, 3.0, 4);
@@ -508,7 +433,7 @@ test_core_extremes (void)
 
   memset (c.ping, 0, sizeof (float) * c.setup->ping_length *
       c.setup->geometry.n_microphones);
-  chain_spectra (&c);
+  sonar_test_chain_spectra (&c);
   for (int emitter = -1; emitter < 1; emitter++) {
     image = chain_image (&c, imager, all, 5, emitter, NULL);
     for (gsize i = 0; i < size; i++)
@@ -516,8 +441,8 @@ test_core_extremes (void)
     g_free (image);
   }
 
-  truth = chain_simulate (&c, "{\"reflectors\": [{\"range\": 0.3, "
-      "\"azimuth\": -30, \"strength\": 1000000}]}");
+  truth = sonar_test_chain_simulate (&c, "{\"reflectors\": [{\"range\": 0.3, "
+      "\"azimuth\": -30, \"strength\": 1000000}]}", 0.0);
   image = chain_image (&c, imager, all, 5, -1, NULL);
   g_assert_true (all_finite (image, size));
   pk = image_peak (image, grid);
@@ -531,8 +456,8 @@ test_core_extremes (void)
 
   /* Linearity over the float range: the same echo scaled by 1e-30 and by
    * 1e+25 images to the same place, scaled alike. */
-  truth = chain_simulate (&c, "{\"reflectors\": [{\"range\": 1.2, "
-      "\"azimuth\": 40}]}");
+  truth = sonar_test_chain_simulate (&c, "{\"reflectors\": [{\"range\": 1.2, "
+      "\"azimuth\": 40}]}", 0.0);
   image = chain_image (&c, imager, all, 5, -1, NULL);
   pk = image_peak (image, grid);
   g_free (image);
@@ -547,7 +472,7 @@ test_core_extremes (void)
       Peak scaled;
       for (gsize i = 0; i < n; i++)
         c.ping[i] = (float) (copy[i] * scales[s]);
-      chain_spectra (&c);
+      sonar_test_chain_spectra (&c);
       image = chain_image (&c, imager, all, 5, -1, NULL);
       g_assert_true (all_finite (image, size));
       scaled = image_peak (image, grid);
@@ -569,7 +494,7 @@ test_core_extremes (void)
       c.setup->geometry.n_microphones);
   for (guint j = 0; j < c.setup->geometry.n_microphones; j += 5)
     c.ping[(gsize) j * c.setup->ping_length + 3000 + 7 * j] = 1e30f;
-  chain_spectra (&c);
+  sonar_test_chain_spectra (&c);
   image = chain_image (&c, imager, all, 5, -1, NULL);
   pk = image_peak (image, grid);
   g_test_message ("samples of 1e30: image peak %.4g", pk.value);
@@ -578,7 +503,7 @@ test_core_extremes (void)
   g_free (image);
 
   sonar_imager_free (imager);
-  chain_clear (&c);
+  sonar_test_chain_clear (&c);
 }
 
 /* The front end reads NaN and infinite samples as zeros and counts them. */

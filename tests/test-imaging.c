@@ -10,63 +10,7 @@
 #include "sonar-test-util.h"
 #include "sonar-waveform.h"
 
-typedef struct
-{
-  SonarSetup *setup;
-  SonarBand band;
-  SonarSpectrum *analyzer;
-  SonarComplex *mic_spectra;
-  float *ping;
-} Chain;
-
-static void
-chain_init (Chain * c, guint max_template)
-{
-  c->setup = sonar_test_default_setup (17500);
-  sonar_band_init (&c->band, c->setup->sample_rate,
-      c->setup->ping_length + max_template, c->setup->band_low,
-      c->setup->band_high);
-  c->analyzer = sonar_spectrum_new (&c->band);
-  c->mic_spectra = g_new (SonarComplex, (gsize) c->band.n_bins *
-      c->setup->geometry.n_microphones);
-  c->ping = g_new (float, (gsize) c->setup->ping_length *
-      c->setup->geometry.n_microphones);
-}
-
-static void
-chain_clear (Chain * c)
-{
-  sonar_spectrum_free (c->analyzer);
-  g_free (c->mic_spectra);
-  g_free (c->ping);
-  sonar_setup_unref (c->setup);
-}
-
-/* Simulates @json (noise-free unless @noise) and takes the microphone
- * spectra; returns the truth of reflector 0. */
-static SonarTruth
-chain_simulate (Chain * c, const char *json, double noise)
-{
-  SonarScene scene;
-  SonarSimulatorParams params;
-  SonarSimulator *sim;
-  SonarTruth truth[16];
-  GError *error = NULL;
-
-  g_assert_true (sonar_scene_load_data (&scene, json, "test", &error));
-  g_assert_no_error (error);
-  sonar_simulator_params_init_default (&params);
-  params.noise_amplitude = noise;
-  sim = sonar_simulator_new (c->setup, &params, NULL);
-  sonar_simulator_render (sim, &scene, 0, 0.0, c->ping, truth);
-  for (guint j = 0; j < c->setup->geometry.n_microphones; j++)
-    sonar_spectrum_process (c->analyzer, c->ping + (gsize) j *
-        c->setup->ping_length, c->setup->ping_length, 1,
-        c->mic_spectra + (gsize) j * c->band.n_bins, NULL);
-  sonar_simulator_free (sim);
-  sonar_scene_clear (&scene);
-  return truth[0];
-}
+typedef SonarTestChain Chain;
 
 /* Images at the bank velocities @indices (maximum over them). */
 static float *
@@ -188,7 +132,7 @@ check_point (Chain * c, SonarDopplerBank * bank, const SonarImagerParams * p,
 {
   g_autofree char *json = g_strdup_printf ("{\"reflectors\": [{\"range\": "
       "%g, \"azimuth\": %g, \"elevation\": %g}]}", range, azimuth, elevation);
-  const SonarTruth truth = chain_simulate (c, json, 0.0);
+  const SonarTruth truth = sonar_test_chain_simulate (c, json, 0.0);
   const guint zero = sonar_doppler_bank_nearest (bank, 0.0);
   const SonarImageGrid *grid;
   SonarImager *imager;
@@ -218,12 +162,12 @@ test_point_reflectors_2d (void)
     {4.8, 80.0}, {4.8, -30.0}, {4.8, 0.0},
   };
 
-  chain_init (&c, 4100);
+  sonar_test_chain_init (&c, 4100);
   bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
   sonar_imager_params_init_default (&p);
   for (guint i = 0; i < G_N_ELEMENTS (cases); i++)
     check_point (&c, bank, &p, cases[i][0], cases[i][1], 0.0);
-  chain_clear (&c);
+  sonar_test_chain_clear (&c);
 }
 
 static void
@@ -236,7 +180,7 @@ test_point_reflectors_3d (void)
     {0.5, 20.0, 30.0}, {1.5, -60.0, -20.0}, {4.5, 10.0, 50.0},
   };
 
-  chain_init (&c, 4100);
+  sonar_test_chain_init (&c, 4100);
   bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
   sonar_imager_params_init_default (&p);
   p.n_azimuth = 61;
@@ -247,7 +191,7 @@ test_point_reflectors_3d (void)
   p.elevation_max = 60;
   for (guint i = 0; i < G_N_ELEMENTS (cases); i++)
     check_point (&c, bank, &p, cases[i][0], cases[i][1], cases[i][2]);
-  chain_clear (&c);
+  sonar_test_chain_clear (&c);
 }
 
 /* Compares the coarse-to-fine image (the default) with the dense one
@@ -271,7 +215,7 @@ check_coarse_to_fine (Chain * c, SonarDopplerBank * bank,
   guint units, dense_units, passes, dense_passes, kept = 0;
   gsize size;
 
-  chain_simulate (c, json, 0.01);
+  sonar_test_chain_simulate (c, json, 0.01);
   p.coarse_spacing = 0.0;
   dense = chain_image (c, bank, hypotheses, n_hypotheses, -1, &p, &grid,
       &dense_imager);
@@ -334,7 +278,7 @@ test_coarse_to_fine (void)
   g_autoptr (SonarDopplerBank) fast_bank = NULL;
   guint hypotheses[64], n_hypotheses, zero;
 
-  chain_init (&c, 4200);
+  sonar_test_chain_init (&c, 4200);
   bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
   zero = sonar_doppler_bank_nearest (bank, 0.0);
   sonar_imager_params_init_default (&p);
@@ -353,7 +297,7 @@ test_coarse_to_fine (void)
   p.elevation_min = -20;
   p.elevation_max = 20;
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene_3d, 0.25);
-  chain_clear (&c);
+  sonar_test_chain_clear (&c);
 }
 
 /* Cheaper template readings (the benchmark's template-interpolation

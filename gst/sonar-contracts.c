@@ -34,6 +34,11 @@ sonar_setup_event_new (const SonarSetup * setup)
       "band-low", G_TYPE_DOUBLE, setup->band_low,
       "band-high", G_TYPE_DOUBLE, setup->band_high,
       "ping-length", G_TYPE_UINT, setup->ping_length,
+      "ping-period", G_TYPE_DOUBLE, setup->ping_period,
+      "ping-stride", G_TYPE_DOUBLE, setup->ping_stride,
+      "trigger-offset", G_TYPE_UINT64, setup->trigger_offset,
+      "field-of-view", G_TYPE_STRING,
+      sonar_field_of_view_to_string (setup->field_of_view),
       "waveform-length", G_TYPE_UINT, setup->waveform_length,
       "n-microphones", G_TYPE_UINT, g->n_microphones,
       "n-emitters", G_TYPE_UINT, g->n_emitters,
@@ -82,22 +87,28 @@ get_vec3_bytes (const GstStructure * s, const char *field, guint n,
 SonarSetup *
 sonar_setup_from_structure (const GstStructure * s, GError ** error)
 {
-  double sample_rate, speed_of_sound, band_low, band_high;
-  guint ping_length, waveform_length;
+  SonarSetupParams p;
   SonarGeometry geometry = { 0 };
+  const char *view = NULL;
   const GValue *value;
   GBytes *waveforms;
   SonarSetup *setup = NULL;
 
+  sonar_setup_params_init (&p);
   if (!gst_structure_has_name (s, SONAR_SETUP_EVENT_NAME)
-      || !gst_structure_get (s, "sample-rate", G_TYPE_DOUBLE, &sample_rate,
-          "speed-of-sound", G_TYPE_DOUBLE, &speed_of_sound,
-          "band-low", G_TYPE_DOUBLE, &band_low,
-          "band-high", G_TYPE_DOUBLE, &band_high,
-          "ping-length", G_TYPE_UINT, &ping_length,
-          "waveform-length", G_TYPE_UINT, &waveform_length,
+      || !gst_structure_get (s, "sample-rate", G_TYPE_DOUBLE, &p.sample_rate,
+          "speed-of-sound", G_TYPE_DOUBLE, &p.speed_of_sound,
+          "band-low", G_TYPE_DOUBLE, &p.band_low,
+          "band-high", G_TYPE_DOUBLE, &p.band_high,
+          "ping-length", G_TYPE_UINT, &p.ping_length,
+          "ping-period", G_TYPE_DOUBLE, &p.ping_period,
+          "ping-stride", G_TYPE_DOUBLE, &p.ping_stride,
+          "trigger-offset", G_TYPE_UINT64, &p.trigger_offset,
+          "waveform-length", G_TYPE_UINT, &p.waveform_length,
           "n-microphones", G_TYPE_UINT, &geometry.n_microphones,
-          "n-emitters", G_TYPE_UINT, &geometry.n_emitters, NULL)) {
+          "n-emitters", G_TYPE_UINT, &geometry.n_emitters, NULL)
+      || !(view = gst_structure_get_string (s, "field-of-view"))
+      || !sonar_field_of_view_from_string (view, &p.field_of_view)) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
         "sonar-setup event: missing or mistyped field (see "
         "docs/CONTRACTS.md)");
@@ -105,7 +116,7 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
   }
   if (geometry.n_microphones > SONAR_MAX_MICROPHONES
       || geometry.n_emitters > SONAR_MAX_EMITTERS
-      || waveform_length > SONAR_MAX_WAVEFORM_LENGTH) {
+      || p.waveform_length > SONAR_MAX_WAVEFORM_LENGTH) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
         "sonar-setup event: sizes out of range");
     return NULL;
@@ -114,7 +125,7 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
   if (!value || !G_VALUE_HOLDS (value, G_TYPE_BYTES)
       || !(waveforms = g_value_get_boxed (value))
       || g_bytes_get_size (waveforms) !=
-      sizeof (float) * geometry.n_emitters * waveform_length) {
+      sizeof (float) * geometry.n_emitters * p.waveform_length) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
         "sonar-setup event: \"waveforms\" must hold n-emitters x "
         "waveform-length floats");
@@ -123,10 +134,11 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
   if (get_vec3_bytes (s, "microphones", geometry.n_microphones,
           &geometry.microphones, error)
       && get_vec3_bytes (s, "emitters", geometry.n_emitters,
-          &geometry.emitters, error))
-    setup = sonar_setup_new (sample_rate, speed_of_sound, band_low,
-        band_high, &geometry, waveform_length,
-        g_bytes_get_data (waveforms, NULL), ping_length, error);
+          &geometry.emitters, error)) {
+    p.geometry = &geometry;
+    p.waveforms = g_bytes_get_data (waveforms, NULL);
+    setup = sonar_setup_new (&p, error);
+  }
   sonar_geometry_clear (&geometry);
   return setup;
 }
@@ -681,6 +693,7 @@ sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
             "x", G_TYPE_DOUBLE, d->position.x,
             "y", G_TYPE_DOUBLE, d->position.y,
             "z", G_TYPE_DOUBLE, d->position.z,
+            "instant", G_TYPE_DOUBLE, d->instant,
             "radial-velocity", G_TYPE_DOUBLE, d->radial_velocity,
             "approaching", G_TYPE_BOOLEAN, d->approaching,
             "confidence", G_TYPE_DOUBLE, d->confidence,
@@ -728,6 +741,8 @@ sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
     append_number (s, "y", d->position.y, 4);
     g_string_append (s, ", ");
     append_number (s, "z", d->position.z, 4);
+    g_string_append (s, ", ");
+    append_number (s, "instant", d->instant, 7);
     g_string_append (s, ", ");
     append_number (s, "radial_velocity", d->radial_velocity, 4);
     g_string_append_printf (s, ", \"approaching\": %s, ",

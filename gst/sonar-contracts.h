@@ -22,6 +22,16 @@ G_BEGIN_DECLS
   "audio/x-raw, format=(string)F32LE, layout=(string)interleaved, " \
   "rate=(int)[ 1, MAX ], channels=(int)[ 1, 256 ], channel-mask=(bitmask)0"
 
+/* What dopplerbank takes: recordings made elsewhere too. A plain WAV
+ * carries no channel-mask (wavparse gives none for WAVE_FORMAT_IEEE_FLOAT
+ * or PCM), so none is required; integer samples are read as fractions of
+ * full scale. */
+#define SONAR_RECORDING_FORMATS "{ F32LE, F64LE, S16LE, S24LE, S32LE }"
+#define SONAR_RECORDING_SINK_CAPS \
+  "audio/x-raw, format=(string)" SONAR_RECORDING_FORMATS ", " \
+  "layout=(string)interleaved, rate=(int)[ 1, MAX ], " \
+  "channels=(int)[ 1, 256 ]"
+
 /* The set-up event ------------------------------------------------------*/
 
 /* Sticky custom downstream event, sent before the first buffer and again
@@ -184,6 +194,11 @@ typedef struct
   guint centroid;               /* index of the centroid it was found at */
   double range, azimuth, elevation;     /* m, degrees */
   SonarVec3 position;           /* m, sensor frame */
+  /* s, the ping's clock: when the object was at that range and moving at
+   * that speed, the instant a wave leaving the array centre at the ping's
+   * trigger instant reaches it (ping time + range / c); NaN without a
+   * ping time. */
+  double instant;
   double radial_velocity;       /* m/s, d(range)/dt: + moving away */
   gboolean approaching;         /* radial_velocity < 0 */
   double confidence;            /* 0..1: share of emitters whose own curve agrees */

@@ -185,3 +185,98 @@ sonar_json_get_vec3_list (JsonObject * object, const char *member,
   *count = n;
   return TRUE;
 }
+
+gboolean
+sonar_json_get_double_list (JsonObject * object, const char *member,
+    gboolean required, const char *origin, guint max_count,
+    double **values, guint * count, GError ** error)
+{
+  JsonNode *node = json_object_get_member (object, member);
+  JsonArray *array;
+  guint n;
+
+  if (!node) {
+    if (required)
+      SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
+    return !required;
+  }
+  n = JSON_NODE_HOLDS_ARRAY (node) ?
+      json_array_get_length (json_node_get_array (node)) : 0;
+  if (!JSON_NODE_HOLDS_ARRAY (node) || n == 0 || n > max_count
+      || (*count != 0 && n != *count)) {
+    if (*count != 0)
+      SET_ERROR (error, "%s: \"%s\" must be an array of %u numbers",
+          origin, member, *count);
+    else
+      SET_ERROR (error, "%s: \"%s\" must be an array of 1 to %u numbers",
+          origin, member, max_count);
+    return FALSE;
+  }
+  array = json_node_get_array (node);
+  *values = g_new (double, n);
+  for (guint i = 0; i < n; i++) {
+    if (!node_to_double (json_array_get_element (array, i), &(*values)[i])) {
+      SET_ERROR (error, "%s: \"%s\"[%u] must be a finite number", origin,
+          member, i);
+      g_clear_pointer (values, g_free);
+      return FALSE;
+    }
+  }
+  *count = n;
+  return TRUE;
+}
+
+gboolean
+sonar_json_get_sample_rows (JsonObject * object, const char *member,
+    const char *origin, guint max_rows, guint min_length, guint max_length,
+    double max_abs, float **samples, guint * n_rows, guint * length,
+    GError ** error)
+{
+  JsonNode *node = json_object_get_member (object, member);
+  JsonArray *rows;
+  guint n_cols = 0, count;
+
+  if (!node || !JSON_NODE_HOLDS_ARRAY (node)
+      || (count = json_array_get_length (json_node_get_array (node))) == 0
+      || count > max_rows) {
+    SET_ERROR (error, "%s: \"%s\" must be an array of 1 to %u arrays of "
+        "samples, one per emitter", origin, member, max_rows);
+    return FALSE;
+  }
+  rows = json_node_get_array (node);
+  for (guint n = 0; n < count; n++) {
+    JsonNode *row = json_array_get_element (rows, n);
+    guint len = JSON_NODE_HOLDS_ARRAY (row) ?
+        json_array_get_length (json_node_get_array (row)) : 0;
+    if (len < min_length || len > max_length || (n > 0 && len != n_cols)) {
+      SET_ERROR (error, "%s: \"%s\"[%u] must be an array of %u to %u "
+          "samples, as long as the first one", origin, member, n, min_length,
+          max_length);
+      return FALSE;
+    }
+    n_cols = len;
+  }
+  *samples = g_new (float, (gsize) count * n_cols);
+  for (guint n = 0; n < count; n++) {
+    JsonArray *row = json_node_get_array (json_array_get_element (rows, n));
+    for (guint i = 0; i < n_cols; i++) {
+      double value;
+      if (!node_to_double (json_array_get_element (row, i), &value)) {
+        SET_ERROR (error, "%s: \"%s\"[%u][%u] must be a finite number",
+            origin, member, n, i);
+        g_clear_pointer (samples, g_free);
+        return FALSE;
+      }
+      if (fabs (value) > max_abs) {
+        SET_ERROR (error, "%s: \"%s\"[%u][%u] is %g, beyond the allowed "
+            "+-%g", origin, member, n, i, value, max_abs);
+        g_clear_pointer (samples, g_free);
+        return FALSE;
+      }
+      (*samples)[(gsize) n * n_cols + i] = (float) value;
+    }
+  }
+  *n_rows = count;
+  *length = n_cols;
+  return TRUE;
+}

@@ -33,6 +33,21 @@ gboolean sonar_json_get_vec3_list (JsonObject * object, const char *member,
     gboolean required, const char *origin, guint max_count,
     SonarVec3 ** values, guint * count, GError ** error);
 
+/* A member that is an array of exactly @count finite numbers (@count 0:
+ * any count up to @max_count, returned in *count); *values is g_new'ed. */
+gboolean sonar_json_get_double_list (JsonObject * object, const char *member,
+    gboolean required, const char *origin, guint max_count,
+    double **values, guint * count, GError ** error);
+
+/* A member that is an array of 1 to @max_rows rows of @min_length to
+ * @max_length numbers each, all rows as long as the first, every number
+ * finite and within +-@max_abs: waveforms. *samples (row-major) is
+ * g_new'ed. */
+gboolean sonar_json_get_sample_rows (JsonObject * object, const char *member,
+    const char *origin, guint max_rows, guint min_length, guint max_length,
+    double max_abs, float **samples, guint * n_rows, guint * length,
+    GError ** error);
+
 G_END_DECLS
 
 #endif

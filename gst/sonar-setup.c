@@ -1,5 +1,6 @@
 /* sonar-setup.c: see sonar-setup.h. */
 #include "sonar-setup.h"
+#include "sonar-interp.h"
 #include "sonar-json.h"
 #include "sonar-spectrum.h"
 
@@ -70,6 +71,44 @@ sonar_geometry_validate (const SonarGeometry * geometry, GError ** error)
       SONAR_MAX_EMITTERS, "emitters", error);
 }
 
+SonarFieldOfView
+sonar_geometry_field_of_view (const SonarGeometry * geometry)
+{
+  double y_min = G_MAXDOUBLE, y_max = -G_MAXDOUBLE;
+
+  /* A line of elements along x cannot tell up from down. */
+  for (guint j = 0; j < geometry->n_microphones; j++) {
+    y_min = MIN (y_min, geometry->microphones[j].y);
+    y_max = MAX (y_max, geometry->microphones[j].y);
+  }
+  for (guint n = 0; n < geometry->n_emitters; n++) {
+    y_min = MIN (y_min, geometry->emitters[n].y);
+    y_max = MAX (y_max, geometry->emitters[n].y);
+  }
+  return y_max - y_min > MIN_ELEMENT_SPACING ? SONAR_FIELD_OF_VIEW_HEMISPHERE
+      : SONAR_FIELD_OF_VIEW_FAN;
+}
+
+static const char *const field_of_view_names[] = { "fan", "hemisphere" };
+
+const char *
+sonar_field_of_view_to_string (SonarFieldOfView view)
+{
+  return field_of_view_names[view];
+}
+
+gboolean
+sonar_field_of_view_from_string (const char *name, SonarFieldOfView * view)
+{
+  for (guint i = 0; i < G_N_ELEMENTS (field_of_view_names); i++) {
+    if (g_strcmp0 (name, field_of_view_names[i]) == 0) {
+      *view = (SonarFieldOfView) i;
+      return TRUE;
+    }
+  }
+  return FALSE;
+}
+
 gboolean
 sonar_geometry_load_file (SonarGeometry * geometry, const char *path,
     GError ** error)
@@ -125,9 +164,8 @@ sonar_geometry_load_file (SonarGeometry * geometry, const char *path,
   return TRUE;
 }
 
-/* The band holding all but @fraction of the waveforms' energy at each end. */
-static void
-estimate_band (const float *waveforms, guint n_rows, guint length,
+void
+sonar_waveforms_estimate_band (const float *waveforms, guint n_rows, guint length,
     double sample_rate, double fraction, double *low, double *high)
 {
   SonarBand band;
@@ -174,9 +212,7 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
   JsonNode *band_node;
   g_autoptr (JsonNode) node = NULL;
   JsonObject *root;
-  JsonNode *rows_node;
-  JsonArray *rows;
-  guint n_rows, n_cols = 0;
+  guint n_rows, n_cols;
   float *waveforms;
 
   node = sonar_json_parse (path, NULL, path, &root, error);
@@ -192,47 +228,10 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
         *sample_rate);
     return NULL;
   }
-  rows_node = json_object_get_member (root, "waveforms");
-  if (!rows_node || !JSON_NODE_HOLDS_ARRAY (rows_node)
-      || (n_rows = json_array_get_length (json_node_get_array (rows_node)))
-      == 0 || n_rows > SONAR_MAX_EMITTERS) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
-        "%s: \"waveforms\" must be an array of 1 to %u arrays of samples, "
-        "one per emitter", path, SONAR_MAX_EMITTERS);
+  if (!sonar_json_get_sample_rows (root, "waveforms", path,
+          SONAR_MAX_EMITTERS, 16, SONAR_MAX_WAVEFORM_LENGTH,
+          SONAR_MAX_WAVEFORM_SAMPLE, &waveforms, &n_rows, &n_cols, error))
     return NULL;
-  }
-  rows = json_node_get_array (rows_node);
-  for (guint n = 0; n < n_rows; n++) {
-    JsonNode *row = json_array_get_element (rows, n);
-    guint len = JSON_NODE_HOLDS_ARRAY (row) ?
-        json_array_get_length (json_node_get_array (row)) : 0;
-    if (len < 16 || len > SONAR_MAX_WAVEFORM_LENGTH
-        || (n > 0 && len != n_cols)) {
-      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
-          "%s: \"waveforms\"[%u] must be an array of 16 to %u samples, "
-          "as long as the first one", path, n, SONAR_MAX_WAVEFORM_LENGTH);
-      return NULL;
-    }
-    n_cols = len;
-  }
-  waveforms = g_new (float, (gsize) n_rows * n_cols);
-  for (guint n = 0; n < n_rows; n++) {
-    JsonArray *row = json_node_get_array (json_array_get_element (rows, n));
-    for (guint i = 0; i < n_cols; i++) {
-      JsonNode *v = json_array_get_element (row, i);
-      GType type = JSON_NODE_HOLDS_VALUE (v) ? json_node_get_value_type (v)
-          : G_TYPE_INVALID;
-      double value = type == G_TYPE_DOUBLE ? json_node_get_double (v)
-          : type == G_TYPE_INT64 ? (double) json_node_get_int (v) : NAN;
-      if (!isfinite (value) || fabs (value) > 1e6) {
-        g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
-            "%s: \"waveforms\"[%u][%u] must be a finite number", path, n, i);
-        g_free (waveforms);
-        return NULL;
-      }
-      waveforms[(gsize) n * n_cols + i] = (float) value;
-    }
-  }
   band_node = json_object_get_member (root, "band");
   if (band_node) {
     JsonArray *edges = JSON_NODE_HOLDS_ARRAY (band_node) ?
@@ -248,7 +247,7 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
       return NULL;
     }
   } else {
-    estimate_band (waveforms, n_rows, n_cols, *sample_rate, 1e-4, band_low,
+    sonar_waveforms_estimate_band (waveforms, n_rows, n_cols, *sample_rate, 1e-4, band_low,
         band_high);
   }
   *n_emitters = n_rows;
@@ -256,18 +255,58 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
   return waveforms;
 }
 
-guint
-sonar_ping_length_for_range (const SonarGeometry * g, double speed_of_sound,
-    double sample_rate, guint waveform_length, double max_range)
+float *
+sonar_waveforms_delay (const float *waveforms, guint n_rows, guint length,
+    const double *delays, guint * delayed_length)
 {
-  double offset = 0.0, window;
+  double longest = 0.0;
+  guint out_length;
+  float *out;
+
+  for (guint n = 0; n < n_rows; n++)
+    longest = MAX (longest, delays[n]);
+  out_length = length + (guint) ceil (longest);
+  out = g_new0 (float, (gsize) n_rows * out_length);
+  for (guint n = 0; n < n_rows; n++) {
+    const float *row = waveforms + (gsize) n * length;
+    float *delayed = out + (gsize) n * out_length;
+    const double whole = floor (delays[n]);
+
+    if (delays[n] == whole) {
+      /* Whole samples: the samples themselves, bit for bit. */
+      memcpy (delayed + (guint) whole, row, sizeof (float) * length);
+    } else {
+      g_autoptr (SonarInterp) interp = sonar_interp_new (row, length);
+      /* The band-limited row rings a little before its first sample and
+       * after its last; what falls before the trigger is not emitted. */
+      for (guint i = 0; i < out_length; i++)
+        delayed[i] = sonar_interp_at (interp, i - delays[n]);
+    }
+  }
+  *delayed_length = out_length;
+  return out;
+}
+
+/* The farthest element from the array centre. */
+static double
+geometry_extent (const SonarGeometry * g)
+{
+  double offset = 0.0;
 
   for (guint j = 0; j < g->n_microphones; j++)
     offset = MAX (offset, sonar_vec3_norm (g->microphones[j]));
   for (guint n = 0; n < g->n_emitters; n++)
     offset = MAX (offset, sonar_vec3_norm (g->emitters[n]));
-  window = 2.0 * (max_range + offset) / speed_of_sound * sample_rate +
-      waveform_length;
+  return offset;
+}
+
+guint
+sonar_ping_length_for_range (const SonarGeometry * g, double speed_of_sound,
+    double sample_rate, guint waveform_length, double max_range)
+{
+  const double window = 2.0 * (max_range + geometry_extent (g)) /
+      speed_of_sound * sample_rate + waveform_length;
+
   return window < SONAR_MAX_PING_LENGTH ? (guint) ceil (window) :
       SONAR_MAX_PING_LENGTH + 1;
 }
@@ -279,8 +318,8 @@ sonar_setup_new_from_files (const char *geometry_file,
 {
   SonarGeometry geometry = { 0 };
   g_autofree float *waveforms = NULL;
-  guint n_rows, length;
-  double rate, low, high;
+  SonarSetupParams params;
+  guint n_rows;
   SonarSetup *setup = NULL;
 
   if (geometry_file) {
@@ -289,8 +328,10 @@ sonar_setup_new_from_files (const char *geometry_file,
   } else {
     sonar_geometry_init_default (&geometry);
   }
-  waveforms = sonar_waveforms_load_file (waveforms_file, &n_rows, &length,
-      &rate, &low, &high, error);
+  sonar_setup_params_init (&params);
+  waveforms = sonar_waveforms_load_file (waveforms_file, &n_rows,
+      &params.waveform_length, &params.sample_rate, &params.band_low,
+      &params.band_high, error);
   if (!waveforms)
     goto done;
   if (n_rows != geometry.n_emitters) {
@@ -299,69 +340,131 @@ sonar_setup_new_from_files (const char *geometry_file,
         waveforms_file, n_rows, geometry.n_emitters);
     goto done;
   }
-  setup = sonar_setup_new (rate, speed_of_sound, low, high, &geometry,
-      length, waveforms, ping_length, error);
+  params.speed_of_sound = speed_of_sound;
+  params.geometry = &geometry;
+  params.waveforms = waveforms;
+  params.ping_length = ping_length;
+  setup = sonar_setup_new (&params, error);
 done:
   sonar_geometry_clear (&geometry);
   return setup;
 }
 
-SonarSetup *
-sonar_setup_new (double sample_rate, double speed_of_sound, double band_low,
-    double band_high, const SonarGeometry * geometry, guint waveform_length,
-    const float *waveforms, guint ping_length, GError ** error)
+void
+sonar_setup_params_init (SonarSetupParams * params)
 {
+  *params = (SonarSetupParams) {
+    .speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND,
+    .field_of_view = SONAR_FIELD_OF_VIEW_FAN,
+  };
+}
+
+SonarSetup *
+sonar_setup_new (const SonarSetupParams * p, GError ** error)
+{
+  const SonarGeometry *geometry = p->geometry;
+  const double ping_period = p->ping_period > 0.0 ? p->ping_period :
+      p->ping_length / p->sample_rate;
+  const double ping_stride = p->ping_stride > 0.0 ? p->ping_stride :
+      p->ping_period > 0.0 ? p->ping_period * p->sample_rate :
+      p->ping_length;
   SonarSetup *setup;
 
-  if (!(sample_rate >= 1000.0 && sample_rate <= 1e8)) {
+  if (!(p->sample_rate >= 1000.0 && p->sample_rate <= 1e8)) {
     SET_ERROR (error, "sample rate %g Hz is out of range (1 kHz to 100 MHz)",
-        sample_rate);
+        p->sample_rate);
     return NULL;
   }
-  if (!(speed_of_sound >= 100.0 && speed_of_sound <= 2000.0)) {
+  if (!(p->speed_of_sound >= 100.0 && p->speed_of_sound <= 2000.0)) {
     SET_ERROR (error, "speed of sound %g m/s is out of range (100 to 2000)",
-        speed_of_sound);
+        p->speed_of_sound);
     return NULL;
   }
-  if (!(band_low > 0.0 && band_low < band_high
-          && band_high <= sample_rate / 2.0)) {
+  if (!(p->band_low > 0.0 && p->band_low < p->band_high
+          && p->band_high <= p->sample_rate / 2.0)) {
     SET_ERROR (error, "band %g to %g Hz must satisfy 0 < low < high <= "
-        "sample rate / 2 (%g Hz)", band_low, band_high, sample_rate / 2.0);
+        "sample rate / 2 (%g Hz)", p->band_low, p->band_high,
+        p->sample_rate / 2.0);
     return NULL;
   }
   if (!sonar_geometry_validate (geometry, error))
     return NULL;
-  if (waveform_length < 16 || waveform_length > SONAR_MAX_WAVEFORM_LENGTH) {
+  if (p->waveform_length < 16
+      || p->waveform_length > SONAR_MAX_WAVEFORM_LENGTH) {
     SET_ERROR (error, "waveform length %u is out of range (16 to %u samples)",
-        waveform_length, SONAR_MAX_WAVEFORM_LENGTH);
+        p->waveform_length, SONAR_MAX_WAVEFORM_LENGTH);
     return NULL;
   }
-  if (ping_length < waveform_length || ping_length > SONAR_MAX_PING_LENGTH) {
+  if (p->ping_length < p->waveform_length
+      || p->ping_length > SONAR_MAX_PING_LENGTH) {
     SET_ERROR (error, "ping length %u samples must be at least the waveform "
-        "length (%u) and at most %u", ping_length, waveform_length,
+        "length (%u) and at most %u", p->ping_length, p->waveform_length,
         SONAR_MAX_PING_LENGTH);
     return NULL;
   }
-  for (gsize i = 0; i < (gsize) geometry->n_emitters * waveform_length; i++) {
-    if (!isfinite (waveforms[i])) {
+  if (!(isfinite (ping_period) && ping_period <= SONAR_MAX_PING_PERIOD)) {
+    SET_ERROR (error, "ping period %g s is out of range (up to %g s)",
+        ping_period, SONAR_MAX_PING_PERIOD);
+    return NULL;
+  }
+  /* Overlapping windows would need each sample in two pings at once. */
+  if (!(ping_stride + 0.5 >= p->ping_length)) {
+    SET_ERROR (error, "pings start %.3f samples apart in the recording "
+        "(ping period %g s at %g Hz), less than the ping length of %u "
+        "samples: the windows would overlap", ping_stride, ping_period,
+        p->sample_rate, p->ping_length);
+    return NULL;
+  }
+  for (gsize i = 0; i < (gsize) geometry->n_emitters * p->waveform_length;
+      i++) {
+    if (!isfinite (p->waveforms[i])) {
       SET_ERROR (error, "waveform of emitter %u has a non-finite sample at "
-          "%u", (guint) (i / waveform_length), (guint) (i % waveform_length));
+          "%u", (guint) (i / p->waveform_length),
+          (guint) (i % p->waveform_length));
       return NULL;
     }
   }
 
   setup = g_new0 (SonarSetup, 1);
   setup->ref_count = 1;
-  setup->sample_rate = sample_rate;
-  setup->speed_of_sound = speed_of_sound;
-  setup->band_low = band_low;
-  setup->band_high = band_high;
+  setup->sample_rate = p->sample_rate;
+  setup->speed_of_sound = p->speed_of_sound;
+  setup->band_low = p->band_low;
+  setup->band_high = p->band_high;
   sonar_geometry_copy (&setup->geometry, geometry);
-  setup->waveform_length = waveform_length;
-  setup->waveforms = g_memdup2 (waveforms,
-      sizeof (float) * geometry->n_emitters * waveform_length);
-  setup->ping_length = ping_length;
+  setup->waveform_length = p->waveform_length;
+  setup->waveforms = g_memdup2 (p->waveforms,
+      sizeof (float) * geometry->n_emitters * p->waveform_length);
+  setup->ping_length = p->ping_length;
+  setup->ping_period = ping_period;
+  setup->ping_stride = ping_stride;
+  setup->trigger_offset = p->trigger_offset;
+  setup->field_of_view = p->field_of_view;
   return setup;
+}
+
+guint64
+sonar_setup_ping_start (const SonarSetup * setup, guint64 index)
+{
+  return setup->trigger_offset + (guint64) floor (index * setup->ping_stride
+      + 0.5);
+}
+
+double
+sonar_setup_recorded_range (const SonarSetup * setup)
+{
+  const double whole_echo = 0.5 * setup->speed_of_sound *
+      (setup->ping_length - setup->waveform_length) / setup->sample_rate -
+      geometry_extent (&setup->geometry);
+
+  return MAX (floor (whole_echo * 1000.0) / 1000.0, 0.0);
+}
+
+double
+sonar_setup_window_range (const SonarSetup * setup)
+{
+  return 0.5 * setup->speed_of_sound * setup->ping_length /
+      setup->sample_rate;
 }
 
 SonarSetup *
@@ -392,6 +495,10 @@ sonar_setup_equal (const SonarSetup * a, const SonarSetup * b)
       && a->band_low == b->band_low && a->band_high == b->band_high
       && a->waveform_length == b->waveform_length
       && a->ping_length == b->ping_length
+      && a->ping_period == b->ping_period
+      && a->ping_stride == b->ping_stride
+      && a->trigger_offset == b->trigger_offset
+      && a->field_of_view == b->field_of_view
       && ga->n_microphones == gb->n_microphones
       && ga->n_emitters == gb->n_emitters
       && memcmp (ga->microphones, gb->microphones,

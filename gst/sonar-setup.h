@@ -1,11 +1,14 @@
 /* sonar-setup.h: the one description of the sensor that every stage shares.
  *
  * A SonarSetup is immutable once made and reference counted: the source
- * makes it, it travels downstream in the sticky "sonar-setup" event
- * (see docs/CONTRACTS.md and sonar-contracts.h) and every element keeps a
- * reference. It holds the sample rate, the speed of sound, the microphone
- * and emitter positions (sensor frame, metres), the N emission waveforms,
- * the band they occupy, and the length of one ping's recording window.
+ * makes it (or dopplerbank, from a sensor description file), it travels
+ * downstream in the sticky "sonar-setup" event (see docs/CONTRACTS.md and
+ * sonar-contracts.h) and every element keeps a reference. It holds the
+ * sample rate, the speed of sound, the microphone and emitter positions
+ * (sensor frame, metres), the N emission waveforms, the band they occupy,
+ * the ping framing of the recording (where each ping starts, how long its
+ * window is, how far apart pings are in time) and the field of view the
+ * array resolves.
  */
 #ifndef SONAR_SETUP_H
 #define SONAR_SETUP_H
@@ -27,6 +30,8 @@ G_BEGIN_DECLS
 #define SONAR_MAX_EMITTERS    64
 #define SONAR_MAX_WAVEFORM_LENGTH (1u << 20)
 #define SONAR_MAX_PING_LENGTH (1u << 24)
+#define SONAR_MAX_PING_PERIOD 3600.0    /* s */
+#define SONAR_MAX_WAVEFORM_SAMPLE 1e6   /* |sample| in a waveforms file */
 
 typedef struct
 {
@@ -35,6 +40,39 @@ typedef struct
   guint n_emitters;
   SonarVec3 *emitters;          /* sensor frame, m */
 } SonarGeometry;
+
+/* The directions an array resolves: a line of microphones only the
+ * horizontal fan (elevation 0), a planar array the frontal hemisphere. */
+typedef enum
+{
+  SONAR_FIELD_OF_VIEW_FAN,
+  SONAR_FIELD_OF_VIEW_HEMISPHERE,
+} SonarFieldOfView;
+
+/* Everything a set-up is made of (sonar_setup_new copies it). */
+typedef struct
+{
+  double sample_rate;           /* Hz */
+  double speed_of_sound;        /* m/s */
+  double band_low, band_high;   /* Hz: the band the waveforms occupy */
+  const SonarGeometry *geometry;
+  guint waveform_length;        /* samples */
+  /* n_emitters rows of waveform_length: what each emitter sends, sample 0
+   * at the ping's trigger instant (an emitter that starts late has leading
+   * zeros: sonar_waveforms_delay ()). */
+  const float *waveforms;
+  /* Ping framing of a recording: ping k's trigger instant is sample
+   * trigger_offset + round (k * ping_stride) of the stream; the ping is
+   * the ping_length samples from there; it happened ping_period seconds
+   * after ping k - 1. ping_stride 0: ping_period * sample_rate (a
+   * continuous recording), or ping_length without a period (windows
+   * stored back to back); ping_period 0: ping_length / sample_rate. */
+  guint ping_length;
+  double ping_period;           /* s */
+  double ping_stride;           /* samples */
+  guint64 trigger_offset;       /* samples */
+  SonarFieldOfView field_of_view;
+} SonarSetupParams;
 
 typedef struct
 {
@@ -46,6 +84,10 @@ typedef struct
   guint waveform_length;        /* samples */
   const float *waveforms;       /* n_emitters rows of waveform_length */
   guint ping_length;            /* samples recorded per ping and channel */
+  double ping_period;           /* s between pings */
+  double ping_stride;           /* samples between ping starts in a stream */
+  guint64 trigger_offset;       /* samples before ping 0 in a stream */
+  SonarFieldOfView field_of_view;
   /*< private >*/
   gint ref_count;
 } SonarSetup;
@@ -66,6 +108,16 @@ gboolean sonar_geometry_load_file (SonarGeometry * geometry,
 gboolean sonar_geometry_validate (const SonarGeometry * geometry,
     GError ** error);
 
+/* What the array resolves: the hemisphere when its elements span the x-y
+ * plane, the fan when they lie on a line. */
+SonarFieldOfView sonar_geometry_field_of_view (const SonarGeometry *
+    geometry);
+
+const char *sonar_field_of_view_to_string (SonarFieldOfView view);
+/* FALSE for a name that is not "fan" or "hemisphere". */
+gboolean sonar_field_of_view_from_string (const char *name,
+    SonarFieldOfView * view);
+
 /* Waveforms file (format: docs/FORMATS.md). Returns a newly allocated
  * n_emitters * length array. *band_low / *band_high receive the file's
  * "band", or else the band holding all but 1e-4 of the waveforms' energy
@@ -74,13 +126,38 @@ float *sonar_waveforms_load_file (const char *path, guint * n_emitters,
     guint * length, double *sample_rate, double *band_low,
     double *band_high, GError ** error);
 
+/* Rows of @length samples delayed by @delays[n] samples each (>= 0,
+ * fractional delays read through the band-limited interpolator): what the
+ * emitters send, counted from the trigger instant. Returns a new
+ * n_rows * *delayed_length array. */
+float *sonar_waveforms_delay (const float *waveforms, guint n_rows,
+    guint length, const double *delays, guint * delayed_length);
+
+/* The band holding all but @fraction of the waveforms' energy at each end
+ * (Hz). */
+void sonar_waveforms_estimate_band (const float *waveforms, guint n_rows,
+    guint length, double sample_rate, double fraction, double *low,
+    double *high);
+
 /* Setup ------------------------------------------------------------------*/
 
+/* Zero framing (pings back to back from sample 0), the fan; everything
+ * else must be filled in. */
+void sonar_setup_params_init (SonarSetupParams * params);
+
 /* Copies everything it is given; validates it. */
-SonarSetup *sonar_setup_new (double sample_rate, double speed_of_sound,
-    double band_low, double band_high, const SonarGeometry * geometry,
-    guint waveform_length, const float *waveforms, guint ping_length,
+SonarSetup *sonar_setup_new (const SonarSetupParams * params,
     GError ** error);
+
+/* The stream sample where ping @index starts (its trigger instant). */
+guint64 sonar_setup_ping_start (const SonarSetup * setup, guint64 index);
+
+/* The farthest range whose whole echo lies inside one ping's window, seen
+ * from the array's farthest element, rounded down to the millimetre; and
+ * the farthest range any part of an echo reaches (the lag at the window's
+ * end). */
+double sonar_setup_recorded_range (const SonarSetup * setup);
+double sonar_setup_window_range (const SonarSetup * setup);
 
 /* Samples per ping that hold the whole echo of an object at @max_range m,
  * seen from the array's farthest element (sonarsrc's recording window). */
@@ -90,7 +167,9 @@ guint sonar_ping_length_for_range (const SonarGeometry * geometry,
 
 /* The set-up of a recording made elsewhere: the geometry file (NULL: the
  * built-in array), the waveforms file, the speed of sound and the samples
- * per ping. Every error names the file and the problem. */
+ * per ping; pings back to back from sample 0, the fan (the properties
+ * dopplerbank had before sensor description files: sonar-sensor-file.h).
+ * Every error names the file and the problem. */
 SonarSetup *sonar_setup_new_from_files (const char *geometry_file,
     const char *waveforms_file, double speed_of_sound, guint ping_length,
     GError ** error);

@@ -233,8 +233,12 @@ sonar_test_setup_new (SonarGeometry * geometry, guint ping_length)
   wp.n_emitters = geometry->n_emitters;
   w = g_new (float, wp.n_emitters * wp.length);
   g_assert_true (sonar_waveform_generate (&wp, w, NULL));
-  setup = sonar_setup_new (wp.sample_rate, SONAR_DEFAULT_SPEED_OF_SOUND,
-      wp.band_low, wp.band_high, geometry, wp.length, w, ping_length, NULL);
+  setup = sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = wp.sample_rate,
+        .speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND,
+        .band_low = wp.band_low, .band_high = wp.band_high,
+        .geometry = geometry, .waveform_length = wp.length, .waveforms = w,
+        .ping_length = ping_length}, NULL);
   g_assert_nonnull (setup);
   g_free (w);
   sonar_geometry_clear (geometry);

@@ -162,6 +162,19 @@ test_waveforms_file (void)
   }
 }
 
+/* A set-up of 32-sample waveforms. */
+static SonarSetup *
+small_setup_new (double sample_rate, double speed_of_sound, double band_low,
+    double band_high, const SonarGeometry * geometry,
+    const float *waveforms, guint ping_length, GError ** error)
+{
+  return sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = sample_rate, .speed_of_sound = speed_of_sound,
+        .band_low = band_low, .band_high = band_high, .geometry = geometry,
+        .waveform_length = 32, .waveforms = waveforms,
+        .ping_length = ping_length}, error);
+}
+
 static SonarSetup *
 make_small_setup (guint ping_length, GError ** error)
 {
@@ -172,7 +185,7 @@ make_small_setup (guint ping_length, GError ** error)
   for (guint i = 0; i < G_N_ELEMENTS (waveforms); i++)
     waveforms[i] = (float) sin (0.3 * i);
   sonar_geometry_init_default (&g);
-  setup = sonar_setup_new (450000, 343, 20000, 80000, &g, 32, waveforms,
+  setup = small_setup_new (450000, 343, 20000, 80000, &g, waveforms,
       ping_length, error);
   sonar_geometry_clear (&g);
   return setup;
@@ -196,17 +209,17 @@ test_setup_validation (void)
   g_clear_error (&error);
 
   sonar_geometry_init_default (&g);
-  g_assert_null (sonar_setup_new (450000, 343, 90000, 80000, &g, 32,
-          nan_wave, 100, &error));
+  g_assert_null (small_setup_new (450000, 343, 90000, 80000, &g, nan_wave,
+          100, &error));
   g_assert_nonnull (strstr (error->message, "band 90000 to 80000 Hz"));
   g_clear_error (&error);
-  g_assert_null (sonar_setup_new (450000, 3430, 20000, 80000, &g, 32,
-          nan_wave, 100, &error));
+  g_assert_null (small_setup_new (450000, 3430, 20000, 80000, &g, nan_wave,
+          100, &error));
   g_assert_nonnull (strstr (error->message, "speed of sound 3430 m/s"));
   g_clear_error (&error);
   nan_wave[40] = NAN;
-  g_assert_null (sonar_setup_new (450000, 343, 20000, 80000, &g, 32,
-          nan_wave, 100, &error));
+  g_assert_null (small_setup_new (450000, 343, 20000, 80000, &g, nan_wave,
+          100, &error));
   g_assert_nonnull (strstr (error->message,
           "waveform of emitter 1 has a non-finite sample at 8"));
   g_clear_error (&error);

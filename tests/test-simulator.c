@@ -38,8 +38,12 @@ make_setup (const SonarGeometry * geometry, const float *waveforms,
     guint ping_length)
 {
   GError *error = NULL;
-  SonarSetup *setup = sonar_setup_new (FS, C, SONAR_DEFAULT_BAND_LOW,
-      SONAR_DEFAULT_BAND_HIGH, geometry, L, waveforms, ping_length, &error);
+  SonarSetup *setup = sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = FS, .speed_of_sound = C,
+        .band_low = SONAR_DEFAULT_BAND_LOW,
+        .band_high = SONAR_DEFAULT_BAND_HIGH, .geometry = geometry,
+        .waveform_length = L, .waveforms = waveforms,
+        .ping_length = ping_length}, &error);
 
   g_assert_no_error (error);
   return setup;

@@ -370,10 +370,15 @@ make_setup (GError ** error)
   wp.seed = WAVEFORM_SEED;
   waveforms = g_new (float, (gsize) wp.n_emitters * wp.length);
   if (sonar_waveform_generate (&wp, waveforms, error))
-    setup = sonar_setup_new (wp.sample_rate, SONAR_DEFAULT_SPEED_OF_SOUND,
-        wp.band_low, wp.band_high, &geometry, wp.length, waveforms,
-        sonar_ping_length_for_range (&geometry, SONAR_DEFAULT_SPEED_OF_SOUND,
-            wp.sample_rate, wp.length, MAX_RANGE), error);
+    setup = sonar_setup_new (&(SonarSetupParams) {
+          .sample_rate = wp.sample_rate,
+          .speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND,
+          .band_low = wp.band_low, .band_high = wp.band_high,
+          .geometry = &geometry, .waveform_length = wp.length,
+          .waveforms = waveforms,
+          .ping_length = sonar_ping_length_for_range (&geometry,
+              SONAR_DEFAULT_SPEED_OF_SOUND, wp.sample_rate, wp.length,
+              MAX_RANGE)}, error);
   sonar_geometry_clear (&geometry);
   return setup;
 }

@@ -9,15 +9,22 @@
  * needed (mimobeamform for the image, velocityest at the reflectors) rather
  * than for the whole datacube. Contracts: docs/CONTRACTS.md.
  *
- * Input: the recording, one ping per set-up ping-length samples, whatever
- * the buffer sizes. Output: application/x-sonar-spectra, one buffer per ping.
+ * Input: the recording, interleaved, float or integer samples, with or
+ * without a channel-mask, cut into buffers of any size. The set-up's ping
+ * framing says where each ping starts (its trigger sample), how many
+ * samples it spans and when it happened; samples between pings are
+ * skipped. Output: application/x-sonar-spectra, one buffer per ping,
+ * OFFSET the ping's index in the stream, PTS its trigger instant.
  *
- * A recording made elsewhere (a WAV file) carries no set-up event: give
- * waveforms-file, ping-length and, unless the array is the built-in one,
- * geometry-file (docs/FORMATS.md):
+ * A ping that the stream does not hold whole (the stream starts or ends
+ * inside it, a gap, a seek) is dropped, counted, and reported in a bus
+ * warning; never framed across the hole.
  *
- *   gst-launch-1.0 filesrc location=pings.wav ! wavparse ! dopplerbank \
- *       waveforms-file=waveforms.json ping-length=17261 ! mimobeamform ! ...
+ * A recording made elsewhere (a WAV file) carries no set-up event: give its
+ * sensor description (docs/FORMATS.md):
+ *
+ *   gst-launch-1.0 filesrc location=pings.wav ! wavparse \
+ *       ! dopplerbank sensor-file=pings.json ! mimobeamform ! ...
  *
  *   gst-launch-1.0 sonarsrc ! dopplerbank velocity-min=-0.4 velocity-max=0.4 \
  *       velocity-step=0.02 ! mimobeamform ! fakesink
@@ -31,6 +38,9 @@
 #include <gio/gio.h>
 #include <gst/audio/audio.h>
 #include <gst/base/gstadapter.h>
+#include <math.h>
+
+#include "sonar-sensor-file.h"
 
 GST_DEBUG_CATEGORY_STATIC (doppler_bank_debug);
 #define GST_CAT_DEFAULT doppler_bank_debug
@@ -49,6 +59,8 @@ enum
   PROP_WAVEFORMS_FILE,
   PROP_PING_LENGTH,
   PROP_SPEED_OF_SOUND,
+  PROP_SENSOR_FILE,
+  PROP_DROPPED,
 };
 
 struct _GstDopplerBank
@@ -57,18 +69,29 @@ struct _GstDopplerBank
 
   /* Properties, protected by the object lock. */
   double velocity_min, velocity_max, velocity_step;
-  char *geometry_file, *waveforms_file;
+  char *sensor_file, *geometry_file, *waveforms_file;
   guint ping_length_setting;
   double speed_of_sound;
+  guint64 dropped;              /* pings dropped since start */
 
   /* Configured state. */
+  SonarSetup *setup;            /* the filter's: valid while configured */
+  GstAudioInfo info;
   guint channels;
   guint ping_length;
   SonarBand band;
   SonarSpectrum *analyzer;
-  GstAdapter *adapter;
-  guint64 ping_index;
+  float *converted;             /* one ping as float, for other formats */
+  gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
   gboolean warned_non_finite;
+
+  /* Framing: the adapter holds the stream from sample adapter_position on;
+   * next_ping is the first ping not yet output or dropped. */
+  GstAdapter *adapter;
+  gboolean position_known;
+  guint64 adapter_position;
+  guint64 next_ping;
+  GstClockTime stream_start_pts;        /* PTS of stream sample 0 */
 };
 
 G_DEFINE_TYPE (GstDopplerBank, gst_doppler_bank, GST_TYPE_SONAR_FILTER);
@@ -78,7 +101,7 @@ GST_ELEMENT_REGISTER_DEFINE_WITH_CODE (dopplerbank, "dopplerbank",
         "Doppler matched-filter bank"));
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
-    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_RECORDING_CAPS));
+    GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_RECORDING_SINK_CAPS));
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_SPECTRA_CAPS));
 
@@ -89,17 +112,27 @@ gst_doppler_bank_make_setup (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
 {
   GstDopplerBank *self = GST_DOPPLER_BANK (filter);
-  g_autofree char *geometry = NULL, *waveforms = NULL;
+  g_autofree char *sensor = NULL, *geometry = NULL, *waveforms = NULL;
   guint ping_length;
   double c;
 
   GST_OBJECT_LOCK (self);
+  sensor = g_strdup (self->sensor_file);
   geometry = g_strdup (self->geometry_file);
   waveforms = g_strdup (self->waveforms_file);
   ping_length = self->ping_length_setting;
   c = self->speed_of_sound;
   GST_OBJECT_UNLOCK (self);
 
+  if (sensor) {
+    if (geometry || waveforms || ping_length) {
+      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+          "dopplerbank: sensor-file describes the whole sensor: leave "
+          "geometry-file, waveforms-file and ping-length unset");
+      return NULL;
+    }
+    return sonar_sensor_file_load (sensor, error);
+  }
   if (!waveforms) {
     if (geometry || ping_length)
       g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
@@ -117,6 +150,22 @@ gst_doppler_bank_make_setup (GstSonarFilter * filter, GstCaps * in_caps,
       error);
 }
 
+/* GstAudioInfo of a recording: GStreamer 1.22 wants a channel-mask for
+ * more than 2 channels, which plain WAVs do not carry; the channels are
+ * microphones, not loudspeaker positions, so mask 0 is what they are. */
+static gboolean
+recording_info_from_caps (GstAudioInfo * info, GstCaps * caps)
+{
+  g_autoptr (GstCaps) masked = gst_caps_copy (caps);
+  GstStructure *s = gst_caps_get_structure (masked, 0);
+
+  if (!gst_structure_has_field (s, "channel-mask"))
+    gst_structure_set (s, "channel-mask", GST_TYPE_BITMASK, (guint64) 0,
+        NULL);
+  return gst_audio_info_from_caps (info, masked)
+      && GST_AUDIO_INFO_LAYOUT (info) == GST_AUDIO_LAYOUT_INTERLEAVED;
+}
+
 static GstCaps *
 gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
@@ -128,17 +177,19 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GstCaps *out_caps;
   double v_min, v_max, v_step;
 
-  if (!in_caps || !gst_audio_info_from_caps (&info, in_caps)) {
+  if (!in_caps || !recording_info_from_caps (&info, in_caps)) {
+    g_autofree char *text = in_caps ? gst_caps_to_string (in_caps) : NULL;
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
-        "dopplerbank: the input is not a sonar recording");
+        "dopplerbank: the input is not an interleaved recording of %s "
+        "samples: %s", SONAR_RECORDING_FORMATS, text ? text : "no caps");
     return NULL;
   }
   if ((guint) GST_AUDIO_INFO_CHANNELS (&info) !=
       setup->geometry.n_microphones
-      || GST_AUDIO_INFO_RATE (&info) != (int) setup->sample_rate) {
+      || GST_AUDIO_INFO_RATE (&info) != setup->sample_rate) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
-        "dopplerbank: the recording has %d channels at %d Hz, but the set-up "
-        "describes %u microphones at %.0f Hz",
+        "dopplerbank: the recording has %d channels at %d Hz, but the sensor "
+        "description has %u microphones at %g Hz",
         GST_AUDIO_INFO_CHANNELS (&info), GST_AUDIO_INFO_RATE (&info),
         setup->geometry.n_microphones, setup->sample_rate);
     return NULL;
@@ -153,8 +204,16 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   bank = sonar_doppler_bank_new (setup, v_min, v_max, v_step, error);
   if (!bank)
     return NULL;
+  self->setup = setup;
+  self->info = info;
   self->channels = setup->geometry.n_microphones;
   self->ping_length = setup->ping_length;
+  if (GST_AUDIO_INFO_FORMAT (&info) != GST_AUDIO_FORMAT_F32LE) {
+    const gsize n = (gsize) self->channels * self->ping_length;
+    self->converted = g_new (float, n);
+    self->unpacked = g_malloc (n * (GST_AUDIO_INFO_IS_FLOAT (&info) ?
+            sizeof (double) : sizeof (gint32)));
+  }
   sonar_doppler_bank_prepare_ping_band (bank);
   self->band = *sonar_doppler_bank_band (bank);
   self->analyzer = sonar_spectrum_new (&self->band);
@@ -179,22 +238,55 @@ gst_doppler_bank_unconfigure (GstSonarFilter * filter)
   GstDopplerBank *self = GST_DOPPLER_BANK (filter);
 
   g_clear_pointer (&self->analyzer, sonar_spectrum_free);
+  g_clear_pointer (&self->converted, g_free);
+  g_clear_pointer (&self->unpacked, g_free);
+  self->setup = NULL;
   gst_adapter_clear (self->adapter);
+  self->position_known = FALSE;
 }
 
-/* One ping: the spectra of its channels. */
-static GstBuffer *
-analyse_ping (GstDopplerBank * self, const float *samples)
+/* The ping's samples as float: F32LE as it is, other formats unpacked by
+ * GStreamer's own format table, integers as fractions of full scale. */
+static const float *
+ping_samples (GstDopplerBank * self, const guint8 * data)
 {
+  const GstAudioFormatInfo *format = self->info.finfo;
+  const gsize n = (gsize) self->channels * self->ping_length;
+
+  if (!self->converted)
+    return (const float *) data;
+  format->unpack_func (format, GST_AUDIO_PACK_FLAG_NONE, self->unpacked,
+      data, (int) n);
+  if (GST_AUDIO_FORMAT_INFO_IS_FLOAT (format)) {
+    const double *unpacked = self->unpacked;
+    for (gsize i = 0; i < n; i++)
+      self->converted[i] = (float) unpacked[i];
+  } else {
+    /* Unpacked integers fill the 32 bits, whatever their width. */
+    const gint32 *unpacked = self->unpacked;
+    for (gsize i = 0; i < n; i++)
+      self->converted[i] = unpacked[i] * (1.0f / 2147483648.0f);
+  }
+  return self->converted;
+}
+
+/* Ping @index: the spectra of its channels, time-stamped from the framing
+ * (one rule for live pings and replays: the trigger instant). */
+static GstBuffer *
+analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
+{
+  const SonarSetup *setup = self->setup;
   const gsize bins = self->band.n_bins;
   GstBuffer *out = gst_sonar_filter_new_buffer (GST_SONAR_FILTER (self),
       sizeof (SonarComplex) * bins * self->channels);
+  const float *samples;
   GstMapInfo map;
   guint n_bad = 0;
 
   if (!out)
     return NULL;
 
+  samples = ping_samples (self, data);
   gst_buffer_map (out, &map, GST_MAP_WRITE);
   for (guint j = 0; j < self->channels; j++)
     sonar_spectrum_process (self->analyzer, samples + j, self->ping_length,
@@ -203,61 +295,169 @@ analyse_ping (GstDopplerBank * self, const float *samples)
   if (n_bad > 0 && !self->warned_non_finite) {
     GST_ELEMENT_WARNING (self, STREAM, FORMAT,
         ("The recording holds NaN or infinite samples (%u in ping %"
-            G_GUINT64_FORMAT "); they are read as 0", n_bad,
-            self->ping_index), (NULL));
+            G_GUINT64_FORMAT "); they are read as 0", n_bad, index), (NULL));
     self->warned_non_finite = TRUE;
   }
+  if (GST_CLOCK_TIME_IS_VALID (self->stream_start_pts))
+    GST_BUFFER_PTS (out) = self->stream_start_pts + (GstClockTime)
+        llround ((setup->trigger_offset / setup->sample_rate +
+            index * setup->ping_period) * GST_SECOND);
+  GST_BUFFER_DURATION (out) = gst_util_uint64_scale_round (self->ping_length,
+      GST_SECOND, (guint64) setup->sample_rate);
+  GST_BUFFER_OFFSET (out) = index;
+  GST_BUFFER_OFFSET_END (out) = index + 1;
   return out;
+}
+
+/* The first ping whose trigger sample is at or after @position. */
+static guint64
+first_ping_from (const SonarSetup * setup, guint64 position)
+{
+  guint64 index;
+
+  if (position <= setup->trigger_offset)
+    return 0;
+  index = (guint64) ceil ((position - setup->trigger_offset) /
+      setup->ping_stride - 1e-9);
+  /* The rounding of sonar_setup_ping_start can put a start a sample
+   * either side of the exact quotient. */
+  while (index > 0 && sonar_setup_ping_start (setup, index - 1) >= position)
+    index--;
+  while (sonar_setup_ping_start (setup, index) < position)
+    index++;
+  return index;
+}
+
+static void
+drop_pings (GstDopplerBank * self, guint64 first, guint64 end,
+    const char *why)
+{
+  g_autofree char *which = NULL;
+  guint64 total;
+
+  if (end <= first)
+    return;
+  GST_OBJECT_LOCK (self);
+  self->dropped += end - first;
+  total = self->dropped;
+  GST_OBJECT_UNLOCK (self);
+  which = end - first == 1 ? g_strdup_printf ("ping %" G_GUINT64_FORMAT,
+      first) : g_strdup_printf ("pings %" G_GUINT64_FORMAT " to %"
+      G_GUINT64_FORMAT, first, end - 1);
+  GST_ELEMENT_WARNING_WITH_DETAILS (self, STREAM, DEMUX,
+      ("Dropped %s, not held whole by the stream: %s (%" G_GUINT64_FORMAT
+          " dropped since start)", which, why, total), (NULL),
+      ("sonar-dropped", G_TYPE_UINT64, total,
+          "first-ping", G_TYPE_UINT64, first,
+          "pings", G_TYPE_UINT64, end - first, NULL));
+}
+
+/* Where @buffer's first sample lies in the stream: its OFFSET (the sample
+ * offset of raw audio), else its PTS, else right after what came before. */
+static guint64
+buffer_position (GstDopplerBank * self, GstBuffer * buffer, guint64 expected)
+{
+  if (GST_BUFFER_OFFSET_IS_VALID (buffer))
+    return GST_BUFFER_OFFSET (buffer);
+  if (GST_BUFFER_PTS_IS_VALID (buffer)
+      && GST_CLOCK_TIME_IS_VALID (self->stream_start_pts)
+      && GST_BUFFER_PTS (buffer) >= self->stream_start_pts)
+    return gst_util_uint64_scale_round (GST_BUFFER_PTS (buffer) -
+        self->stream_start_pts, (guint64) self->setup->sample_rate,
+        GST_SECOND);
+  return expected;
+}
+
+/* Takes @buffer into the framing: a jump in position drops what the
+ * adapter held of an incomplete ping. */
+static void
+take_buffer (GstDopplerBank * self, GstBuffer * buffer)
+{
+  const gsize frame = GST_AUDIO_INFO_BPF (&self->info);
+  const guint64 expected = self->adapter_position +
+      gst_adapter_available (self->adapter) / frame;
+  const guint64 position = buffer_position (self, buffer, expected);
+
+  if (!self->position_known) {
+    /* The stream's first buffer (or the first after a flush): a ping
+     * already under way is not whole. */
+    const guint64 first = first_ping_from (self->setup, position);
+    if (GST_BUFFER_PTS_IS_VALID (buffer))
+      self->stream_start_pts = GST_BUFFER_PTS (buffer) -
+          MIN (GST_BUFFER_PTS (buffer), gst_util_uint64_scale_round
+          (position, GST_SECOND, (guint64) self->setup->sample_rate));
+    if (first > 0 && position < sonar_setup_ping_start (self->setup,
+            first - 1) + self->ping_length)
+      drop_pings (self, first - 1, first, "the stream starts inside it");
+    self->next_ping = first;
+    self->adapter_position = position;
+    self->position_known = TRUE;
+  } else if (position != expected) {
+    const guint64 resume = first_ping_from (self->setup, position);
+    const gboolean partial = gst_adapter_available (self->adapter) > 0
+        && expected > sonar_setup_ping_start (self->setup, self->next_ping);
+    g_autofree char *why = g_strdup_printf ("the stream jumps from sample %"
+        G_GUINT64_FORMAT " to %" G_GUINT64_FORMAT, expected, position);
+
+    gst_adapter_clear (self->adapter);
+    if (position > expected)
+      drop_pings (self, self->next_ping, resume, why);
+    else if (partial)
+      drop_pings (self, self->next_ping, self->next_ping + 1, why);
+    self->next_ping = resume;
+    self->adapter_position = position;
+  }
+  gst_adapter_push (self->adapter, buffer);
 }
 
 static GstFlowReturn
 gst_doppler_bank_process (GstSonarFilter * filter, GstBuffer * buffer)
 {
   GstDopplerBank *self = GST_DOPPLER_BANK (filter);
-  const gsize ping_bytes = sizeof (float) * self->channels * self->ping_length;
+  const gsize frame = GST_AUDIO_INFO_BPF (&self->info);
+  const gsize ping_bytes = frame * self->ping_length;
   GstFlowReturn ret = GST_FLOW_OK;
+  gboolean whole_ping;
 
-  /* A whole ping in one buffer (sonarsrc): keep its timestamps and metas
-   * (ground truth). Otherwise (a file), cut pings out of the stream. */
-  if (gst_adapter_available (self->adapter) == 0
-      && gst_buffer_get_size (buffer) == ping_bytes) {
+  /* A buffer that is exactly the next ping (sonarsrc's) keeps its metas
+   * (ground truth). */
+  take_buffer (self, buffer);
+  whole_ping = self->adapter_position ==
+      sonar_setup_ping_start (self->setup, self->next_ping)
+      && gst_adapter_available (self->adapter) == ping_bytes;
+  while (ret == GST_FLOW_OK) {
+    const guint64 start = sonar_setup_ping_start (self->setup,
+        self->next_ping);
+    const gsize available = gst_adapter_available (self->adapter);
+    GstBuffer *in, *out;
     GstMapInfo map;
-    GstBuffer *out;
-    gst_buffer_map (buffer, &map, GST_MAP_READ);
-    out = analyse_ping (self, (const float *) map.data);
-    gst_buffer_unmap (buffer, &map);
+
+    if (self->adapter_position < start) {
+      /* Between two pings' windows: not part of any ping. */
+      const gsize skip = MIN (available / frame, start -
+          self->adapter_position);
+      gst_adapter_flush (self->adapter, skip * frame);
+      self->adapter_position += skip;
+      if (self->adapter_position < start)
+        break;
+      continue;
+    }
+    if (available < ping_bytes)
+      break;
+    in = gst_adapter_take_buffer_fast (self->adapter, ping_bytes);
+    self->adapter_position += self->ping_length;
+    gst_buffer_map (in, &map, GST_MAP_READ);
+    out = analyse_ping (self, map.data, self->next_ping);
+    gst_buffer_unmap (in, &map);
     if (!out) {
-      gst_buffer_unref (buffer);
+      gst_buffer_unref (in);
       return GST_FLOW_FLUSHING;
     }
-    gst_buffer_copy_into (out, buffer, GST_BUFFER_COPY_TIMESTAMPS |
-        GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_META, 0, -1);
-    GST_BUFFER_OFFSET (out) = self->ping_index++;
-    GST_BUFFER_OFFSET_END (out) = self->ping_index;
-    gst_buffer_unref (buffer);
-    return gst_sonar_filter_push (filter, out);
-  }
-
-  gst_adapter_push (self->adapter, buffer);
-  while (ret == GST_FLOW_OK
-      && gst_adapter_available (self->adapter) >= ping_bytes) {
-    guint64 distance;
-    GstClockTime pts = gst_adapter_prev_pts (self->adapter, &distance);
-    const float *samples = gst_adapter_map (self->adapter, ping_bytes);
-    GstBuffer *out = analyse_ping (self, samples);
-
-    gst_adapter_unmap (self->adapter);
-    if (!out)
-      return GST_FLOW_FLUSHING;
-    gst_adapter_flush (self->adapter, ping_bytes);
-    if (GST_CLOCK_TIME_IS_VALID (pts))
-      pts += gst_util_uint64_scale_int (distance / (sizeof (float) *
-              self->channels), GST_SECOND, (int) self->band.sample_rate);
-    GST_BUFFER_PTS (out) = pts;
-    GST_BUFFER_DURATION (out) = gst_util_uint64_scale_int (self->ping_length,
-        GST_SECOND, (int) self->band.sample_rate);
-    GST_BUFFER_OFFSET (out) = self->ping_index++;
-    GST_BUFFER_OFFSET_END (out) = self->ping_index;
+    if (whole_ping)
+      gst_buffer_copy_into (out, in, GST_BUFFER_COPY_FLAGS |
+          GST_BUFFER_COPY_META, 0, -1);
+    gst_buffer_unref (in);
+    self->next_ping++;
     ret = gst_sonar_filter_push (filter, out);
   }
   return ret;
@@ -267,20 +467,23 @@ static void
 gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
 {
   GstDopplerBank *self = GST_DOPPLER_BANK (filter);
-  const gsize left = gst_adapter_available (self->adapter);
 
   /* An incomplete ping cannot be filtered: say so rather than drop it
    * silently. */
-  if (drain && left > 0)
-    GST_ELEMENT_WARNING (self, STREAM, DECODE,
-        ("The stream ended inside a ping: %" G_GSIZE_FORMAT " of %u samples "
-            "per channel; that partial ping is ignored",
-            left / (sizeof (float) * self->channels), self->ping_length),
-        (NULL));
+  if (drain && self->setup && gst_adapter_available (self->adapter) > 0
+      && self->adapter_position >= sonar_setup_ping_start (self->setup,
+          self->next_ping)) {
+    g_autofree char *why = g_strdup_printf ("the stream ended inside a ping, "
+        "%" G_GSIZE_FORMAT " of its %u samples per channel in",
+        gst_adapter_available (self->adapter) /
+        GST_AUDIO_INFO_BPF (&self->info), self->ping_length);
+    drop_pings (self, self->next_ping, self->next_ping + 1, why);
+  }
   gst_adapter_clear (self->adapter);
+  self->position_known = FALSE;
   if (!drain) {
-    self->ping_index = 0;
     self->warned_non_finite = FALSE;
+    self->stream_start_pts = GST_CLOCK_TIME_NONE;
   }
 }
 
@@ -300,6 +503,10 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
       break;
     case PROP_VELOCITY_STEP:
       self->velocity_step = g_value_get_double (value);
+      break;
+    case PROP_SENSOR_FILE:
+      g_free (self->sensor_file);
+      self->sensor_file = g_value_dup_string (value);
       break;
     case PROP_GEOMETRY_FILE:
       g_free (self->geometry_file);
@@ -339,6 +546,12 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
     case PROP_VELOCITY_STEP:
       g_value_set_double (value, self->velocity_step);
       break;
+    case PROP_SENSOR_FILE:
+      g_value_set_string (value, self->sensor_file);
+      break;
+    case PROP_DROPPED:
+      g_value_set_uint64 (value, self->dropped);
+      break;
     case PROP_GEOMETRY_FILE:
       g_value_set_string (value, self->geometry_file);
       break;
@@ -364,6 +577,7 @@ gst_doppler_bank_finalize (GObject * object)
   GstDopplerBank *self = GST_DOPPLER_BANK (object);
 
   g_object_unref (self->adapter);
+  g_free (self->sensor_file);
   g_free (self->geometry_file);
   g_free (self->waveforms_file);
   G_OBJECT_CLASS (gst_doppler_bank_parent_class)->finalize (object);
@@ -377,6 +591,7 @@ gst_doppler_bank_init (GstDopplerBank * self)
   self->velocity_step = DEFAULT_VELOCITY_STEP;
   self->speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND;
   self->adapter = gst_adapter_new ();
+  self->stream_start_pts = GST_CLOCK_TIME_NONE;
 }
 
 static void
@@ -405,23 +620,34 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
           "bank's velocities, in m/s (the paper uses 0.05 and 0.02)",
           0.0001, 100.0, DEFAULT_VELOCITY_STEP, flags));
 
+  g_object_class_install_property (gobject_class, PROP_SENSOR_FILE,
+      g_param_spec_string ("sensor-file", "Sensor file", "For recordings: "
+          "the sensor description (docs/FORMATS.md: array, emissions, "
+          "sample rate, speed of sound, ping timing, field of view). When "
+          "set, the set-up comes from it instead of upstream", NULL, flags));
+  g_object_class_install_property (gobject_class, PROP_DROPPED,
+      g_param_spec_uint64 ("dropped", "Dropped pings", "Pings dropped "
+          "since start because the stream did not hold them whole (it "
+          "started or ended inside one, a gap, a seek)", 0, G_MAXUINT64, 0,
+          G_PARAM_READABLE | G_PARAM_STATIC_STRINGS));
   g_object_class_install_property (gobject_class, PROP_GEOMETRY_FILE,
-      g_param_spec_string ("geometry-file", "Geometry file", "For "
-          "recordings: JSON array geometry (docs/FORMATS.md); default the "
-          "built-in eRTIS array. Needs waveforms-file", NULL, flags));
+      g_param_spec_string ("geometry-file", "Geometry file", "Older form "
+          "of sensor-file, with waveforms-file and ping-length: JSON array "
+          "geometry (docs/FORMATS.md); default the built-in eRTIS array",
+          NULL, flags));
   g_object_class_install_property (gobject_class, PROP_WAVEFORMS_FILE,
-      g_param_spec_string ("waveforms-file", "Waveforms file", "For "
-          "recordings: JSON emission waveforms (docs/FORMATS.md). When set, "
-          "the set-up comes from these files instead of upstream", NULL,
+      g_param_spec_string ("waveforms-file", "Waveforms file", "Older form "
+          "of sensor-file: JSON emission waveforms (docs/FORMATS.md); pings "
+          "back to back from the first sample, in the horizontal fan", NULL,
           flags));
   g_object_class_install_property (gobject_class, PROP_PING_LENGTH,
-      g_param_spec_uint ("ping-length", "Ping length", "For recordings: "
-          "samples per channel of one ping (sonarsrc's pings: see its "
-          "set-up; 17261 by default)", 0, SONAR_MAX_PING_LENGTH, 0, flags));
+      g_param_spec_uint ("ping-length", "Ping length", "With "
+          "waveforms-file: samples per channel of one ping (sonarsrc's at "
+          "its defaults: 17262)", 0, SONAR_MAX_PING_LENGTH, 0, flags));
   g_object_class_install_property (gobject_class, PROP_SPEED_OF_SOUND,
-      g_param_spec_double ("speed-of-sound", "Speed of sound", "For "
-          "recordings: speed of sound, in m/s", 100.0, 2000.0,
-          SONAR_DEFAULT_SPEED_OF_SOUND, flags));
+      g_param_spec_double ("speed-of-sound", "Speed of sound", "With "
+          "waveforms-file: speed of sound, in m/s (a sensor file gives its "
+          "own)", 100.0, 2000.0, SONAR_DEFAULT_SPEED_OF_SOUND, flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

@@ -87,6 +87,9 @@ struct _GstMimoBeamform
 
   /* Properties, protected by the object lock. */
   SonarImagerParams params;
+  /* Whether the directions and coarse spacing were set: unless they were,
+   * they follow the set-up's field of view. */
+  gboolean directions_set, coarse_spacing_set;
   ImageMode mode;
   double velocity;
   double hypothesis_spacing;
@@ -123,7 +126,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   const guint n_bank = sonar_doppler_bank_n_velocities (bank);
   SonarImagerParams params;
   SonarBand band;
-  double velocity, spacing;
+  double velocity, spacing, range_max;
   GstCaps *out_caps;
   guint records;
 
@@ -136,6 +139,20 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
 
   GST_OBJECT_LOCK (self);
   params = self->params;
+  if (!self->directions_set || !self->coarse_spacing_set) {
+    SonarImagerParams view = params;
+    sonar_imager_params_set_view (&view, setup->field_of_view);
+    if (!self->directions_set) {
+      params.azimuth_min = view.azimuth_min;
+      params.azimuth_max = view.azimuth_max;
+      params.n_azimuth = view.n_azimuth;
+      params.elevation_min = view.elevation_min;
+      params.elevation_max = view.elevation_max;
+      params.n_elevation = view.n_elevation;
+    }
+    if (!self->coarse_spacing_set)
+      params.coarse_spacing = view.coarse_spacing;
+  }
   self->active_mode = self->mode;
   self->active_emitter = self->emitter;
   velocity = self->velocity;
@@ -152,6 +169,12 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->imager = sonar_imager_new (setup, &band, &params, error);
   if (!self->imager)
     return NULL;
+  range_max = sonar_imager_range_max (setup, params.range_max);
+  if (params.range_max > range_max)
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("range-max %g m is beyond what one ping records: the image stops "
+            "at %.3f m, the end of the %u-sample window", params.range_max,
+            range_max, setup->ping_length), (NULL));
 
   self->indices = g_new (guint, n_bank + 2);
   switch (self->active_mode) {
@@ -274,21 +297,27 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
   GST_OBJECT_LOCK (self);
   switch (prop_id) {
     case PROP_AZIMUTH_MIN:
+      self->directions_set = TRUE;
       p->azimuth_min = g_value_get_double (value);
       break;
     case PROP_AZIMUTH_MAX:
+      self->directions_set = TRUE;
       p->azimuth_max = g_value_get_double (value);
       break;
     case PROP_AZIMUTH_COUNT:
+      self->directions_set = TRUE;
       p->n_azimuth = g_value_get_uint (value);
       break;
     case PROP_ELEVATION_MIN:
+      self->directions_set = TRUE;
       p->elevation_min = g_value_get_double (value);
       break;
     case PROP_ELEVATION_MAX:
+      self->directions_set = TRUE;
       p->elevation_max = g_value_get_double (value);
       break;
     case PROP_ELEVATION_COUNT:
+      self->directions_set = TRUE;
       p->n_elevation = g_value_get_uint (value);
       break;
     case PROP_RANGE_MIN:
@@ -304,6 +333,7 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
       p->focus_zones = g_value_get_uint (value);
       break;
     case PROP_COARSE_SPACING:
+      self->coarse_spacing_set = TRUE;
       p->coarse_spacing = g_value_get_double (value);
       break;
     case PROP_REFINE_DB:
@@ -424,7 +454,10 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
 
   g_object_class_install_property (gobject_class, PROP_AZIMUTH_MIN,
       g_param_spec_double ("azimuth-min", "Minimum azimuth", "First "
-          "direction of the image, degrees from boresight towards +x",
+          "direction of the image, degrees from boresight towards +x. The "
+          "directions default to the sensor's field of view: this fan, or "
+          "-90..90 x -90..90 every 2 degrees for a hemisphere; setting any "
+          "azimuth or elevation property makes them all the properties'",
           -90.0, 90.0, d.azimuth_min, flags));
   g_object_class_install_property (gobject_class, PROP_AZIMUTH_MAX,
       g_param_spec_double ("azimuth-max", "Maximum azimuth", "Last "
@@ -450,8 +483,9 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "the image, in m", 0.01, 1000.0, d.range_min, flags));
   g_object_class_install_property (gobject_class, PROP_RANGE_MAX,
       g_param_spec_double ("range-max", "Maximum range", "Farthest range of "
-          "the image, in m (at most what a ping records)", 0.01, 1000.0,
-          d.range_max, flags));
+          "the image, in m; 0: the farthest whose whole echo one ping "
+          "records. Beyond the ping's window it is clamped there, with a "
+          "warning", 0.0, 1000.0, d.range_max, flags));
   g_object_class_install_property (gobject_class, PROP_RANGE_RESOLUTION,
       g_param_spec_double ("range-resolution", "Range resolution", "Largest "
           "allowed spacing of the range bins, in m (the band may make them "
@@ -465,7 +499,8 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
       g_param_spec_double ("coarse-spacing", "Coarse spacing", "Modes "
           "detection and fixed image a grid this coarse first, in degrees, "
           "then in full only around what it finds (within refine-db), the "
-          "rest interpolated; 0: every direction in full", 0.0, 90.0,
+          "rest interpolated; 0: every direction in full. Default: 3, or 6 "
+          "for a hemisphere", 0.0, 90.0,
           d.coarse_spacing, flags));
   g_object_class_install_property (gobject_class, PROP_REFINE_DB,
       g_param_spec_double ("refine-db", "Refine level", "dB below the "

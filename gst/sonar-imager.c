@@ -95,26 +95,54 @@ struct _SonarImager
 void
 sonar_imager_params_init_default (SonarImagerParams * p)
 {
-  p->azimuth_min = -90.0;
-  p->azimuth_max = 90.0;
-  p->n_azimuth = 181;
-  p->elevation_min = 0.0;
-  p->elevation_max = 0.0;
-  p->n_elevation = 1;
+  sonar_imager_params_set_view (p, SONAR_FIELD_OF_VIEW_FAN);
   p->range_min = 0.3;
-  p->range_max = 5.0;
+  p->range_max = 0.0;
   p->range_resolution = 0.005;
   p->focus_zones = 4;
-  /* sonar-bench's coarse-spacing and refine-db sweeps: 3 degrees (a MIMO
-   * main lobe) and 20 dB (wardcluster's -10 dB with 10 dB to spare) find
-   * every object of Fig. 9 and 10 with the dense image's errors. */
-  p->coarse_spacing = 3.0;
   p->refine_db = 20.0;
   p->threads = 0;
 }
 
+void
+sonar_imager_params_set_view (SonarImagerParams * p, SonarFieldOfView view)
+{
+  p->azimuth_min = -90.0;
+  p->azimuth_max = 90.0;
+  if (view == SONAR_FIELD_OF_VIEW_HEMISPHERE) {
+    /* The 3-D grid of sonar-bench's hemisphere sweep: 2 degrees, coarse
+     * 6, every object of its scenes found with the 2-D errors. */
+    p->n_azimuth = 91;
+    p->elevation_min = -90.0;
+    p->elevation_max = 90.0;
+    p->n_elevation = 91;
+    p->coarse_spacing = 6.0;
+  } else {
+    p->n_azimuth = 181;
+    p->elevation_min = 0.0;
+    p->elevation_max = 0.0;
+    p->n_elevation = 1;
+    /* sonar-bench's coarse-spacing and refine-db sweeps: 3 degrees (a MIMO
+     * main lobe) and 20 dB (wardcluster's -10 dB with 10 dB to spare) find
+     * every object of Fig. 9 and 10 with the dense image's errors. */
+    p->coarse_spacing = 3.0;
+  }
+}
+
+double
+sonar_imager_range_max (const SonarSetup * setup, double requested)
+{
+  /* Lags up to the window's end are free of the FFT's wrap-around. */
+  const double window_end = floor (sonar_setup_window_range (setup) *
+      1000.0) / 1000.0;
+
+  if (requested <= 0.0)
+    return sonar_setup_recorded_range (setup);
+  return MIN (requested, window_end);
+}
+
 static gboolean
-validate_params (const SonarImagerParams * p, double max_range,
+validate_params (const SonarImagerParams * p, double range_max,
     GError ** error)
 {
   const char *problem = NULL;
@@ -128,8 +156,6 @@ validate_params (const SonarImagerParams * p, double max_range,
   else if (!(p->elevation_min >= -90.0 && p->elevation_max <= 90.0
           && p->elevation_min <= p->elevation_max))
     problem = "elevations must satisfy -90 <= min <= max <= 90 degrees";
-  else if (!(p->range_min > 0.0 && p->range_min < p->range_max))
-    problem = "ranges must satisfy 0 < min < max";
   else if (!(p->range_resolution > 0.0 && p->range_resolution <= 1.0))
     problem = "the range resolution must be in (0, 1] m";
   else if (p->focus_zones < 1 || p->focus_zones > MAX_FOCUS_ZONES)
@@ -143,10 +169,10 @@ validate_params (const SonarImagerParams * p, double max_range,
         "imager: %s", problem);
     return FALSE;
   }
-  if (p->range_max > max_range) {
+  if (!(p->range_min > 0.0 && p->range_min < range_max)) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
-        "imager: range-max %g m is beyond what one ping records (%.2f m)",
-        p->range_max, max_range);
+        "imager: range-min %g m must be above 0 and below the image's "
+        "farthest range, %.3f m", p->range_min, range_max);
     return FALSE;
   }
   return TRUE;
@@ -180,9 +206,9 @@ init_zone (SonarImager * im, FocusZone * zone, double focus, guint first,
 /* The focus zones, then (when there is a coarse pass) the coarse zone:
  * the whole range focused as one zone would be. */
 static void
-init_zones (SonarImager * im, const SonarImagerParams * p)
+init_zones (SonarImager * im, const SonarImagerParams * p, double range_max)
 {
-  const double inv_near = 1.0 / p->range_min, inv_far = 1.0 / p->range_max;
+  const double inv_near = 1.0 / p->range_min, inv_far = 1.0 / range_max;
   const guint n_range = im->grid.n_range;
 
   im->n_zones = p->focus_zones;
@@ -212,14 +238,13 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     const SonarImagerParams * p, GError ** error)
 {
   const double c = setup->speed_of_sound, fs = setup->sample_rate;
-  /* Lags up to the window's end are free of the FFT's wrap-around. */
-  const double max_range = 0.5 * c * setup->ping_length / fs;
+  const double range_max = sonar_imager_range_max (setup, p->range_max);
   SonarImager *im;
   SonarImageGrid *grid;
   double lag_range, period_range;
   guint min_ifft;
 
-  if (!validate_params (p, max_range, error))
+  if (!validate_params (p, range_max, error))
     return NULL;
 
   im = g_new0 (SonarImager, 1);
@@ -255,7 +280,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   grid->range_step = lag_range;
   im->first_lag = (guint) ceil (p->range_min / lag_range);
   grid->range_first = im->first_lag * lag_range;
-  grid->n_range = (guint) floor (p->range_max / lag_range) - im->first_lag + 1;
+  grid->n_range = (guint) floor (range_max / lag_range) - im->first_lag + 1;
 
   /* The coarse grid is every k-th direction, k steps nearest the
    * spacing; 1 (no coarse pass) on grids as coarse as it. */
@@ -263,7 +288,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
       (p->coarse_spacing / grid->azimuth_step), 1, 64) : 1;
   im->coarse_elevation = grid->elevation_step > 0.0 ? (guint) CLAMP (round
       (p->coarse_spacing / grid->elevation_step), 1, 64) : 1;
-  init_zones (im, p);
+  init_zones (im, p, range_max);
   im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
   im->range_weight = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++) {

@@ -59,7 +59,10 @@ typedef struct
   guint n_azimuth;
   double elevation_min, elevation_max;  /* degrees */
   guint n_elevation;
-  double range_min, range_max;  /* m */
+  double range_min;             /* m */
+  double range_max;             /* m; 0: what one ping records (the whole
+                                 * echo, sonar_setup_recorded_range ());
+                                 * beyond the window's end: clamped there */
   double range_resolution;      /* m: the range step is at most this */
   guint focus_zones;            /* >= 1 */
   double coarse_spacing;        /* degrees; 0 or less than 1.5 grid steps:
@@ -69,9 +72,21 @@ typedef struct
   guint threads;                /* sharing the directions; 0: one per processor */
 } SonarImagerParams;
 
-/* 2-D fan: -90..90 degrees in 181 directions, 0.3-5 m, 4 focus zones,
- * coarse spacing 3 degrees refined 20 dB down, a thread per processor. */
+/* 2-D fan: -90..90 degrees in 181 directions, 0.3 m to what one ping
+ * records, 4 focus zones, coarse spacing 3 degrees refined 20 dB down, a
+ * thread per processor. */
 void sonar_imager_params_init_default (SonarImagerParams * params);
+
+/* The directions (and the coarse spacing) that image @view: the fan as
+ * above; the hemisphere, -90..90 degrees in azimuth and elevation every 2
+ * degrees (91 x 91), coarse spacing 6 degrees. */
+void sonar_imager_params_set_view (SonarImagerParams * params,
+    SonarFieldOfView view);
+
+/* The farthest range an image of @setup can reach: @requested (0: what
+ * one ping records), or the end of the ping's window when it is beyond,
+ * rounded down to the millimetre. */
+double sonar_imager_range_max (const SonarSetup * setup, double requested);
 
 typedef struct _SonarImager SonarImager;
 

@@ -7,8 +7,14 @@
  * ping carries its ground truth as a SonarTruthMeta and, if post-messages,
  * as a "sonar-truth" element message. Contracts: docs/CONTRACTS.md.
  *
+ * With write-sensor-file it also writes the sensor description of what it
+ * emits (docs/FORMATS.md): a WAV of its pings replays through dopplerbank
+ * sensor-file= exactly as the live pings.
+ *
  * Example:
  *   gst-launch-1.0 -m sonarsrc scene=fig9 num-buffers=3 ! fakesink
+ *   gst-launch-1.0 sonarsrc num-buffers=12 write-sensor-file=pings.json \
+ *       ! wavenc ! filesink location=pings.wav
  */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
@@ -23,6 +29,7 @@
 
 #include "sonar-contracts.h"
 #include "sonar-scene.h"
+#include "sonar-sensor-file.h"
 #include "sonar-setup.h"
 #include "sonar-simulator.h"
 #include "sonar-waveform.h"
@@ -105,6 +112,7 @@ enum
   PROP_AIR_ABSORPTION,
   PROP_IS_LIVE,
   PROP_POST_MESSAGES,
+  PROP_WRITE_SENSOR_FILE,
 };
 
 /* What the properties say; read under the object lock, used at start. */
@@ -120,6 +128,7 @@ typedef struct
   double ping_rate;
   SonarSimulatorParams simulation;
   gboolean post_messages;
+  char *write_sensor_file;
 } SonarSrcSettings;
 
 struct _GstSonarSrc
@@ -181,6 +190,7 @@ gst_sonar_src_finalize (GObject * object)
   g_free (self->settings.scene_file);
   g_free (self->settings.geometry_file);
   g_free (self->settings.waveforms_file);
+  g_free (self->settings.write_sensor_file);
   G_OBJECT_CLASS (gst_sonar_src_parent_class)->finalize (object);
 }
 
@@ -253,6 +263,10 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
       break;
     case PROP_POST_MESSAGES:
       s->post_messages = g_value_get_boolean (value);
+      break;
+    case PROP_WRITE_SENSOR_FILE:
+      g_free (s->write_sensor_file);
+      s->write_sensor_file = g_value_dup_string (value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -328,6 +342,9 @@ gst_sonar_src_get_property (GObject * object, guint prop_id, GValue * value,
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, s->post_messages);
       break;
+    case PROP_WRITE_SENSOR_FILE:
+      g_value_set_string (value, s->write_sensor_file);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -342,6 +359,7 @@ settings_copy (SonarSrcSettings * dest, const SonarSrcSettings * src)
   dest->scene_file = g_strdup (src->scene_file);
   dest->geometry_file = g_strdup (src->geometry_file);
   dest->waveforms_file = g_strdup (src->waveforms_file);
+  dest->write_sensor_file = g_strdup (src->write_sensor_file);
 }
 
 static void
@@ -350,11 +368,13 @@ settings_clear (SonarSrcSettings * s)
   g_clear_pointer (&s->scene_file, g_free);
   g_clear_pointer (&s->geometry_file, g_free);
   g_clear_pointer (&s->waveforms_file, g_free);
+  g_clear_pointer (&s->write_sensor_file, g_free);
 }
 
-/* Builds the sensor the settings describe. */
+/* Builds the sensor the settings describe, resolving the directions of a
+ * scene of @dimensions (2: the horizontal fan). */
 static SonarSetup *
-make_setup (const SonarSrcSettings * s, GError ** error)
+make_setup (const SonarSrcSettings * s, guint dimensions, GError ** error)
 {
   g_autofree float *waveforms = NULL;
   SonarGeometry geometry = { 0 };
@@ -406,8 +426,16 @@ make_setup (const SonarSrcSettings * s, GError ** error)
         1e3 / s->ping_rate);
     goto done;
   }
-  setup = sonar_setup_new (wp.sample_rate, s->speed_of_sound, wp.band_low,
-      wp.band_high, &geometry, wp.length, waveforms, ping_length, error);
+  /* The pings are stored back to back (one buffer each), but happen
+   * 1 / ping-rate apart. */
+  setup = sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = wp.sample_rate, .speed_of_sound = s->speed_of_sound,
+        .band_low = wp.band_low, .band_high = wp.band_high,
+        .geometry = &geometry, .waveform_length = wp.length,
+        .waveforms = waveforms, .ping_length = ping_length,
+        .ping_period = 1.0 / s->ping_rate, .ping_stride = ping_length,
+        .field_of_view = dimensions == 2 ? SONAR_FIELD_OF_VIEW_FAN :
+        SONAR_FIELD_OF_VIEW_HEMISPHERE}, error);
 done:
   sonar_geometry_clear (&geometry);
   return setup;
@@ -425,15 +453,18 @@ gst_sonar_src_start (GstBaseSrc * bsrc)
   settings_copy (&s, &self->settings);
   GST_OBJECT_UNLOCK (self);
 
-  self->setup = make_setup (&s, &error);
-  if (!self->setup)
-    goto failed;
   if (s.scene_file) {
     if (!sonar_scene_load_file (&self->scene, s.scene_file, &error))
       goto failed;
   } else {
     sonar_scene_init_preset (&self->scene, s.scene);
   }
+  self->setup = make_setup (&s, self->scene.dimensions, &error);
+  if (!self->setup)
+    goto failed;
+  if (s.write_sensor_file && !sonar_sensor_file_save (self->setup,
+          s.write_sensor_file, &error))
+    goto failed;
   self->simulator = sonar_simulator_new (self->setup, &s.simulation, &error);
   if (!self->simulator)
     goto failed;
@@ -728,6 +759,13 @@ gst_sonar_src_class_init (GstSonarSrcClass * klass)
       g_param_spec_boolean ("is-live", "Is live", "Pace the pings in real "
           "time like the real sensor (one every 1/ping-rate seconds)",
           DEFAULT_IS_LIVE, flags));
+  g_object_class_install_property (gobject_class, PROP_WRITE_SENSOR_FILE,
+      g_param_spec_string ("write-sensor-file", "Write sensor file", "At "
+          "start, write the sensor description of what this source emits "
+          "to this file (docs/FORMATS.md): give it to dopplerbank's "
+          "sensor-file to process a recording of these pings", NULL,
+          G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+          GST_PARAM_MUTABLE_READY));
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-truth\" element message with the ground truth of every "

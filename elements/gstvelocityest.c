@@ -125,8 +125,10 @@ gst_velocity_est_unconfigure (GstSonarFilter * filter)
 
 static void
 add_detection (GstVelocityEst * self, guint centroid,
-    const SonarVelocityEstimate * e)
+    const SonarVelocityEstimate * e, GstClockTime ping_time)
 {
+  const double c = gst_sonar_filter_get_setup (GST_SONAR_FILTER
+      (self))->speed_of_sound;
   SonarDetection d;
 
   d.centroid = centroid;
@@ -135,6 +137,8 @@ add_detection (GstVelocityEst * self, guint centroid,
   d.elevation = e->elevation;
   d.position = sonar_vec3_scale (sonar_vec3_from_direction (e->azimuth,
           e->elevation), e->range);
+  d.instant = GST_CLOCK_TIME_IS_VALID (ping_time) ?
+      (double) ping_time / GST_SECOND + e->range / c : NAN;
   d.radial_velocity = e->radial_velocity;
   d.approaching = e->radial_velocity < 0.0;
   d.confidence = (double) e->agreeing_emitters / self->n_emitters;
@@ -180,7 +184,8 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   for (guint k = 0; k < centroids->n_centroids; k++)
     for (guint i = 0; i < self->counts[k]; i++)
       if (self->results[2 * k + i].valid || self->keep_rejected)
-        add_detection (self, k, &self->results[2 * k + i]);
+        add_detection (self, k, &self->results[2 * k + i],
+            GST_BUFFER_PTS (buffer));
 
   json = sonar_detections_to_json (ping, GST_BUFFER_PTS (buffer),
       (SonarDetection *) self->detections->data, self->detections->len);

@@ -3,7 +3,13 @@
 #include <json-glib/json-glib.h>
 #include <string.h>
 
+#include <glib/gstdio.h>
+#include <math.h>
+#include <sndfile.h>
+
 #include "sonar-contracts.h"
+#include "sonar-interp.h"
+#include "sonar-sensor-file.h"
 #include "sonar-setup.h"
 #include "sonar-test-util.h"
 
@@ -257,6 +263,193 @@ test_setup_event_round_trip (void)
   gst_event_unref (event);
 }
 
+/* A sensor description of 2 microphones on a line and 2 emitters, with
+ * @extra members (ending in a comma), 20-sample waveforms and (unless
+ * @extra gives one) a ping period of 10 ms. */
+static char *
+sensor_json (const char *extra)
+{
+  return g_strdup_printf ("{%s%s \"sample-rate\": 100000, "
+      "\"microphones\": [[-0.01, 0, 0], [0.01, 0, 0]], \"emitters\": "
+      "[[0, 0.02, 0], [0, -0.02, 0]], \"waveforms\": ["
+      "[0,1,0,-1,0,1,0,-1,0,1,0,-1,0,1,0,-1,0,1,0,-1],"
+      "[1,0,-1,0,1,0,-1,0,1,0,-1,0,1,0,-1,0,1,0,-1,0]]}", extra,
+      strstr (extra, "\"ping-period\"") ? "" : " \"ping-period\": 0.01,");
+}
+
+/* The sensor file's members land where they belong; a saved set-up loads
+ * back equal. */
+static void
+test_sensor_file (void)
+{
+  g_autofree char *text = sensor_json ("\"speed-of-sound\": 340, "
+      "\"trigger-offset\": 0.0005, \"ping-length\": 800, "
+      "\"field-of-view\": \"fan\", \"band\": [10000, 40000],");
+  g_autofree char *path = sonar_test_write_temp ("sensor.json", text);
+  g_autofree char *saved = sonar_test_write_temp ("saved.json", "{}");
+  GError *error = NULL;
+  g_autoptr (SonarSetup) setup = sonar_sensor_file_load (path, &error);
+  g_autoptr (SonarSetup) again = NULL;
+
+  g_assert_no_error (error);
+  g_assert_cmpfloat (setup->sample_rate, ==, 100000);
+  g_assert_cmpfloat (setup->speed_of_sound, ==, 340);
+  g_assert_cmpfloat (setup->band_low, ==, 10000);
+  g_assert_cmpuint (setup->geometry.n_microphones, ==, 2);
+  g_assert_cmpuint (setup->waveform_length, ==, 20);
+  g_assert_cmpuint (setup->ping_length, ==, 800);
+  g_assert_cmpfloat (setup->ping_period, ==, 0.01);
+  g_assert_cmpfloat (setup->ping_stride, ==, 1000);
+  g_assert_cmpuint (setup->trigger_offset, ==, 50);
+  g_assert_cmpuint (sonar_setup_ping_start (setup, 3), ==, 3050);
+  g_assert_cmpint (setup->field_of_view, ==, SONAR_FIELD_OF_VIEW_FAN);
+
+  g_assert_true (sonar_sensor_file_save (setup, saved, &error));
+  again = sonar_sensor_file_load (saved, &error);
+  g_assert_no_error (error);
+  g_assert_true (sonar_setup_equal (setup, again));
+}
+
+/* A planar array resolves the hemisphere, a line of elements only the
+ * fan; a continuous recording's pings fill the period. */
+static void
+test_sensor_file_defaults (void)
+{
+  g_autofree char *text = sensor_json ("");
+  g_autofree char *path = sonar_test_write_temp ("sensor.json", text);
+  g_autoptr (SonarSetup) setup = sonar_sensor_file_load (path, NULL);
+  SonarGeometry line = { 0 };
+
+  g_assert_nonnull (setup);
+  g_assert_cmpint (setup->field_of_view, ==,
+      SONAR_FIELD_OF_VIEW_HEMISPHERE);
+  g_assert_cmpuint (setup->ping_length, ==, 1000);
+  g_assert_cmpuint (setup->trigger_offset, ==, 0);
+  g_assert_cmpfloat (setup->speed_of_sound, ==, 343);
+
+  sonar_geometry_copy (&line, &setup->geometry);
+  line.emitters[0].y = line.emitters[1].y = 0.0;
+  line.emitters[0].x = 0.03;
+  g_assert_cmpint (sonar_geometry_field_of_view (&line), ==,
+      SONAR_FIELD_OF_VIEW_FAN);
+  sonar_geometry_clear (&line);
+}
+
+/* Emitters that start late send their waveform delayed, read between
+ * samples for a fraction of a sample; a trigger between two samples adds
+ * its fraction to every emitter. */
+static void
+test_sensor_file_delays (void)
+{
+  /* 25 us at 100 kHz: 2.5 samples; trigger 12.5 samples -> 12 + 0.5. */
+  g_autofree char *text = sensor_json ("\"emitter-delays\": [0.00002, "
+      "0.000025], \"trigger-offset\": 0.000125,");
+  g_autofree char *path = sonar_test_write_temp ("sensor.json", text);
+  GError *error = NULL;
+  g_autoptr (SonarSetup) setup = sonar_sensor_file_load (path, &error);
+  const float row0[20] = { 0, 1, 0, -1, 0, 1, 0, -1, 0, 1, 0, -1, 0, 1, 0,
+    -1, 0, 1, 0, -1
+  };
+  g_autoptr (SonarInterp) interp = sonar_interp_new (row0, 20);
+  const float *w0, *w1;
+
+  g_assert_no_error (error);
+  g_assert_cmpuint (setup->trigger_offset, ==, 12);
+  /* Emitter 0: 2 + 0.5 samples late; emitter 1: 2.5 + 0.5 = 3, exact. */
+  g_assert_cmpuint (setup->waveform_length, ==, 23);
+  w0 = sonar_setup_waveform (setup, 0);
+  w1 = sonar_setup_waveform (setup, 1);
+  for (guint i = 0; i < 3; i++)
+    g_assert_cmpfloat (w1[i], ==, 0.0f);
+  for (guint i = 0; i < 20; i++) {
+    g_assert_cmpfloat (w1[3 + i], ==, (i % 2) ? 0.0f : (i % 4 ? -1.0f :
+            1.0f));
+    g_assert_cmpfloat (w0[3 + i], ==, sonar_interp_at (interp, i + 0.5));
+  }
+}
+
+/* Every problem names the file and the member. */
+static void
+test_sensor_file_errors (void)
+{
+  const BadFile bad[] = {
+    {"{\"sample-rate\": 100000}", "missing member \"ping-period\""},
+    {"\"ping-period\": -1,", "\"ping-period\" is -1 s (allowed: above 0"},
+    {"\"trigger-offset\": -0.1,", "\"trigger-offset\" is -0.1 s (allowed: 0"},
+    {"\"field-of-view\": \"cone\",", "\"field-of-view\" is \"cone\" "
+          "(allowed: \"fan\", \"hemisphere\")"},
+    {"\"emitter-delays\": [0],", "\"emitter-delays\" must be an array of 2 "
+          "numbers"},
+    {"\"emitter-delays\": [0, 2],", "\"emitter-delays\"[1] is 2 s (allowed: "
+          "0 to 1 s)"},
+    {"\"ping-length\": 1500,", "the windows would overlap"},
+    {"\"ping-length\": 100.5,", "\"ping-length\" must be a whole number of "
+          "samples"},
+    {"\"velocity\": 3,", "unknown member \"velocity\""},
+    {"{\"sample-rate\": 100000, \"ping-period\": 0.01, \"microphones\": "
+          "[[0, 0, 0]], \"emitters\": [[0, 0.01, 0]], \"waveforms\": "
+          "\"nowhere.wav\"}", "\"waveforms\": cannot read"},
+    {"{\"sample-rate\": 100000, \"ping-period\": 0.01, \"microphones\": "
+          "[[0, 0, 0]], \"emitters\": [[0, 0.01, 0]], \"waveforms\": 3}",
+        "\"waveforms\" must be a WAV file name or an array"},
+  };
+
+  for (guint i = 0; i < G_N_ELEMENTS (bad); i++) {
+    g_autofree char *text = bad[i].json[0] == '{' ? g_strdup (bad[i].json) :
+        sensor_json (bad[i].json);
+    g_autofree char *path = sonar_test_write_temp ("bad-sensor.json", text);
+    GError *error = NULL;
+    SonarSetup *none = sonar_sensor_file_load (path, &error);
+
+    g_assert_null (none);
+    g_assert_nonnull (error);
+    g_test_message ("%s", error->message);
+    g_assert_true (g_str_has_prefix (error->message, path));
+    if (!strstr (error->message, bad[i].expected))
+      g_error ("\"%s\" does not say \"%s\"", error->message,
+          bad[i].expected);
+    g_error_free (error);
+  }
+}
+
+/* The emissions as a WAV, one channel per emitter, next to the
+ * description; 16-bit samples are fractions of full scale. */
+static void
+test_sensor_file_emissions_wav (void)
+{
+  g_autofree char *dir = g_dir_make_tmp ("sonar-sensor-XXXXXX", NULL);
+  g_autofree char *wav = g_build_filename (dir, "emissions.wav", NULL);
+  g_autofree char *json = g_build_filename (dir, "sensor.json", NULL);
+  SF_INFO info = {.samplerate = 100000,.channels = 2,
+    .format = SF_FORMAT_WAV | SF_FORMAT_PCM_16
+  };
+  SNDFILE *file = sf_open (wav, SFM_WRITE, &info);
+  short frames[2 * 32];
+  GError *error = NULL;
+  g_autoptr (SonarSetup) setup = NULL;
+
+  g_assert_nonnull (file);
+  for (guint i = 0; i < 32; i++) {
+    frames[2 * i] = (short) (i * 1000);
+    frames[2 * i + 1] = (short) (-16384);
+  }
+  g_assert_cmpint (sf_writef_short (file, frames, 32), ==, 32);
+  sf_close (file);
+  g_assert_true (g_file_set_contents (json, "{\"sample-rate\": 100000, "
+          "\"ping-period\": 0.01, \"microphones\": [[0, 0, 0]], "
+          "\"emitters\": [[0, 0.01, 0], [0.01, 0, 0]], \"waveforms\": "
+          "\"emissions.wav\"}", -1, NULL));
+  setup = sonar_sensor_file_load (json, &error);
+  g_assert_no_error (error);
+  g_assert_cmpuint (setup->waveform_length, ==, 32);
+  g_assert_cmpfloat (sonar_setup_waveform (setup, 0)[3], ==, 3000 /
+      32768.0f);
+  g_assert_cmpfloat (sonar_setup_waveform (setup, 1)[7], ==, -0.5f);
+  g_unlink (wav);
+  g_unlink (json);
+  g_rmdir (dir);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -267,6 +460,12 @@ main (int argc, char **argv)
   g_test_add_func ("/setup/geometry-file-errors", test_geometry_file_errors);
   g_test_add_func ("/setup/waveforms-file", test_waveforms_file);
   g_test_add_func ("/setup/validation", test_setup_validation);
+  g_test_add_func ("/setup/sensor-file", test_sensor_file);
+  g_test_add_func ("/setup/sensor-file-defaults", test_sensor_file_defaults);
+  g_test_add_func ("/setup/sensor-file-delays", test_sensor_file_delays);
+  g_test_add_func ("/setup/sensor-file-errors", test_sensor_file_errors);
+  g_test_add_func ("/setup/sensor-file-emissions-wav",
+      test_sensor_file_emissions_wav);
   g_test_add_func ("/setup/event-round-trip", test_setup_event_round_trip);
   return g_test_run ();
 }

@@ -827,15 +827,17 @@ framed_setup (const SonarSetup * setup, guint64 trigger, double stride,
   return framed;
 }
 
-/* A stream as wavparse gives it: chunks of 1000 frames with their sample
- * OFFSET and PTS; chunk @skip (if any) is left out, a hole in the stream. */
+/* A stream as wavparse gives it from chunk @first on (a seek there):
+ * chunks of 1000 frames with their sample OFFSET and PTS; chunk @skip (if
+ * any) is left out, a hole in the stream. */
 static void
 push_stream (GstHarness * h, const guint8 * stream, gsize total,
-    gsize frame, double rate, gsize skip)
+    gsize frame, double rate, gsize first, gsize skip)
 {
   const gsize chunk = 1000 * frame;
 
-  for (gsize offset = 0, k = 0; offset < total; offset += chunk, k++) {
+  for (gsize offset = first * chunk, k = first; offset < total;
+      offset += chunk, k++) {
     GstBuffer *b = gst_buffer_new_memdup (stream + offset,
         MIN (chunk, total - offset));
     if (k == skip) {
@@ -907,7 +909,7 @@ test_ping_framing (void)
 
   /* Whole. */
   h = fed_harness (launch, framed, &bus);
-  push_stream (h, stream, total, frame, setup->sample_rate, G_MAXSIZE);
+  push_stream (h, stream, total, frame, setup->sample_rate, 0, G_MAXSIZE);
   for (guint k = 0; k < 3; k++) {
     GstBuffer *out = gst_harness_pull (h);
     g_assert_nonnull (out);
@@ -924,7 +926,7 @@ test_ping_framing (void)
 
   /* A hole inside ping 1 (chunk 20: samples 20000-20999). */
   h = fed_harness (launch, framed, &bus);
-  push_stream (h, stream, total, frame, setup->sample_rate, 20);
+  push_stream (h, stream, total, frame, setup->sample_rate, 0, 20);
   for (guint k = 0; k < 3; k += 2) {
     GstBuffer *out = gst_harness_pull (h);
     g_assert_cmpuint (GST_BUFFER_OFFSET (out), ==, k);
@@ -940,6 +942,26 @@ test_ping_framing (void)
   g_object_get (gst_harness_find_element (h, "dopplerbank"), "dropped",
       &dropped, NULL);
   g_assert_cmpuint (dropped, ==, 1);
+  gst_harness_teardown (h);
+  gst_object_unref (bus);
+
+  /* A seek into ping 0 (chunk 10: sample 10000): it is dropped, the next
+   * ones come out with their own numbers and times. */
+  h = fed_harness (launch, framed, &bus);
+  push_stream (h, stream, total, frame, setup->sample_rate, 10, G_MAXSIZE);
+  for (guint k = 1; k < 3; k++) {
+    GstBuffer *out = gst_harness_pull (h);
+    g_assert_cmpuint (GST_BUFFER_OFFSET (out), ==, k);
+    g_assert_cmpuint (GST_BUFFER_PTS (out), ==, gst_util_uint64_scale_round
+        (trigger, GST_SECOND, 450000) + k * 100 * GST_MSECOND);
+    assert_same_spectra (out, alone[k % 2]);
+    gst_buffer_unref (out);
+  }
+  g_clear_pointer (&warning, g_free);
+  warning = pop_warning (bus);
+  g_test_message ("seek: %s", warning);
+  g_assert_cmpstr (warning, ==, "Dropped ping 0, not held whole by the "
+      "stream: the stream starts inside it (1 dropped since start)");
   gst_harness_teardown (h);
   gst_object_unref (bus);
 

@@ -96,7 +96,7 @@ sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
 /* The fast kernels are compiled for AVX2 and used where the CPU has it;
  * elsewhere the references run (the lane code emulated on 128-bit SSE2 is
  * slower than the scalar reference). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__)
 #define FAST_TARGET __attribute__ ((target ("avx2,fma")))
 #define HAVE_FAST() (__builtin_cpu_supports ("avx2") \
     && __builtin_cpu_supports ("fma"))
@@ -109,10 +109,6 @@ sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
  * bins on. Vectors of LANES floats hold real and imaginary parts apart, so
  * a complex product is four multiplies and two adds per lane. */
 typedef float Vec __attribute__ ((vector_size (LANES * sizeof (float))));
-typedef int VecIndex __attribute__ ((vector_size (LANES * sizeof (int))));
-
-static const VecIndex even = { 0, 2, 4, 6, 8, 10, 12, 14 };
-static const VecIndex odd = { 1, 3, 5, 7, 9, 11, 13, 15 };
 
 /* The seeds of successive reseeds come from a rotation in double
  * precision, not from a sincos each: over a spectrum's few dozen reseeds
@@ -197,8 +193,8 @@ lanes_seed (Lanes * p)
   Vec a_, b_;                                                           \
   memcpy (&a_, (x), sizeof a_);                                         \
   memcpy (&b_, (x) + LANES / 2, sizeof b_);                             \
-  (re) = __builtin_shuffle (a_, b_, even);                              \
-  (im) = __builtin_shuffle (a_, b_, odd);                               \
+  (re) = __builtin_shufflevector (a_, b_, 0, 2, 4, 6, 8, 10, 12, 14);    \
+  (im) = __builtin_shufflevector (a_, b_, 1, 3, 5, 7, 9, 11, 13, 15);   \
 } G_STMT_END
 
 

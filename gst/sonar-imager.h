@@ -24,29 +24,12 @@
 #define SONAR_IMAGER_H
 
 #include "sonar-doppler-bank.h"
+#include "sonar-image-grid.h"
 #include "sonar-setup.h"
 #include "sonar-spectrum.h"
 #include "sonar-workers.h"
 
 G_BEGIN_DECLS
-
-typedef struct
-{
-  guint n_azimuth;
-  double azimuth_first, azimuth_step;   /* degrees */
-  guint n_elevation;
-  double elevation_first, elevation_step;       /* degrees */
-  guint n_range;
-  double range_first, range_step;       /* m */
-} SonarImageGrid;
-
-/* Pixel (elevation e, azimuth a, range i) is image[(e * n_azimuth + a)
- * * n_range + i]. */
-static inline gsize
-sonar_image_grid_size (const SonarImageGrid * grid)
-{
-  return (gsize) grid->n_elevation * grid->n_azimuth * grid->n_range;
-}
 
 typedef struct
 {

@@ -68,8 +68,6 @@ validate (const SonarImageGrid * g, const SonarClusterParams * p,
     problem = "floor-db must be in [0, 200] dB";
   else if (!(p->absolute_threshold >= 0.0 && isfinite (p->absolute_threshold)))
     problem = "absolute-threshold must be finite and >= 0";
-  else if ((guint) p->linkage > SONAR_LINKAGE_CENTROID)
-    problem = "linkage must be ward, single, complete, average or centroid";
   else if ((guint) p->stop > SONAR_STOP_DISTANCE)
     problem = "stop must be inconsistency or distance";
   else if (!isfinite (p->inconsistency))
@@ -83,6 +81,13 @@ validate (const SonarImageGrid * g, const SonarClusterParams * p,
   if (problem) {
     g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
         "cluster: %s", problem);
+    return FALSE;
+  }
+  if ((guint) p->linkage > SONAR_LINKAGE_CENTROID) {
+    g_autofree char *nicks = sonar_linkage_nicks (", ");
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "cluster: linkage is %d; it must be one of %s", (int) p->linkage,
+        nicks);
     return FALSE;
   }
   return TRUE;

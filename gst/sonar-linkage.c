@@ -712,6 +712,34 @@ sonar_fcluster_distance (const double *Z, guint n, double threshold,
   work_free (w);
 }
 
+static const SonarLinkageInfo methods[] = {
+  {SONAR_LINKAGE_WARD, "ward", "Ward's minimum variance"},
+  {SONAR_LINKAGE_SINGLE, "single", "Single link (nearest neighbour, SLINK)"},
+  {SONAR_LINKAGE_COMPLETE, "complete", "Complete link (farthest neighbour)"},
+  {SONAR_LINKAGE_AVERAGE, "average", "Average link (UPGMA)"},
+  {SONAR_LINKAGE_CENTROID, "centroid", "Centroid link (UPGMC)"},
+};
+
+G_STATIC_ASSERT (G_N_ELEMENTS (methods) == SONAR_LINKAGE_CENTROID + 1);
+
+const SonarLinkageInfo *
+sonar_linkage_methods (guint * n_methods)
+{
+  *n_methods = G_N_ELEMENTS (methods);
+  return methods;
+}
+
+char *
+sonar_linkage_nicks (const char *separator)
+{
+  GString *nicks = g_string_new (NULL);
+
+  for (guint i = 0; i < G_N_ELEMENTS (methods); i++)
+    g_string_append_printf (nicks, "%s%s", i ? separator : "",
+        methods[i].nick);
+  return g_string_free (nicks, FALSE);
+}
+
 SonarLinkageWork *
 sonar_linkage_work_new (guint capacity, guint dims, SonarLinkage linkage)
 {

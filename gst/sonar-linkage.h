@@ -21,6 +21,20 @@ typedef enum
   SONAR_LINKAGE_CENTROID,       /* UPGMC */
 } SonarLinkage;
 
+typedef struct
+{
+  SonarLinkage linkage;
+  const char *nick;             /* SciPy's method name: "ward" */
+  const char *description;      /* one line, for gst-inspect and tools */
+} SonarLinkageInfo;
+
+/* Every method, in the enum's order: *n_methods of them. wardcluster's
+ * property, sonar-bench and the tests take their names from here. */
+const SonarLinkageInfo *sonar_linkage_methods (guint * n_methods);
+
+/* The nicks joined by @separator, for messages. g_free it. */
+char *sonar_linkage_nicks (const char *separator);
+
 /* Linkage matrix Z ((n - 1) x 4, row-major) of @n points of @dims
  * coordinates (row-major), Euclidean metric, exactly as SciPy's
  * linkage (points, method): row k merges clusters Z[k][0] < Z[k][1] (ids

@@ -40,7 +40,7 @@ GST_DEBUG_CATEGORY_STATIC (sonar_src_debug);
 #define GST_TYPE_SONAR_SCENE_PRESET (gst_sonar_scene_preset_get_type ())
 #define GST_TYPE_SONAR_WAVEFORM (gst_sonar_waveform_get_type ())
 
-/* Enum values mirror the core's SonarScenePreset / SonarWaveformKind. */
+/* Enum values mirror the core's SonarScenePreset. */
 static GType
 gst_sonar_scene_preset_get_type (void)
 {
@@ -61,22 +61,25 @@ gst_sonar_scene_preset_get_type (void)
   return type;
 }
 
+/* From the core's table of waveform kinds (sonar-waveform.c). */
 static GType
 gst_sonar_waveform_get_type (void)
 {
   static GType type = 0;
-  static const GEnumValue values[] = {
-    {SONAR_WAVEFORM_NOISE, "Band-passed pseudo-random Gaussian noise "
-          "(PR-AWGN, near-orthogonal)", "noise"},
-    {SONAR_WAVEFORM_HYPERBOLIC_CHIRP, "Hyperbolic FM chirp (Doppler tolerant)",
-        "hyperbolic-chirp"},
-    {SONAR_WAVEFORM_MULTISINE, "Multisine, interleaved frequencies per "
-          "emitter", "multisine"},
-    {0, NULL, NULL}
-  };
-  if (g_once_init_enter (&type))
+
+  if (g_once_init_enter (&type)) {
+    guint n;
+    const SonarWaveformKindInfo *kinds = sonar_waveform_kinds (&n);
+    /* Registered for the process's lifetime, as a static table would be. */
+    GEnumValue *values = g_new0 (GEnumValue, n + 1);
+    for (guint i = 0; i < n; i++) {
+      values[i].value = kinds[i].kind;
+      values[i].value_name = kinds[i].description;
+      values[i].value_nick = kinds[i].nick;
+    }
     g_once_init_leave (&type, g_enum_register_static ("GstSonarWaveform",
             values));
+  }
   return type;
 }
 

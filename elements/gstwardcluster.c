@@ -24,24 +24,26 @@ GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
 #define MAX_CENTROIDS 256
 #define DEFAULT_POST_MESSAGES TRUE
 
+/* From the core's table of linkage methods (sonar-linkage.c). */
 #define GST_TYPE_SONAR_LINKAGE (sonar_linkage_get_type ())
 static GType
 sonar_linkage_get_type (void)
 {
   static GType type = 0;
-  static const GEnumValue values[] = {
-    {SONAR_LINKAGE_WARD, "Ward's minimum variance", "ward"},
-    {SONAR_LINKAGE_SINGLE, "Single link (nearest neighbour, SLINK)",
-        "single"},
-    {SONAR_LINKAGE_COMPLETE, "Complete link (farthest neighbour)",
-        "complete"},
-    {SONAR_LINKAGE_AVERAGE, "Average link (UPGMA)", "average"},
-    {SONAR_LINKAGE_CENTROID, "Centroid link (UPGMC)", "centroid"},
-    {0, NULL, NULL}
-  };
-  if (g_once_init_enter (&type))
+
+  if (g_once_init_enter (&type)) {
+    guint n;
+    const SonarLinkageInfo *methods = sonar_linkage_methods (&n);
+    /* Registered for the process's lifetime, as a static table would be. */
+    GEnumValue *values = g_new0 (GEnumValue, n + 1);
+    for (guint i = 0; i < n; i++) {
+      values[i].value = methods[i].linkage;
+      values[i].value_name = methods[i].description;
+      values[i].value_nick = methods[i].nick;
+    }
     g_once_init_leave (&type, g_enum_register_static ("GstSonarLinkage",
             values));
+  }
   return type;
 }
 

@@ -11,7 +11,7 @@
  *    axis (exact for a Gaussian lobe).
  * 3. Agglomerative hierarchical clustering of the peaks' sensor frame
  *    positions (m), Euclidean distances, with SciPy's linkage methods (Ward
- *    by default, eq. 14).
+ *    by default, eq. 14; sonar-linkage.h).
  * 4. Stop: SciPy's inconsistency coefficient over @depth levels of links
  *    (the paper's three sub-branches), or a distance cut.
  * 5. One centroid per flat cluster, strongest first.
@@ -44,20 +44,11 @@
 
 #include <glib.h>
 
-#include "sonar-imager.h"
+#include "sonar-image-grid.h"
+#include "sonar-linkage.h"
 #include "sonar-vec3.h"
 
 G_BEGIN_DECLS
-
-/* SciPy's scipy.cluster.hierarchy.linkage methods of the same names. */
-typedef enum
-{
-  SONAR_LINKAGE_WARD,
-  SONAR_LINKAGE_SINGLE,
-  SONAR_LINKAGE_COMPLETE,
-  SONAR_LINKAGE_AVERAGE,
-  SONAR_LINKAGE_CENTROID,       /* UPGMC */
-} SonarLinkage;
 
 /* SciPy's fcluster criteria 'inconsistent' and 'distance'. */
 typedef enum
@@ -143,28 +134,6 @@ guint sonar_clusterer_process (SonarClusterer * c, const float *image,
 
 /* Peaks found by the last process call (before the max_peaks cap). */
 guint sonar_clusterer_n_peaks (const SonarClusterer * c);
-
-/* The building blocks, exposed to be checked against SciPy. */
-
-/* Linkage matrix Z ((n - 1) x 4, row-major) of @n points of @dims
- * coordinates (row-major), Euclidean metric, exactly as SciPy's
- * linkage (points, method): row k merges clusters Z[k][0] < Z[k][1] (ids
- * below n are points, n + j the cluster of row j) at height Z[k][2] into a
- * cluster of Z[k][3] points. Rows are sorted by height except for the
- * centroid method, whose heights need not increase. n >= 1. */
-void sonar_linkage (const double *points, guint n, guint dims,
-    SonarLinkage linkage, double *Z);
-
-/* Flat cluster labels 1..k of the n points of @Z, as SciPy's
- * fcluster (Z, threshold, criterion='inconsistent', depth=depth) and
- * fcluster (Z, threshold, criterion='distance'), up to the numbering. The
- * inconsistency coefficient is SciPy's inconsistent (Z, depth)[:, 3]:
- * (height - mean) / std over the link and its sub-links down to depth - 1
- * levels below (sample std; 0 when the std is 0). n >= 1. */
-void sonar_fcluster_inconsistent (const double *Z, guint n,
-    double threshold, guint depth, int *labels);
-void sonar_fcluster_distance (const double *Z, guint n, double threshold,
-    int *labels);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarClusterer, sonar_clusterer_free)
 

@@ -2,6 +2,7 @@
 #include "sonar-imager.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
+#include "sonar-steering.h"
 #include "sonar-workers.h"
 
 #include <fftw3.h>
@@ -20,8 +21,9 @@ typedef struct
 {
   guint first_range, end_range; /* range bins [first, end) of the grid */
   double focus;                 /* m */
-  double *mic_path;             /* [direction][microphone] e_j, m */
-  double *emitter_path;         /* [direction][emitter] e_n, m */
+  /* The legs (sonar-steering.h) of each direction's point at the focus. */
+  double *mic_legs;             /* [direction][microphone] m_j, m */
+  double *emitter_legs;         /* [direction][emitter] e_n, m */
 } FocusZone;
 
 /* Delay and sum output of one direction, then its inverse transform. The
@@ -59,6 +61,7 @@ struct _SonarImager
 {
   SonarSetup *setup;
   SonarBand band;
+  SonarSteering steering;
   SonarImageGrid grid;
   guint n_directions;
   SonarVec3 *directions;
@@ -188,19 +191,14 @@ init_zone (SonarImager * im, FocusZone * zone, double focus, guint first,
   zone->focus = focus;
   zone->first_range = first;
   zone->end_range = end;
-  zone->mic_path = g_new (double, (gsize) im->n_directions *
+  zone->mic_legs = g_new (double, (gsize) im->n_directions *
       g->n_microphones);
-  zone->emitter_path = g_new (double, (gsize) im->n_directions *
+  zone->emitter_legs = g_new (double, (gsize) im->n_directions *
       g->n_emitters);
-  for (guint d = 0; d < im->n_directions; d++) {
-    const SonarVec3 point = sonar_vec3_scale (im->directions[d], focus);
-    for (guint j = 0; j < g->n_microphones; j++)
-      zone->mic_path[(gsize) d * g->n_microphones + j] =
-          sonar_vec3_norm (sonar_vec3_sub (point, g->microphones[j])) - focus;
-    for (guint n = 0; n < g->n_emitters; n++)
-      zone->emitter_path[(gsize) d * g->n_emitters + n] =
-          sonar_vec3_norm (sonar_vec3_sub (point, g->emitters[n])) - focus;
-  }
+  for (guint d = 0; d < im->n_directions; d++)
+    sonar_steering_legs (&im->steering, im->directions[d], focus,
+        zone->mic_legs + (gsize) d * g->n_microphones,
+        zone->emitter_legs + (gsize) d * g->n_emitters);
 }
 
 /* The focus zones, then (when there is a coarse pass) the coarse zone:
@@ -250,6 +248,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   im = g_new0 (SonarImager, 1);
   im->setup = sonar_setup_ref (setup);
   im->band = *band;
+  sonar_steering_init (&im->steering, setup, band);
   grid = &im->grid;
 
   grid->n_azimuth = p->n_azimuth;
@@ -331,8 +330,8 @@ sonar_imager_free (SonarImager * im)
   if (!im)
     return;
   for (guint z = 0; z <= im->n_zones && im->zones; z++) {
-    g_free (im->zones[z].mic_path);
-    g_free (im->zones[z].emitter_path);
+    g_free (im->zones[z].mic_legs);
+    g_free (im->zones[z].emitter_legs);
   }
   g_free (im->zones);
   g_free (im->directions);
@@ -423,11 +422,7 @@ image_units (gpointer data, guint w, guint n_workers)
   const Scratch *scratch = &im->scratch[w];
   const SonarGeometry *g = &im->setup->geometry;
   const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
-  const double c = im->setup->speed_of_sound;
-  /* Phase of a path difference of one metre, at the first bin and per bin. */
-  const double k0 = 2.0 * M_PI * sonar_band_frequency (&im->band, 0) / c;
-  const double dk = 2.0 * M_PI * im->setup->sample_rate /
-      im->band.fft_size / c;
+  const SonarSplitSpectra mic_spectra = { im->mic_re, im->mic_im };
   const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
   const guint n_end = job->emitter < 0 ? g->n_emitters :
       (guint) job->emitter + 1;
@@ -437,8 +432,8 @@ image_units (gpointer data, guint w, guint n_workers)
     const FocusZone *zone = &im->zones[UNIT_ZONE (im, job->units[u])];
     const guint first = zone->first_range;
     const guint count = zone->end_range - zone->first_range;
-    const double *mic_path = zone->mic_path + (gsize) d * g->n_microphones;
-    const double *emitter_path = zone->emitter_path +
+    const double *mic_legs = zone->mic_legs + (gsize) d * g->n_microphones;
+    const double *emitter_legs = zone->emitter_legs +
         (gsize) d * g->n_emitters;
     const gsize pixels = (gsize) d * n_range + first;
     const guint n_hyp = job->n_hypotheses;
@@ -450,18 +445,11 @@ image_units (gpointer data, guint w, guint n_workers)
     if (job->wanted)
       coarse_corners (im, d, corners);
     /* Receive side: once per direction for every hypothesis. */
-    memset (scratch->receive_re, 0, sizeof (float) * n_bins);
-    memset (scratch->receive_im, 0, sizeof (float) * n_bins);
-    for (guint j = 0; j < g->n_microphones; j++)
-      sonar_kernel_steer_accumulate_split (scratch->receive_re,
-          scratch->receive_im, im->mic_re + (gsize) j * n_bins,
-          im->mic_im + (gsize) j * n_bins, n_bins, k0 * mic_path[j],
-          dk * mic_path[j], FALSE);
+    sonar_steering_receive_sum (&im->steering, &mic_spectra, mic_legs,
+        scratch->receive_re, scratch->receive_im);
 
     for (guint h = 0; h < n_hyp; h++) {
       const SonarHypothesis *hypothesis = &job->hypotheses[h];
-      const double v = hypothesis->velocity;
-      const double stretch = (c + v) / (c - v); /* 1 / alpha */
       const guint z = UNIT_ZONE (im, job->units[u]);
       const SonarComplex *lags;
 
@@ -470,16 +458,10 @@ image_units (gpointer data, guint w, guint n_workers)
           && !job->wanted[UNIT (im, corners[2], z) * n_hyp + h]
           && !job->wanted[UNIT (im, corners[3], z) * n_hyp + h])
         continue;
-      memset (scratch->transmit_re, 0, sizeof (float) * n_bins);
-      memset (scratch->transmit_im, 0, sizeof (float) * n_bins);
-      for (guint n = n_first; n < n_end; n++) {
-        const double path = emitter_path[n] * stretch;
-        const gsize t = (gsize) n * n_bins;
-        sonar_kernel_steer_accumulate_split (scratch->transmit_re,
-            scratch->transmit_im, hypothesis->templates.re + t,
-            hypothesis->templates.im + t,
-            n_bins, k0 * path, dk * path, TRUE);
-      }
+      sonar_steering_transmit_sum (&im->steering, &hypothesis->templates,
+          emitter_legs, sonar_steering_stretch (&im->steering,
+              hypothesis->velocity), n_first, n_end, scratch->transmit_re,
+          scratch->transmit_im);
       sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
           scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
           n_bins);

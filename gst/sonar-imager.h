@@ -1,17 +1,12 @@
 /* sonar-imager.h: the MIMO virtual-array delay-and-sum image (paper eq.
  * 11-13), computed on the band's spectra.
  *
- * For a pixel at range r in direction u, the echo through emitter n and
- * microphone j arrives later than the array centre's by
- *   tau_nj = (e_n / alpha + m_j) / c,  e = |r u - p| - r,
- * alpha = (c - v) / (c + v) the Doppler scale of the hypothesis v: a moving
- * object meets each emitter's pulse at a slightly different instant, which
- * stretches the emitter leg by 1 / alpha. The delays of emitters and
- * microphones add, so the sum over the N x J pairs of matched-filter
- * spectra factors into (sum over microphones) x (sum over emitters): J + N
- * products per bin instead of N J. Delays depend on r (the array is in
- * its own near field below a few metres): they are exact at the focus
- * range of each of a few range zones, spaced evenly in 1 / r.
+ * A pixel's delays follow sonar-steering.h's model (the emitter legs
+ * stretched for each Doppler hypothesis v), and its delay-and-sum is a
+ * receive sum over the microphones times a transmit sum over the emitters:
+ * J + N products per bin instead of N J. The legs depend on r (the array is in its own near
+ * field below a few metres): they are exact at the focus range of each of
+ * a few range zones, spaced evenly in 1 / r.
  *
  * The image is the envelope of the delay-and-sum output, the magnitude of
  * the analytic signal, sampled on a regular range grid.
@@ -29,29 +24,12 @@
 #define SONAR_IMAGER_H
 
 #include "sonar-doppler-bank.h"
+#include "sonar-image-grid.h"
 #include "sonar-setup.h"
 #include "sonar-spectrum.h"
 #include "sonar-workers.h"
 
 G_BEGIN_DECLS
-
-typedef struct
-{
-  guint n_azimuth;
-  double azimuth_first, azimuth_step;   /* degrees */
-  guint n_elevation;
-  double elevation_first, elevation_step;       /* degrees */
-  guint n_range;
-  double range_first, range_step;       /* m */
-} SonarImageGrid;
-
-/* Pixel (elevation e, azimuth a, range i) is image[(e * n_azimuth + a)
- * * n_range + i]. */
-static inline gsize
-sonar_image_grid_size (const SonarImageGrid * grid)
-{
-  return (gsize) grid->n_elevation * grid->n_azimuth * grid->n_range;
-}
 
 typedef struct
 {

@@ -23,8 +23,8 @@ unit_phasor (double phase)
 
 /* References -------------------------------------------------------------*/
 
-void
-sonar_kernel_steer_accumulate_split_generic (float *acc_re, float *acc_im,
+static void
+steer_accumulate_split_generic (float *acc_re, float *acc_im,
     const float *x_re, const float *x_im, guint n, double phase0,
     double dphase, gboolean conj_x)
 {
@@ -52,8 +52,8 @@ sonar_kernel_split (float *re, float *im, const SonarComplex * x, gsize n)
   }
 }
 
-void
-sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
+static void
+steer_block_sums_conj_generic (SonarComplex * out,
     const float *a_re, const float *a_im, const float *b_re,
     const float *b_im, guint n, double phase0, double dphase, guint block)
 {
@@ -73,8 +73,8 @@ sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
   }
 }
 
-SonarComplex
-sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
+static SonarComplex
+steer_sum_generic (const SonarComplex * x, guint n,
     double phase0, double dphase)
 {
   const SonarComplex rotation = unit_phasor (dphase);
@@ -91,28 +91,38 @@ sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
   return sum;
 }
 
-/* Fast versions ----------------------------------------------------------*/
+static void
+multiply_split_generic (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n)
+{
+  for (guint k = 0; k < n; k++)
+    out[k] = (a_re[k] + I * a_im[k]) * (b_re[k] + I * b_im[k]);
+}
 
-/* The fast kernels are compiled for AVX2 and used where the CPU has it;
- * elsewhere the references run (the lane code emulated on 128-bit SSE2 is
- * slower than the scalar reference). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define FAST_TARGET __attribute__ ((target ("avx2,fma")))
-#define HAVE_FAST() (__builtin_cpu_supports ("avx2") \
-    && __builtin_cpu_supports ("fma"))
-#else
-#define FAST_TARGET
-#define HAVE_FAST() FALSE
-#endif
+static void
+envelope_generic (float *out, const SonarComplex * x, guint n,
+    float scale, gboolean accumulate)
+{
+  for (guint k = 0; k < n; k++) {
+    const float re = crealf (x[k]), im = cimagf (x[k]);
+    const float v = scale * sqrtf (re * re + im * im);
+    out[k] = accumulate ? MAX (out[k], v) : v;
+  }
+}
+
+/* AVX2 versions ----------------------------------------------------------*/
+
+/* The lane kernels are compiled for AVX2 and FMA, for the CPUs that have
+ * them; elsewhere the references run (the lane code emulated on 128-bit
+ * SSE2 is slower than the scalar reference). */
+#if defined(__x86_64__) && defined(__GNUC__)
+#define HAVE_AVX2_KERNELS 1
+#define AVX2_TARGET __attribute__ ((target ("avx2,fma")))
 
 /* Lane l holds the phasor of bin k0 + l; one step moves every lane LANES
  * bins on. Vectors of LANES floats hold real and imaginary parts apart, so
  * a complex product is four multiplies and two adds per lane. */
 typedef float Vec __attribute__ ((vector_size (LANES * sizeof (float))));
-typedef int VecIndex __attribute__ ((vector_size (LANES * sizeof (int))));
-
-static const VecIndex even = { 0, 2, 4, 6, 8, 10, 12, 14 };
-static const VecIndex odd = { 1, 3, 5, 7, 9, 11, 13, 15 };
 
 /* The seeds of successive reseeds come from a rotation in double
  * precision, not from a sincos each: over a spectrum's few dozen reseeds
@@ -197,13 +207,13 @@ lanes_seed (Lanes * p)
   Vec a_, b_;                                                           \
   memcpy (&a_, (x), sizeof a_);                                         \
   memcpy (&b_, (x) + LANES / 2, sizeof b_);                             \
-  (re) = __builtin_shuffle (a_, b_, even);                              \
-  (im) = __builtin_shuffle (a_, b_, odd);                               \
+  (re) = __builtin_shufflevector (a_, b_, 0, 2, 4, 6, 8, 10, 12, 14);    \
+  (im) = __builtin_shufflevector (a_, b_, 1, 3, 5, 7, 9, 11, 13, 15);   \
 } G_STMT_END
 
 
-FAST_TARGET static void
-steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
+AVX2_TARGET static void
+steer_accumulate_split_avx2 (float *acc_re, float *acc_im, const float *x_re,
     const float *x_im, guint n, double phase0, double dphase,
     gboolean conj_x)
 {
@@ -239,8 +249,8 @@ steer_accumulate_split_fast (float *acc_re, float *acc_im, const float *x_re,
 
 /* Block sums: the lane products are summed over a block, then across the
  * lanes. */
-FAST_TARGET static void
-steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
+AVX2_TARGET static void
+steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
     const float *a_im, const float *b_re, const float *b_im, guint n,
     double phase0, double dphase, guint block)
 {
@@ -281,8 +291,8 @@ steer_block_sums_conj_fast (SonarComplex * out, const float *a_re,
   }
 }
 
-FAST_TARGET static SonarComplex
-steer_sum_fast (const SonarComplex * x, guint n, double phase0,
+AVX2_TARGET static SonarComplex
+steer_sum_avx2 (const SonarComplex * x, guint n, double phase0,
     double dphase)
 {
   const guint whole = n - n % LANES;
@@ -309,59 +319,9 @@ steer_sum_fast (const SonarComplex * x, guint n, double phase0,
   return sum;
 }
 
-void
-sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
-    const float *x_re, const float *x_im, guint n, double phase0,
-    double dphase, gboolean conj_x)
-{
-  if (HAVE_FAST ())
-    steer_accumulate_split_fast (acc_re, acc_im, x_re, x_im, n, phase0,
-        dphase, conj_x);
-  else
-    sonar_kernel_steer_accumulate_split_generic (acc_re, acc_im, x_re, x_im,
-        n, phase0, dphase, conj_x);
-}
+#endif /* HAVE_AVX2_KERNELS */
 
-void
-sonar_kernel_steer_block_sums_conj (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n,
-    double phase0, double dphase, guint block)
-{
-  g_return_if_fail (block % LANES == 0 && RESEED_INTERVAL % block == 0);
-  if (HAVE_FAST ())
-    steer_block_sums_conj_fast (out, a_re, a_im, b_re, b_im, n, phase0,
-        dphase, block);
-  else
-    sonar_kernel_steer_block_sums_conj_generic (out, a_re, a_im, b_re, b_im,
-        n, phase0, dphase, block);
-}
-
-SonarComplex
-sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
-    double dphase)
-{
-  return HAVE_FAST ()? steer_sum_fast (x, n, phase0, dphase) :
-      sonar_kernel_steer_sum_generic (x, n, phase0, dphase);
-}
-
-void
-sonar_kernel_multiply_split_generic (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n)
-{
-  for (guint k = 0; k < n; k++)
-    out[k] = (a_re[k] + I * a_im[k]) * (b_re[k] + I * b_im[k]);
-}
-
-void
-sonar_kernel_envelope_generic (float *out, const SonarComplex * x, guint n,
-    float scale, gboolean accumulate)
-{
-  for (guint k = 0; k < n; k++) {
-    const float re = crealf (x[k]), im = cimagf (x[k]);
-    const float v = scale * sqrtf (re * re + im * im);
-    out[k] = accumulate ? MAX (out[k], v) : v;
-  }
-}
+/* ORC versions -----------------------------------------------------------*/
 
 /* ORC's compiled x86 code turns on flush-to-zero and denormals-are-zero
  * in MXCSR and leaves them on: every float operation after it on that
@@ -388,8 +348,8 @@ orc_ready (void)
   }
 }
 
-void
-sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
+static void
+multiply_split_orc (SonarComplex * out, const float *a_re,
     const float *a_im, const float *b_re, const float *b_im, guint n)
 {
   FLOAT_MODE_SAVE ();
@@ -399,8 +359,8 @@ sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
   FLOAT_MODE_RESTORE ();
 }
 
-void
-sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
+static void
+envelope_orc (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate)
 {
   FLOAT_MODE_SAVE ();
@@ -411,4 +371,140 @@ sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
   else
     sonar_orc_envelope (out, (const float *) x, scale, (int) n);
   FLOAT_MODE_RESTORE ();
+}
+
+/* The tables and the entry points --------------------------------------*/
+
+static gboolean
+always_available (void)
+{
+  return TRUE;
+}
+
+#ifdef HAVE_AVX2_KERNELS
+static gboolean
+cpu_has_avx2_fma (void)
+{
+  return __builtin_cpu_supports ("avx2") && __builtin_cpu_supports ("fma");
+}
+#endif
+
+const SonarSteerAccumulateSplitImpl
+    sonar_kernel_steer_accumulate_split_impls[] = {
+  {"generic", steer_accumulate_split_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_accumulate_split_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+const SonarSteerBlockSumsConjImpl sonar_kernel_steer_block_sums_conj_impls[]
+    = {
+  {"generic", steer_block_sums_conj_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_block_sums_conj_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+const SonarSteerSumImpl sonar_kernel_steer_sum_impls[] = {
+  {"generic", steer_sum_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_sum_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+/* ORC compiles for the running CPU, or runs its C backup where it cannot:
+ * always available. */
+const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
+  {"generic", multiply_split_generic, always_available},
+  {"orc", multiply_split_orc, always_available},
+  {NULL, NULL, NULL}
+};
+
+const SonarEnvelopeImpl sonar_kernel_envelope_impls[] = {
+  {"generic", envelope_generic, always_available},
+  {"orc", envelope_orc, always_available},
+  {NULL, NULL, NULL}
+};
+
+/* The implementation each entry point calls, chosen once per process. */
+static struct
+{
+  SonarSteerAccumulateSplitFn steer_accumulate_split;
+  SonarSteerBlockSumsConjFn steer_block_sums_conj;
+  SonarSteerSumFn steer_sum;
+  SonarMultiplySplitFn multiply_split;
+  SonarEnvelopeFn envelope;
+} chosen;
+
+/* The last implementation of @impls the CPU has. */
+#define LAST_AVAILABLE(impls, choice) G_STMT_START {                    \
+  for (guint i_ = 0; (impls)[i_].name; i_++)                            \
+    if ((impls)[i_].available ())                                       \
+      (choice) = (impls)[i_].fn;                                        \
+} G_STMT_END
+
+static inline void
+choose (void)
+{
+  static gsize done = 0;
+
+  if (g_once_init_enter (&done)) {
+    LAST_AVAILABLE (sonar_kernel_steer_accumulate_split_impls,
+        chosen.steer_accumulate_split);
+    LAST_AVAILABLE (sonar_kernel_steer_block_sums_conj_impls,
+        chosen.steer_block_sums_conj);
+    LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
+    LAST_AVAILABLE (sonar_kernel_multiply_split_impls,
+        chosen.multiply_split);
+    LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
+    g_once_init_leave (&done, 1);
+  }
+}
+
+void
+sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
+    const float *x_re, const float *x_im, guint n, double phase0,
+    double dphase, gboolean conj_x)
+{
+  choose ();
+  chosen.steer_accumulate_split (acc_re, acc_im, x_re, x_im, n, phase0,
+      dphase, conj_x);
+}
+
+void
+sonar_kernel_steer_block_sums_conj (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase, guint block)
+{
+  g_return_if_fail (block % LANES == 0 && RESEED_INTERVAL % block == 0);
+  choose ();
+  chosen.steer_block_sums_conj (out, a_re, a_im, b_re, b_im, n, phase0,
+      dphase, block);
+}
+
+SonarComplex
+sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
+    double dphase)
+{
+  choose ();
+  return chosen.steer_sum (x, n, phase0, dphase);
+}
+
+void
+sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n)
+{
+  choose ();
+  chosen.multiply_split (out, a_re, a_im, b_re, b_im, n);
+}
+
+void
+sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
+    float scale, gboolean accumulate)
+{
+  choose ();
+  chosen.envelope (out, x, n, scale, accumulate);
 }

@@ -1,11 +1,15 @@
-/* sonar-kernels.h: the hot loops of the imaging chain.
+/* sonar-kernels.h: the hot loops of the imaging chain, VOLK's way.
  *
- * Each kernel has a plain scalar reference definition (_generic) and the
- * version the chain calls, written for the vectoriser: the phase ramp
- * advances in LANES independent lanes instead of one serial recurrence.
- * The simplest (complex products, envelopes) are ORC programs
- * (sonar-orc.orc), compiled for the running CPU. tests/test-kernels.c
- * checks every fast kernel against its reference, as VOLK does.
+ * Every kernel has a table of implementations (sonar_kernel_<name>_impls,
+ * ended by an entry without a name): first its plain C reference,
+ * "generic", always available; then the faster ones, each with a run-time
+ * check of the CPU: "avx2" (AVX2 and FMA, written for the vectoriser: the
+ * phase ramp advances in LANES independent lanes instead of one serial
+ * recurrence) or "orc" (an ORC program of sonar-orc.orc, which ORC
+ * compiles for the running CPU or runs as its C backup). The kernel's
+ * entry point, sonar_kernel_<name> (), calls the last implementation the
+ * CPU has. tests/test-kernels.c checks every implementation the CPU has
+ * against the reference and reports the others as skipped.
  */
 #ifndef SONAR_KERNELS_H
 #define SONAR_KERNELS_H
@@ -13,6 +17,10 @@
 #include "sonar-spectrum.h"
 
 G_BEGIN_DECLS
+
+/* One implementation of a kernel of function type @Fn. */
+#define SONAR_KERNEL_IMPL(Fn) \
+  struct { const char *name; Fn fn; gboolean (*available) (void); }
 
 /* acc[k] += x[k] * exp(i (phase0 + k * dphase)), k < n, on split arrays
  * (x[k] = x_re[k] + i x_im[k], its conjugate when @conj_x; acc alike):
@@ -24,9 +32,13 @@ G_BEGIN_DECLS
 void sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
     const float *x_re, const float *x_im, guint n, double phase0,
     double dphase, gboolean conj_x);
-void sonar_kernel_steer_accumulate_split_generic (float *acc_re,
-    float *acc_im, const float *x_re, const float *x_im, guint n,
-    double phase0, double dphase, gboolean conj_x);
+typedef void (*SonarSteerAccumulateSplitFn) (float *acc_re, float *acc_im,
+    const float *x_re, const float *x_im, guint n, double phase0,
+    double dphase, gboolean conj_x);
+typedef SONAR_KERNEL_IMPL (SonarSteerAccumulateSplitFn)
+    SonarSteerAccumulateSplitImpl;
+extern const SonarSteerAccumulateSplitImpl
+    sonar_kernel_steer_accumulate_split_impls[];
 
 /* re[k] = creal (x[k]), im[k] = cimag (x[k]). */
 void sonar_kernel_split (float *re, float *im, const SonarComplex * x,
@@ -43,30 +55,38 @@ void sonar_kernel_split (float *re, float *im, const SonarComplex * x,
 void sonar_kernel_steer_block_sums_conj (SonarComplex * out,
     const float *a_re, const float *a_im, const float *b_re,
     const float *b_im, guint n, double phase0, double dphase, guint block);
-void sonar_kernel_steer_block_sums_conj_generic (SonarComplex * out,
+typedef void (*SonarSteerBlockSumsConjFn) (SonarComplex * out,
     const float *a_re, const float *a_im, const float *b_re,
     const float *b_im, guint n, double phase0, double dphase, guint block);
+typedef SONAR_KERNEL_IMPL (SonarSteerBlockSumsConjFn)
+    SonarSteerBlockSumsConjImpl;
+extern const SonarSteerBlockSumsConjImpl
+    sonar_kernel_steer_block_sums_conj_impls[];
 
 /* sum over k < n of x[k] * exp(i (phase0 + k * dphase)). */
 SonarComplex sonar_kernel_steer_sum (const SonarComplex * x, guint n,
     double phase0, double dphase);
-SonarComplex sonar_kernel_steer_sum_generic (const SonarComplex * x, guint n,
+typedef SonarComplex (*SonarSteerSumFn) (const SonarComplex * x, guint n,
     double phase0, double dphase);
+typedef SONAR_KERNEL_IMPL (SonarSteerSumFn) SonarSteerSumImpl;
+extern const SonarSteerSumImpl sonar_kernel_steer_sum_impls[];
 
 /* out[k] = (a_re[k] + i a_im[k]) (b_re[k] + i b_im[k]): split operands,
- * interleaved product. An ORC kernel (sonar-orc.orc). */
+ * interleaved product. */
 void sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
     const float *a_im, const float *b_re, const float *b_im, guint n);
-void sonar_kernel_multiply_split_generic (SonarComplex * out,
-    const float *a_re, const float *a_im, const float *b_re,
-    const float *b_im, guint n);
+typedef void (*SonarMultiplySplitFn) (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n);
+typedef SONAR_KERNEL_IMPL (SonarMultiplySplitFn) SonarMultiplySplitImpl;
+extern const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[];
 
-/* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). An ORC
- * kernel. */
+/* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). */
 void sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate);
-void sonar_kernel_envelope_generic (float *out, const SonarComplex * x,
-    guint n, float scale, gboolean accumulate);
+typedef void (*SonarEnvelopeFn) (float *out, const SonarComplex * x, guint n,
+    float scale, gboolean accumulate);
+typedef SONAR_KERNEL_IMPL (SonarEnvelopeFn) SonarEnvelopeImpl;
+extern const SonarEnvelopeImpl sonar_kernel_envelope_impls[];
 
 G_END_DECLS
 

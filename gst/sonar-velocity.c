@@ -1,6 +1,7 @@
 /* sonar-velocity.c: see sonar-velocity.h. */
 #include "sonar-velocity.h"
 #include "sonar-kernels.h"
+#include "sonar-steering.h"
 #include "sonar-workers.h"
 
 #include <gio/gio.h>
@@ -16,7 +17,7 @@
  * Doppler main lobe (about 0.33 m/s at -3 dB), like the detection image. */
 #define PRESCREEN_SPACING 0.3
 
-/* Bins per block of the lag sums (see emitter_blocks ()). */
+/* Bins per block of the lag sums (sonar_steering_emitter_blocks ()). */
 #define LAG_BLOCK 16
 
 /* Range steps of the window, at most. */
@@ -30,18 +31,18 @@ struct _SonarVelocityEstimator
   SonarDopplerBank *bank;
   SonarSetup *setup;
   SonarBand band;
+  SonarSteering steering;
   SonarImageGrid grid;
   SonarVelocityParams params;
   guint n_velocities, n_emitters;
   double main_lobe;             /* m/s: one emitter's Doppler resolution */
-  float *receive_re, *receive_im;       /* n_bins: the receive beam, split */
+  /* The window pixel focused on (focus ()): its legs and receive sum. */
+  double *mic_legs, *emitter_legs;
+  float *receive_re, *receive_im;       /* n_bins, split */
   /* sonar_velocity_estimate ()'s spectra, split (microphones x n_bins). */
   float *spectra_re, *spectra_im;
   /* One emitter's matched filter output by blocks of LAG_BLOCK bins. */
   SonarComplex *blocks;
-  guint n_blocks;
-  /* Phase of a metre of path: at the first bin, per bin. */
-  double k0, dk;
   double complex *lag_sums;     /* [range offset]: sums over the emitters */
   double *lag_powers;           /* [range offset] */
   double *acf;                  /* [emitter][velocity], linear */
@@ -112,18 +113,17 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   /* c / (2 f0 T): the Doppler resolution of one emission (physics notes). */
   est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
           setup->band_high) * setup->waveform_length / setup->sample_rate);
+  sonar_steering_init (&est->steering, setup, band);
+  est->mic_legs = g_new (double, setup->geometry.n_microphones);
+  est->emitter_legs = g_new (double, setup->geometry.n_emitters);
   est->receive_re = g_new (float, band->n_bins);
   est->receive_im = g_new (float, band->n_bins);
   est->spectra_re = g_new (float, (gsize) band->n_bins *
       setup->geometry.n_microphones);
   est->spectra_im = g_new (float, (gsize) band->n_bins *
       setup->geometry.n_microphones);
-  est->n_blocks = (band->n_bins + LAG_BLOCK - 1) / LAG_BLOCK;
-  est->blocks = g_new (SonarComplex, est->n_blocks);
-  est->k0 = 2.0 * M_PI * sonar_band_frequency (band, 0) /
-      setup->speed_of_sound;
-  est->dk = 2.0 * M_PI * band->sample_rate / band->fft_size /
-      setup->speed_of_sound;
+  est->blocks = g_new (SonarComplex, (band->n_bins + LAG_BLOCK - 1) /
+      LAG_BLOCK);
   est->lag_sums = g_new (double complex, 2 * MAX_WINDOW_RANGES + 1);
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
@@ -148,6 +148,8 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   if (!est)
     return;
   sonar_doppler_bank_unref (est->bank);
+  g_free (est->mic_legs);
+  g_free (est->emitter_legs);
   g_free (est->receive_re);
   g_free (est->receive_im);
   g_free (est->spectra_re);
@@ -164,76 +166,54 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est);
 }
 
-/* Receive beam of @spectra focused at @point (range @range) into
- * est->receive_re, _im. */
+/* Focuses on the point @range m along @direction: its legs and the
+ * receive sum of @spectra there, for emitter_blocks (). */
 static void
-receive_beam (SonarVelocityEstimator * est,
-    const SonarSplitSpectra * spectra, SonarVec3 point, double range)
+focus (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
+    SonarVec3 direction, double range)
 {
-  const SonarGeometry *g = &est->setup->geometry;
-  const guint n_bins = est->band.n_bins;
-
-  memset (est->receive_re, 0, sizeof (float) * n_bins);
-  memset (est->receive_im, 0, sizeof (float) * n_bins);
-  for (guint j = 0; j < g->n_microphones; j++) {
-    const double path = sonar_vec3_norm (sonar_vec3_sub (point,
-            g->microphones[j])) - range;
-    sonar_kernel_steer_accumulate_split (est->receive_re, est->receive_im,
-        spectra->re + (gsize) j * n_bins, spectra->im + (gsize) j * n_bins,
-        n_bins, est->k0 * path, est->dk * path, FALSE);
-  }
+  sonar_steering_legs (&est->steering, direction, range, est->mic_legs,
+      est->emitter_legs);
+  sonar_steering_receive_sum (&est->steering, spectra, est->mic_legs,
+      est->receive_re, est->receive_im);
 }
 
-/* The point at @range, (@da, @de) image grid steps off (@azimuth,
- * @elevation), held within +-90 degrees: a pixel of the window. */
+/* The direction (@da, @de) image grid steps off (@azimuth, @elevation),
+ * held within +-90 degrees: a pixel of the window. */
 static SonarVec3
-window_point (const SonarVelocityEstimator * est, double range,
-    double azimuth, double elevation, int da, int de)
+window_direction (const SonarVelocityEstimator * est, double azimuth,
+    double elevation, int da, int de)
 {
   const SonarImageGrid *grid = &est->grid;
 
-  return sonar_vec3_scale (sonar_vec3_from_direction (CLAMP (azimuth +
-              da * grid->azimuth_step, -90, 90), CLAMP (elevation +
-              de * grid->elevation_step, -90, 90)), range);
+  return sonar_vec3_from_direction (CLAMP (azimuth + da * grid->azimuth_step,
+          -90, 90), CLAMP (elevation + de * grid->elevation_step, -90, 90));
 }
 
-/* Emitter @n's matched filter output at velocity index @v for the beam in
- * est->receive_re, _im, at the lag of the pixel at @point (range @range),
- * summed by blocks of LAG_BLOCK bins into est->blocks. Its outputs at the
- * lags of nearby ranges are then short sums over the blocks (output_at ()):
- * over a block, the extra phase of a lag two range bins away turns by
- * 0.06 rad, an error of -60 dB (tests/test-kernels.c). The window's
- * dozen lags cost one pass over the bins instead of a dozen. */
+/* Emitter @n's matched filter output at velocity index @v, at the lag of
+ * the point focused on (range @range), by blocks of LAG_BLOCK bins into
+ * est->blocks: its outputs at the lags of nearby ranges are then short
+ * sums over the blocks (output_at ()), the window's dozen lags one pass
+ * over the bins instead of a dozen. */
 static void
-emitter_blocks (SonarVelocityEstimator * est, guint n, guint v,
-    SonarVec3 point, double range)
+emitter_blocks (SonarVelocityEstimator * est, guint n, guint v, double range)
 {
-  const SonarGeometry *g = &est->setup->geometry;
-  const double c = est->setup->speed_of_sound;
-  const double vel = sonar_doppler_bank_velocity (est->bank, v);
-  const double e_path = sonar_vec3_norm (sonar_vec3_sub (point,
-          g->emitters[n])) - range;
-  /* The two-way range plus the emitter leg, stretched by 1 / alpha. */
-  const double path = 2.0 * range + e_path * (c + vel) / (c - vel);
   const SonarSplitSpectra templates = sonar_doppler_bank_spectra (est->bank,
       v);
-  const gsize at = (gsize) n * est->band.n_bins;
 
-  sonar_kernel_steer_block_sums_conj (est->blocks, est->receive_re,
-      est->receive_im, templates.re + at, templates.im + at,
-      est->band.n_bins, est->k0 * path, est->dk * path, LAG_BLOCK);
+  sonar_steering_emitter_blocks (&est->steering, est->receive_re,
+      est->receive_im, &templates, n, est->emitter_legs[n],
+      sonar_steering_stretch (&est->steering,
+          sonar_doppler_bank_velocity (est->bank, v)), range, LAG_BLOCK,
+      est->blocks);
 }
 
-/* The output in est->blocks at the lag of @offset m further in range,
- * each block's phase taken at its centre bin. */
+/* The output in est->blocks at the lag of @offset m further in range. */
 static SonarComplex
 output_at (SonarVelocityEstimator * est, double offset)
 {
-  const double path = 2.0 * offset;
-
-  return sonar_kernel_steer_sum (est->blocks, est->n_blocks,
-      (est->k0 + est->dk * 0.5 * (LAG_BLOCK - 1)) * path,
-      est->dk * LAG_BLOCK * path) * (2.0f / est->band.fft_size);
+  return sonar_steering_blocks_at (&est->steering, est->blocks, LAG_BLOCK,
+      offset) * (2.0f / est->band.fft_size);
 }
 
 /* Coherence factor |sum|^2 / (N sum |.|^2) of the emitters' outputs at
@@ -252,9 +232,8 @@ coherence_over (SonarVelocityEstimator * est,
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
-      const SonarVec3 point = window_point (est, range, azimuth, elevation,
-          da, de);
-      receive_beam (est, spectra, point, range);
+      focus (est, spectra, window_direction (est, azimuth, elevation, da,
+              de), range);
       for (guint i = 0; i < n_v; i++) {
         /* In double: float squares underflow below amplitudes of about
          * 1e-19 and overflow above 1e19. */
@@ -265,7 +244,7 @@ coherence_over (SonarVelocityEstimator * est,
           powers[dr] = 0.0;
         }
         for (guint n = 0; n < est->n_emitters; n++) {
-          emitter_blocks (est, n, vs[i], point, range);
+          emitter_blocks (est, n, vs[i], range);
           for (int dr = -wr; dr <= wr; dr++) {
             const double complex y = output_at (est, dr * grid->range_step);
             sums[dr] += y;
@@ -350,14 +329,14 @@ refine_direction (SonarVelocityEstimator * est,
  * times finer, and the peak read off a parabola through the logarithms of
  * the best fine sample and its neighbours. */
 static double
-window_peak (SonarVelocityEstimator * est, guint n, guint v, SonarVec3 point,
-    double range, int wr)
+window_peak (SonarVelocityEstimator * est, guint n, guint v, double range,
+    int wr)
 {
   const double step = est->grid.range_step;
   double fine[9], best_value = -1.0, best_lag = 0.0;
   int best = 4;
 
-  emitter_blocks (est, n, v, point, range);
+  emitter_blocks (est, n, v, range);
   for (int dr = -wr; dr <= wr; dr++) {
     const double y = cabsf (output_at (est, dr * step));
     if (y > best_value) {
@@ -396,15 +375,14 @@ evaluate_window (SonarVelocityEstimator * est,
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
-      const SonarVec3 point = window_point (est, range, azimuth, elevation,
-          da, de);
-      /* Receive beam focused exactly at this pixel's point. */
-      receive_beam (est, spectra, point, range);
+      /* The receive sum focused exactly at this pixel's point. */
+      focus (est, spectra, window_direction (est, azimuth, elevation, da,
+              de), range);
       for (guint n = 0; n < est->n_emitters; n++) {
         for (guint v = 0; v < est->n_velocities; v++) {
           double *acf = &est->acf[(gsize) n * est->n_velocities + v];
           if (est->wanted[v] && !est->done[v])
-            *acf = MAX (*acf, window_peak (est, n, v, point, range, wr));
+            *acf = MAX (*acf, window_peak (est, n, v, range, wr));
         }
       }
     }

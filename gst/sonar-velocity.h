@@ -24,7 +24,7 @@
 
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
-#include "sonar-imager.h"
+#include "sonar-image-grid.h"
 #include "sonar-workers.h"
 
 G_BEGIN_DECLS

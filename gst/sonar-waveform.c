@@ -56,12 +56,6 @@
  * alone clears the cross-correlation target. */
 #define DECORRELATION_BUDGET (1u << 26)
 
-static const char *const kind_names[] = {
-  [SONAR_WAVEFORM_NOISE] = "noise",
-  [SONAR_WAVEFORM_HYPERBOLIC_CHIRP] = "hyperbolic-chirp",
-  [SONAR_WAVEFORM_MULTISINE] = "multisine",
-};
-
 void
 sonar_waveform_params_init_default (SonarWaveformParams * params)
 {
@@ -72,28 +66,6 @@ sonar_waveform_params_init_default (SonarWaveformParams * params)
   params->band_low = SONAR_DEFAULT_BAND_LOW;
   params->band_high = SONAR_DEFAULT_BAND_HIGH;
   params->seed = 1;
-}
-
-const char *
-sonar_waveform_kind_to_string (SonarWaveformKind kind)
-{
-  if ((guint) kind >= G_N_ELEMENTS (kind_names))
-    return NULL;
-  return kind_names[kind];
-}
-
-gboolean
-sonar_waveform_kind_from_string (const char *name, SonarWaveformKind * kind)
-{
-  g_return_val_if_fail (kind != NULL, FALSE);
-
-  for (guint i = 0; name && i < G_N_ELEMENTS (kind_names); i++) {
-    if (strcmp (name, kind_names[i]) == 0) {
-      *kind = (SonarWaveformKind) i;
-      return TRUE;
-    }
-  }
-  return FALSE;
 }
 
 /* Bins of a length-point FFT strictly inside the band: the ones the band
@@ -117,8 +89,9 @@ validate_params (const SonarWaveformParams * p, GError ** error)
   guint band_bins;
 
   if (!kind_name) {
-    SET_ERROR (error, "kind is %d; it must be one of noise, "
-        "hyperbolic-chirp, multisine", (int) p->kind);
+    g_autofree char *nicks = sonar_waveform_kind_nicks (", ");
+    SET_ERROR (error, "kind is %d; it must be one of %s", (int) p->kind,
+        nicks);
     return FALSE;
   }
   if (p->n_emitters < 1 || p->n_emitters > SONAR_MAX_EMITTERS) {
@@ -657,6 +630,76 @@ generate_multisine (const SonarWaveformParams * p, const Shape * shape,
   band_filter_clear (&filter);
 }
 
+/* The kinds ---------------------------------------------------------------*/
+
+typedef void (*Generator) (const SonarWaveformParams * params,
+    const Shape * shape, float *out);
+
+/* The one table of the kinds, in the enum's order: what names them and
+ * what makes them. */
+static const struct
+{
+  SonarWaveformKindInfo info;
+  Generator generate;
+} kinds[] = {
+  {{SONAR_WAVEFORM_NOISE, "noise", "Band-passed pseudo-random Gaussian "
+              "noise (PR-AWGN, near-orthogonal)"}, generate_noise},
+  {{SONAR_WAVEFORM_HYPERBOLIC_CHIRP, "hyperbolic-chirp", "Hyperbolic FM "
+              "chirp (Doppler tolerant)"}, generate_chirp},
+  {{SONAR_WAVEFORM_MULTISINE, "multisine", "Multisine, interleaved "
+              "frequencies per emitter"}, generate_multisine},
+};
+
+const SonarWaveformKindInfo *
+sonar_waveform_kinds (guint * n_kinds)
+{
+  static SonarWaveformKindInfo infos[G_N_ELEMENTS (kinds)];
+  static gsize done = 0;
+
+  if (g_once_init_enter (&done)) {
+    for (guint i = 0; i < G_N_ELEMENTS (kinds); i++) {
+      g_assert ((guint) kinds[i].info.kind == i);
+      infos[i] = kinds[i].info;
+    }
+    g_once_init_leave (&done, 1);
+  }
+  *n_kinds = G_N_ELEMENTS (kinds);
+  return infos;
+}
+
+const char *
+sonar_waveform_kind_to_string (SonarWaveformKind kind)
+{
+  if ((guint) kind >= G_N_ELEMENTS (kinds))
+    return NULL;
+  return kinds[kind].info.nick;
+}
+
+gboolean
+sonar_waveform_kind_from_string (const char *name, SonarWaveformKind * kind)
+{
+  g_return_val_if_fail (kind != NULL, FALSE);
+
+  for (guint i = 0; name && i < G_N_ELEMENTS (kinds); i++) {
+    if (strcmp (name, kinds[i].info.nick) == 0) {
+      *kind = kinds[i].info.kind;
+      return TRUE;
+    }
+  }
+  return FALSE;
+}
+
+char *
+sonar_waveform_kind_nicks (const char *separator)
+{
+  GString *nicks = g_string_new (NULL);
+
+  for (guint i = 0; i < G_N_ELEMENTS (kinds); i++)
+    g_string_append_printf (nicks, "%s%s", i ? separator : "",
+        kinds[i].info.nick);
+  return g_string_free (nicks, FALSE);
+}
+
 gboolean
 sonar_waveform_generate (const SonarWaveformParams * params, float *out,
     GError ** error)
@@ -671,17 +714,7 @@ sonar_waveform_generate (const SonarWaveformParams * params, float *out,
     return FALSE;
 
   shape_init (&shape, params);
-  switch (params->kind) {
-    case SONAR_WAVEFORM_NOISE:
-      generate_noise (params, &shape, out);
-      break;
-    case SONAR_WAVEFORM_HYPERBOLIC_CHIRP:
-      generate_chirp (params, &shape, out);
-      break;
-    case SONAR_WAVEFORM_MULTISINE:
-      generate_multisine (params, &shape, out);
-      break;
-  }
+  kinds[params->kind].generate (params, &shape, out);
   shape_clear (&shape);
   for (guint n = 0; n < params->n_emitters; n++)
     normalise_peak (out + (gsize) n * params->length, params->length);

@@ -16,12 +16,25 @@
 
 G_BEGIN_DECLS
 
+/* The kinds. Adding one is a value here, an entry of the kinds table
+ * (sonar-waveform.c) and its generator: sonarsrc's property, the tools
+ * and the tests take their names and descriptions from the table. */
 typedef enum
 {
   SONAR_WAVEFORM_NOISE,             /* band-passed pseudo-random Gaussian noise (PR-AWGN) */
   SONAR_WAVEFORM_HYPERBOLIC_CHIRP,  /* hyperbolic FM sweep across the band */
   SONAR_WAVEFORM_MULTISINE,         /* sum of in-band sines, random phases */
 } SonarWaveformKind;
+
+typedef struct
+{
+  SonarWaveformKind kind;
+  const char *nick;             /* "noise": property values, files, tools */
+  const char *description;      /* one line, for gst-inspect and --help */
+} SonarWaveformKindInfo;
+
+/* Every kind, in the enum's order: *n_kinds of them. */
+const SonarWaveformKindInfo *sonar_waveform_kinds (guint * n_kinds);
 
 typedef struct
 {
@@ -43,10 +56,13 @@ void sonar_waveform_params_init_default (SonarWaveformParams * params);
 gboolean sonar_waveform_generate (const SonarWaveformParams * params,
     float *out, GError ** error);
 
-/* "noise", "hyperbolic-chirp", "multisine"; NULL / FALSE when unknown. */
+/* The kind's nick, or the kind of a nick; NULL / FALSE when unknown. */
 const char *sonar_waveform_kind_to_string (SonarWaveformKind kind);
 gboolean sonar_waveform_kind_from_string (const char *name,
     SonarWaveformKind * kind);
+/* The nicks joined by @separator ("noise, hyperbolic-chirp, multisine"),
+ * for messages. g_free it. */
+char *sonar_waveform_kind_nicks (const char *separator);
 
 G_END_DECLS
 

@@ -1,9 +1,16 @@
-/* sonar-test-util.h: measuring helpers shared by the tests (double
- * precision, independent of the code under test). */
+/* sonar-test-util.h: what the tests share: measurements in double
+ * precision, independent of the code under test; the default sensor and
+ * one ping through the core; a pipeline runner. */
 #ifndef SONAR_TEST_UTIL_H
 #define SONAR_TEST_UTIL_H
 
 #include <glib.h>
+#include <gst/gst.h>
+
+#include "sonar-doppler-bank.h"
+#include "sonar-setup.h"
+#include "sonar-simulator.h"
+#include "sonar-spectrum.h"
 
 G_BEGIN_DECLS
 
@@ -28,18 +35,6 @@ char *sonar_test_source_path (const char *relative);
 /* Writes @text to a new temporary file and returns its path (g_free it;
  * the file is removed at exit of the test program). */
 char *sonar_test_write_temp (const char *basename, const char *text);
-
-G_END_DECLS
-
-#endif
-
-#include <gst/gst.h>
-#include "sonar-doppler-bank.h"
-#include "sonar-setup.h"
-#include "sonar-simulator.h"
-#include "sonar-spectrum.h"
-
-G_BEGIN_DECLS
 
 /* The default sensor (eRTIS array, 8 default noise emissions, 450 kHz,
  * c = 343 m/s) with @ping_length samples per ping. */
@@ -86,3 +81,5 @@ char *sonar_test_run_pipeline (const char *description,
 void sonar_test_init_gst (int *argc, char ***argv);
 
 G_END_DECLS
+
+#endif

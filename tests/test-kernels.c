@@ -1,5 +1,8 @@
-/* test-kernels.c: every fast kernel against its plain reference, on
- * random data, awkward lengths and large phases (VOLK's way). */
+/* test-kernels.c: every implementation of every kernel in the tables of
+ * sonar-kernels.h against the plain C reference (the table's first
+ * entry) and against double precision, on random data, awkward lengths
+ * and large phases (VOLK's way). One test case per implementation, named
+ * after it; an implementation the CPU lacks is reported as skipped. */
 #include <complex.h>
 #include <math.h>
 
@@ -45,17 +48,29 @@ exact_dot_conj (const SonarComplex * a, const SonarComplex * b, guint n,
   return sum;
 }
 
-/* The split kernel against its reference, and the reference against the
- * sum in double precision. */
+/* Skips the test case (visibly) when the CPU lacks @impl. */
+#define SKIP_UNLESS_AVAILABLE(impl) G_STMT_START {                      \
+  if (!(impl)->available ()) {                                          \
+    g_test_skip_printf ("the CPU lacks what \"%s\" needs", (impl)->name); \
+    return;                                                             \
+  }                                                                     \
+} G_STMT_END
+
+/* The split kernel against the reference and the sum in double
+ * precision. */
 static void
-test_steer_accumulate_split (void)
+test_steer_accumulate_split (gconstpointer data)
 {
+  const SonarSteerAccumulateSplitImpl *impl = data;
+  const SonarSteerAccumulateSplitFn reference =
+      sonar_kernel_steer_accumulate_split_impls[0].fn;
   SonarRng rng;
   SonarComplex x[2882], acc[2882];
   float x_re[2882], x_im[2882], fast_re[2882], fast_im[2882];
   double complex exact[2882];
   float ref_re[2882], ref_im[2882];
 
+  SKIP_UNLESS_AVAILABLE (impl);
   sonar_rng_init (&rng, 18, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
     const guint n = lengths[t];
@@ -66,10 +81,8 @@ test_steer_accumulate_split (void)
       sonar_kernel_split (x_re, x_im, x, n);
       sonar_kernel_split (fast_re, fast_im, acc, n);
       sonar_kernel_split (ref_re, ref_im, acc, n);
-      sonar_kernel_steer_accumulate_split (fast_re, fast_im, x_re, x_im, n,
-          phase0, dphase, conj_x);
-      sonar_kernel_steer_accumulate_split_generic (ref_re, ref_im, x_re,
-          x_im, n, phase0, dphase, conj_x);
+      impl->fn (fast_re, fast_im, x_re, x_im, n, phase0, dphase, conj_x);
+      reference (ref_re, ref_im, x_re, x_im, n, phase0, dphase, conj_x);
       for (guint k = 0; k < n; k++)
         exact[k] = acc[k] + (conj_x ? conj (x[k]) : x[k]) * cexp (I *
             (phase0 + k * dphase));
@@ -77,7 +90,7 @@ test_steer_accumulate_split (void)
         const double scale = MAX (cabsf (x[k]), 1e-6f);
         g_assert_cmpfloat (cabsf (fast_re[k] + I * fast_im[k] - (ref_re[k] +
                     I * ref_im[k])) / scale, <, 2e-5);
-        g_assert_cmpfloat (cabs (ref_re[k] + I * ref_im[k] - exact[k]) /
+        g_assert_cmpfloat (cabs (fast_re[k] + I * fast_im[k] - exact[k]) /
             scale, <, 2e-5);
       }
     }
@@ -85,13 +98,17 @@ test_steer_accumulate_split (void)
 }
 
 static void
-test_steer_block_sums (void)
+test_steer_block_sums (gconstpointer data)
 {
   static const guint blocks[] = { 8, 16, 32, 64 };
+  const SonarSteerBlockSumsConjImpl *impl = data;
+  const SonarSteerBlockSumsConjFn reference =
+      sonar_kernel_steer_block_sums_conj_impls[0].fn;
   SonarRng rng;
-  SonarComplex a[2882], b[2882], prod[2882], fast[361], reference[361];
+  SonarComplex a[2882], b[2882], prod[2882], fast[361], ref[361];
   float a_re[2882], a_im[2882], b_re[2882], b_im[2882];
 
+  SKIP_UNLESS_AVAILABLE (impl);
   sonar_rng_init (&rng, 14, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
     for (guint i = 0; i < G_N_ELEMENTS (blocks); i++) {
@@ -107,15 +124,13 @@ test_steer_block_sums (void)
         prod[k] = a[k] * conjf (b[k]);
       sonar_kernel_split (a_re, a_im, a, n);
       sonar_kernel_split (b_re, b_im, b, n);
-      sonar_kernel_steer_block_sums_conj (fast, a_re, a_im, b_re, b_im, n,
-          phase0, dphase, block);
-      sonar_kernel_steer_block_sums_conj_generic (reference, a_re, a_im, b_re,
-          b_im, n, phase0, dphase, block);
+      impl->fn (fast, a_re, a_im, b_re, b_im, n, phase0, dphase, block);
+      reference (ref, a_re, a_im, b_re, b_im, n, phase0, dphase, block);
       for (guint j = 0; j < n_blocks; j++) {
         const double scale = MAX (magnitude_sum (prod + j * block,
                 MIN (block, n - j * block)), 1e-6);
-        worst = MAX (worst, cabsf (fast[j] - reference[j]) / scale);
-        total += reference[j];
+        worst = MAX (worst, cabsf (fast[j] - ref[j]) / scale);
+        total += fast[j];
       }
       g_test_message ("n %u block %u: worst relative error %.2e", n, block,
           worst);
@@ -133,31 +148,31 @@ test_steer_block_sums (void)
 }
 
 static void
-test_steer_sum (void)
+test_steer_sum (gconstpointer data)
 {
+  const SonarSteerSumImpl *impl = data;
+  const SonarSteerSumFn reference = sonar_kernel_steer_sum_impls[0].fn;
   SonarRng rng;
   SonarComplex x[2882], ones[2882];
 
+  SKIP_UNLESS_AVAILABLE (impl);
   sonar_rng_init (&rng, 15, 0);
   for (guint k = 0; k < G_N_ELEMENTS (ones); k++)
     ones[k] = 1.0f;
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
     const guint n = lengths[t];
     const double phase0 = -3.25 * (t + 1), dphase = 0.7 / (t + 1);
-    SonarComplex fast, reference;
-    double scale;
+    SonarComplex fast;
+    double scale, magnitudes;
 
     random_spectrum (&rng, x, n);
-    fast = sonar_kernel_steer_sum (x, n, phase0, dphase);
-    reference = sonar_kernel_steer_sum_generic (x, n, phase0, dphase);
     scale = MAX (magnitude_sum (x, n), 1e-6);
-    g_assert_cmpfloat (cabsf (fast - reference) / scale, <, 1e-5);
+    fast = impl->fn (x, n, phase0, dphase);
+    g_assert_cmpfloat (cabsf (fast - reference (x, n, phase0, dphase)) /
+        scale, <, 1e-5);
     /* The same sum as the exact dot product with ones. */
-    {
-      double magnitudes;
-      g_assert_cmpfloat (cabs (reference - exact_dot_conj (x, ones, n, phase0,
-                  dphase, &magnitudes)) / scale, <, 1e-5);
-    }
+    g_assert_cmpfloat (cabs (fast - exact_dot_conj (x, ones, n, phase0,
+                dphase, &magnitudes)) / scale, <, 1e-5);
   }
 }
 
@@ -204,77 +219,97 @@ test_block_sums_at_lag_offsets (void)
   g_assert_cmpfloat (worst / peak, <, 2e-3);
 }
 
-/* The ORC kernels against their references: the same float operations,
- * so equal to a rounding (ORC's sqrt and fused forms may differ in the
- * last bit). Run under ORC_CODE=backup too (tools/test runs the suite both ways). */
+/* The complex product and the envelope against their references: the
+ * same float operations, so equal to a rounding (ORC's sqrt and fused
+ * forms may differ in the last bit). tools/test runs the suite under
+ * ORC_CODE=backup too, so ORC's C backup is checked as well. */
 static void
-test_orc_multiply_envelope (void)
+test_multiply_split (gconstpointer data)
 {
+  const SonarMultiplySplitImpl *impl = data;
+  const SonarMultiplySplitFn reference =
+      sonar_kernel_multiply_split_impls[0].fn;
   SonarRng rng;
-  SonarComplex a[2882], b[2882], orc[2882], reference[2882];
-  float env[2882], env_reference[2882];
+  SonarComplex a[2882], b[2882], out[2882], ref[2882];
   float a_re[2882], a_im[2882], b_re[2882], b_im[2882];
 
+  SKIP_UNLESS_AVAILABLE (impl);
   sonar_rng_init (&rng, 17, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
     const guint n = lengths[t];
     random_spectrum (&rng, a, n);
     random_spectrum (&rng, b, n);
+    sonar_kernel_split (a_re, a_im, a, n);
+    sonar_kernel_split (b_re, b_im, b, n);
+    impl->fn (out, a_re, a_im, b_re, b_im, n);
+    reference (ref, a_re, a_im, b_re, b_im, n);
     for (guint k = 0; k < n; k++) {
-      a_re[k] = crealf (a[k]);
-      a_im[k] = cimagf (a[k]);
-      b_re[k] = crealf (b[k]);
-      b_im[k] = cimagf (b[k]);
-    }
-    sonar_kernel_multiply_split (orc, a_re, a_im, b_re, b_im, n);
-    sonar_kernel_multiply_split_generic (reference, a_re, a_im, b_re, b_im,
-        n);
-    for (guint k = 0; k < n; k++)
-      g_assert_cmpfloat (cabsf (orc[k] - reference[k]), <=,
+      g_assert_cmpfloat (cabsf (out[k] - ref[k]), <=,
           1e-6f * cabsf (a[k]) * cabsf (b[k]));
+      g_assert_cmpfloat (cabs ((double complex) out[k] - (double complex)
+              a[k] * b[k]), <=, 1e-6 * cabsf (a[k]) * cabsf (b[k]));
+    }
+  }
+}
+
+static void
+test_envelope (gconstpointer data)
+{
+  const SonarEnvelopeImpl *impl = data;
+  const SonarEnvelopeFn reference = sonar_kernel_envelope_impls[0].fn;
+  SonarRng rng;
+  SonarComplex a[2882];
+  float env[2882], ref[2882];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 19, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    random_spectrum (&rng, a, n);
     for (int accumulate = 0; accumulate < 2; accumulate++) {
       for (guint k = 0; k < n; k++)
-        env[k] = env_reference[k] = (float) (k % 5);
-      sonar_kernel_envelope (env, a, n, 0.75f, accumulate);
-      sonar_kernel_envelope_generic (env_reference, a, n, 0.75f, accumulate);
+        env[k] = ref[k] = (float) (k % 5);
+      impl->fn (env, a, n, 0.75f, accumulate);
+      reference (ref, a, n, 0.75f, accumulate);
       for (guint k = 0; k < n; k++) {
-        g_assert_cmpfloat (fabsf (env[k] - env_reference[k]), <=,
-            1e-6f * env_reference[k]);
-        if (accumulate)
-          g_assert_cmpfloat (env[k], >=, (float) (k % 5));
-        else
-          g_assert_cmpfloat (fabsf (env[k] - 0.75f * cabsf (a[k])), <=,
-              1e-6f * env[k]);
+        const float want = accumulate ? MAX ((float) (k % 5),
+            0.75f * cabsf (a[k])) : 0.75f * cabsf (a[k]);
+        g_assert_cmpfloat (fabsf (env[k] - ref[k]), <=, 1e-6f * ref[k]);
+        g_assert_cmpfloat (fabsf (env[k] - want), <=, 1e-6f * want);
       }
     }
   }
 }
 
-/* The fast phase ramp is right in absolute terms, not only against the
- * reference: a single bin recovers exp(i phase) to float precision. */
+/* The phase ramp is right in absolute terms: a single bin recovers
+ * exp(i phase) to float precision. */
 static void
-test_phase_ramp_exact (void)
+test_phase_ramp_exact (gconstpointer data)
 {
+  const SonarSteerAccumulateSplitImpl *impl = data;
   float one[70], zero[70] = { 0 }, acc_re[70] = { 0 }, acc_im[70] = { 0 };
 
+  SKIP_UNLESS_AVAILABLE (impl);
   for (guint k = 0; k < 70; k++)
     one[k] = 1.0f;
-  sonar_kernel_steer_accumulate_split (acc_re, acc_im, one, zero, 70, 0.25,
-      0.01, FALSE);
+  impl->fn (acc_re, acc_im, one, zero, 70, 0.25, 0.01, FALSE);
   for (guint k = 0; k < 70; k++)
     g_assert_cmpfloat (cabs (acc_re[k] + I * acc_im[k] - cexp (I * (0.25 +
                     0.01 * k))), <, 1e-6);
 }
 
 /* Single-precision accumulation over long sums against a double-precision
- * evaluation of the same sum: the kernels' error stays near float's
- * resolution of the sum's scale, not growing with the length. */
+ * evaluation of the same sum: the error stays near float's resolution of
+ * the sum's scale, not growing with the length. The velocity stage's sum:
+ * 16-bin blocks (@data's implementation), then the sum over the blocks. */
 static void
-test_long_sums_against_double (void)
+test_long_sums_against_double (gconstpointer data)
 {
+  const SonarSteerBlockSumsConjImpl *impl = data;
   const guint lengths_long[] = { 2882, 20000, 100000 };
   SonarRng rng;
 
+  SKIP_UNLESS_AVAILABLE (impl);
   sonar_rng_init (&rng, 13, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths_long); t++) {
     const guint n = lengths_long[t];
@@ -285,26 +320,18 @@ test_long_sums_against_double (void)
     float *a_re = g_new (float, n), *a_im = g_new (float, n);
     float *b_re = g_new (float, n), *b_im = g_new (float, n);
     double complex exact;
-    double scale, error_fast, error_generic;
+    double scale, error;
 
     random_spectrum (&rng, a, n);
     random_spectrum (&rng, b, n);
     exact = exact_dot_conj (a, b, n, phase0, dphase, &scale);
-    /* The velocity stage's sum: 16-bin blocks, then over the blocks. */
     sonar_kernel_split (a_re, a_im, a, n);
     sonar_kernel_split (b_re, b_im, b, n);
-    sonar_kernel_steer_block_sums_conj (blocks, a_re, a_im, b_re, b_im, n,
-        phase0, dphase, 16);
-    error_fast = cabs (sonar_kernel_steer_sum (blocks, n_blocks, 0.0, 0.0) -
+    impl->fn (blocks, a_re, a_im, b_re, b_im, n, phase0, dphase, 16);
+    error = cabs (sonar_kernel_steer_sum (blocks, n_blocks, 0.0, 0.0) -
         exact) / scale;
-    sonar_kernel_steer_block_sums_conj_generic (blocks, a_re, a_im, b_re,
-        b_im, n, phase0, dphase, 16);
-    error_generic = cabs (sonar_kernel_steer_sum_generic (blocks, n_blocks,
-            0.0, 0.0) - exact) / scale;
-    g_test_message ("n %u: error relative to sum |terms|: fast %.2e, "
-        "reference %.2e", n, error_fast, error_generic);
-    g_assert_cmpfloat (error_fast, <, 2e-6);
-    g_assert_cmpfloat (error_generic, <, 2e-6);
+    g_test_message ("n %u: error relative to sum |terms|: %.2e", n, error);
+    g_assert_cmpfloat (error, <, 2e-6);
     g_free (a);
     g_free (b);
     g_free (blocks);
@@ -315,20 +342,58 @@ test_long_sums_against_double (void)
   }
 }
 
+/* The entry points call the last implementation the CPU has, not the
+ * reference behind its back: their results are bit-identical to it. */
+static void
+test_entry_points_choose_best (void)
+{
+  const SonarSteerSumImpl *best = NULL;
+  SonarRng rng;
+  SonarComplex x[200];
+  SonarComplex via_entry, via_table;
+
+  for (const SonarSteerSumImpl * i = sonar_kernel_steer_sum_impls; i->name;
+      i++)
+    if (i->available ())
+      best = i;
+  g_test_message ("steer_sum runs \"%s\"", best->name);
+  sonar_rng_init (&rng, 20, 0);
+  random_spectrum (&rng, x, 200);
+  via_entry = sonar_kernel_steer_sum (x, 200, 1.25, 0.37);
+  via_table = best->fn (x, 200, 1.25, 0.37);
+  g_assert_cmpmem (&via_entry, sizeof via_entry, &via_table,
+      sizeof via_table);
+}
+
+/* One test case per implementation: /kernels/<kernel>/<implementation>. */
+#define ADD_IMPL_TESTS(path, impls, func) G_STMT_START {                \
+  for (guint i_ = 0; (impls)[i_].name; i_++) {                          \
+    g_autofree char *name_ = g_strdup_printf ("/kernels/%s/%s", (path),  \
+        (impls)[i_].name);                                              \
+    g_test_add_data_func (name_, &(impls)[i_], (func));                 \
+  }                                                                     \
+} G_STMT_END
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
-  g_test_add_func ("/kernels/steer-accumulate-split",
-      test_steer_accumulate_split);
-  g_test_add_func ("/kernels/steer-block-sums", test_steer_block_sums);
-  g_test_add_func ("/kernels/steer-sum", test_steer_sum);
+  ADD_IMPL_TESTS ("steer-accumulate-split",
+      sonar_kernel_steer_accumulate_split_impls, test_steer_accumulate_split);
+  ADD_IMPL_TESTS ("phase-ramp-exact",
+      sonar_kernel_steer_accumulate_split_impls, test_phase_ramp_exact);
+  ADD_IMPL_TESTS ("steer-block-sums",
+      sonar_kernel_steer_block_sums_conj_impls, test_steer_block_sums);
+  ADD_IMPL_TESTS ("long-sums-against-double",
+      sonar_kernel_steer_block_sums_conj_impls,
+      test_long_sums_against_double);
+  ADD_IMPL_TESTS ("steer-sum", sonar_kernel_steer_sum_impls, test_steer_sum);
+  ADD_IMPL_TESTS ("multiply-split", sonar_kernel_multiply_split_impls,
+      test_multiply_split);
+  ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
-  g_test_add_func ("/kernels/orc-multiply-envelope",
-      test_orc_multiply_envelope);
-  g_test_add_func ("/kernels/phase-ramp-exact", test_phase_ramp_exact);
-  g_test_add_func ("/kernels/long-sums-against-double",
-      test_long_sums_against_double);
+  g_test_add_func ("/kernels/entry-points-choose-best",
+      test_entry_points_choose_best);
   return g_test_run ();
 }

@@ -171,6 +171,21 @@ def waveforms_unknown_kind_refused():
     result = run(PROGRAM, "--kind", "sawtooth", check=False)
     assert result.returncode == 1, result.returncode
     assert "sawtooth" in result.stderr, result.stderr
+    assert "noise, hyperbolic-chirp, multisine" in result.stderr, \
+        result.stderr
+
+
+@test
+def waveforms_list_kinds():
+    """sonar-waveforms: --list-kinds names every kind, each one generates"""
+    kinds = ambiguity.kinds(PROGRAM)
+    assert [k for k, _ in kinds] == ["noise", "hyperbolic-chirp",
+                                     "multisine"], kinds
+    for kind, description in kinds:
+        assert description, kind
+        doc = json.loads(run(PROGRAM, "--kind", kind, "--emitters", "2",
+                             "--length", "500").stdout)
+        assert doc["description"].startswith(kind), doc["description"]
 
 
 @test

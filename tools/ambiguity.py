@@ -26,7 +26,6 @@ import numpy as np
 from scipy import fft, optimize, signal
 
 SPEED_OF_SOUND = 343.0
-KINDS = ("noise", "multisine", "hyperbolic-chirp")
 
 
 def load_waveforms(path):
@@ -46,6 +45,17 @@ def load_waveforms(path):
         raise ValueError(f"{path}: \"waveforms\" must be rows of equal "
                          "length (at least 16 samples)")
     return sample_rate, waveforms
+
+
+def kinds(program):
+    """The waveform kinds the sonar-waveforms program makes.
+
+    Returns [(name, description)] in the core's order (its table of kinds,
+    gst/sonar-waveform.c).
+    """
+    out = subprocess.run([program, "--list-kinds"], check=True,
+                         capture_output=True, text=True).stdout
+    return [tuple(line.split("\t", 1)) for line in out.splitlines()]
 
 
 def generate_waveforms(program, kind, *args):

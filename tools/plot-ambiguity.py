@@ -26,6 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402 (after choosing the backend)
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import ambiguity  # noqa: E402
 
+# Short panel titles; a kind without one is titled by its description.
 TITLES = {"noise": "PR-AWGN", "multisine": "multisine",
           "hyperbolic-chirp": "hyperbolic FM chirp"}
 
@@ -78,9 +79,9 @@ def load_inputs(args):
             rate, rows = ambiguity.load_waveforms(path)
             inputs.append((pathlib.Path(path).stem, rate, rows))
     else:
-        for kind in ambiguity.KINDS:
+        for kind, description in ambiguity.kinds(args.program):
             rate, rows = ambiguity.generate_waveforms(args.program, kind)
-            inputs.append((TITLES[kind], rate, rows))
+            inputs.append((TITLES.get(kind, description), rate, rows))
     result = []
     for title, rate, rows in inputs:
         if not 0 <= args.emitter < len(rows):

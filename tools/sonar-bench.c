@@ -1114,20 +1114,15 @@ apply_baseline (Config * c, guint i, char *label, gsize size)
   g_strlcpy (label, scenes[i].name, size);
 }
 
-static const SonarLinkage linkages[] = {
-  SONAR_LINKAGE_WARD, SONAR_LINKAGE_SINGLE, SONAR_LINKAGE_COMPLETE,
-  SONAR_LINKAGE_AVERAGE, SONAR_LINKAGE_CENTROID,
-};
-
-static const char *const linkage_names[] = {
-  "ward", "single", "complete", "average", "centroid",
-};
-
+/* The linkage sweep: every method of sonar-linkage.h. */
 static void
 apply_linkage (Config * c, guint i, char *label, gsize size)
 {
-  c->cluster.linkage = linkages[i];
-  g_strlcpy (label, linkage_names[i], size);
+  guint n;
+  const SonarLinkageInfo *methods = sonar_linkage_methods (&n);
+
+  c->cluster.linkage = methods[i].linkage;
+  g_strlcpy (label, methods[i].nick, size);
 }
 
 static void
@@ -1238,7 +1233,7 @@ apply_datacube (Config * c, guint i, char *label, gsize size)
 
 static const Sweep sweeps[] = {
   {"baseline", SCENE_FIG10, SCENE_FIG9 + 1, apply_baseline},
-  {"linkage", SCENE_FIG10, G_N_ELEMENTS (linkages), apply_linkage},
+  {"linkage", SCENE_FIG10, SONAR_LINKAGE_CENTROID + 1, apply_linkage},
   {"refine", SCENE_FIG10, 2, apply_refine},
   {"window", SCENE_FIG10, 9, apply_window},
   {"bank-step", SCENE_FIG10, 4, apply_bank_step},
@@ -1482,9 +1477,9 @@ run_sweep (Bench * b, const Sweep * sweep)
     if (b->csv)
       write_csv_row (b->csv, sweep->name, values[i], c, r);
     if (sweep->apply == apply_linkage) {
-      if (linkages[i] == SONAR_LINKAGE_WARD)
+      if (c->cluster.linkage == SONAR_LINKAGE_WARD)
         ward = r;
-      else if (linkages[i] == SONAR_LINKAGE_SINGLE)
+      else if (c->cluster.linkage == SONAR_LINKAGE_SINGLE)
         slink = r;
     } else if (sweep->apply == apply_datacube) {
       if (c->method == METHOD_DATACUBE)

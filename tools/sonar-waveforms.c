@@ -117,10 +117,15 @@ main (int argc, char **argv)
   g_autoptr (GError) error = NULL;
   g_autofree float *waveforms = NULL;
   g_autoptr (GString) json = NULL;
+  g_autofree char *nicks = sonar_waveform_kind_nicks (", ");
+  g_autofree char *kind_help = g_strdup_printf ("Waveform kind: %s "
+      "(default noise)", nicks);
+  gboolean list_kinds = FALSE;
   GOptionEntry entries[] = {
-    {"kind", 'k', 0, G_OPTION_ARG_STRING, &kind_name,
-        "Waveform kind: noise, hyperbolic-chirp or multisine (default noise)",
-        "KIND"},
+    {"kind", 'k', 0, G_OPTION_ARG_STRING, &kind_name, kind_help, "KIND"},
+    {"list-kinds", 0, 0, G_OPTION_ARG_NONE, &list_kinds,
+        "Print each kind's name and description, one a line (tab between), "
+          "and exit", NULL},
     {"seed", 's', 0, G_OPTION_ARG_CALLBACK, parse_seed,
         "Seed: the same seed gives the same waveforms (default 1)", "N"},
     {"emitters", 'n', 0, G_OPTION_ARG_CALLBACK, parse_emitters,
@@ -157,10 +162,17 @@ main (int argc, char **argv)
         argv[1]);
     return EXIT_FAILURE;
   }
+  if (list_kinds) {
+    guint n;
+    const SonarWaveformKindInfo *kinds = sonar_waveform_kinds (&n);
+    for (guint i = 0; i < n; i++)
+      g_print ("%s\t%s\n", kinds[i].nick, kinds[i].description);
+    return EXIT_SUCCESS;
+  }
   if (kind_name && !sonar_waveform_kind_from_string (kind_name,
           &params.kind)) {
     g_printerr ("sonar-waveforms: unknown --kind '%s'; it must be one of "
-        "noise, hyperbolic-chirp, multisine\n", kind_name);
+        "%s\n", kind_name, nicks);
     return EXIT_FAILURE;
   }
 

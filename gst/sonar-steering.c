@@ -1,0 +1,104 @@
+/* sonar-steering.c: see sonar-steering.h. */
+#include "sonar-steering.h"
+#include "sonar-kernels.h"
+
+#include <math.h>
+#include <string.h>
+
+void
+sonar_steering_init (SonarSteering * s, const SonarSetup * setup,
+    const SonarBand * band)
+{
+  const double c = setup->speed_of_sound;
+
+  s->geometry = &setup->geometry;
+  s->speed_of_sound = c;
+  s->n_bins = band->n_bins;
+  s->k0 = 2.0 * M_PI * sonar_band_frequency (band, 0) / c;
+  s->dk = 2.0 * M_PI * band->sample_rate / band->fft_size / c;
+}
+
+void
+sonar_steering_legs (const SonarSteering * s, SonarVec3 direction,
+    double range, double *mic_legs, double *emitter_legs)
+{
+  const SonarGeometry *g = s->geometry;
+  const SonarVec3 point = sonar_vec3_scale (direction, range);
+
+  for (guint j = 0; mic_legs && j < g->n_microphones; j++)
+    mic_legs[j] = sonar_vec3_norm (sonar_vec3_sub (point,
+            g->microphones[j])) - range;
+  for (guint n = 0; emitter_legs && n < g->n_emitters; n++)
+    emitter_legs[n] = sonar_vec3_norm (sonar_vec3_sub (point,
+            g->emitters[n])) - range;
+}
+
+double
+sonar_steering_stretch (const SonarSteering * s, double velocity)
+{
+  const double c = s->speed_of_sound;
+
+  return (c + velocity) / (c - velocity);
+}
+
+void
+sonar_steering_receive_sum (const SonarSteering * s,
+    const SonarSplitSpectra * mic_spectra, const double *mic_legs,
+    float *receive_re, float *receive_im)
+{
+  const guint n_bins = s->n_bins;
+
+  memset (receive_re, 0, sizeof (float) * n_bins);
+  memset (receive_im, 0, sizeof (float) * n_bins);
+  for (guint j = 0; j < s->geometry->n_microphones; j++) {
+    const gsize at = (gsize) j * n_bins;
+    sonar_kernel_steer_accumulate_split (receive_re, receive_im,
+        mic_spectra->re + at, mic_spectra->im + at, n_bins,
+        s->k0 * mic_legs[j], s->dk * mic_legs[j], FALSE);
+  }
+}
+
+void
+sonar_steering_transmit_sum (const SonarSteering * s,
+    const SonarSplitSpectra * templates, const double *emitter_legs,
+    double stretch, guint first, guint end, float *transmit_re,
+    float *transmit_im)
+{
+  const guint n_bins = s->n_bins;
+
+  memset (transmit_re, 0, sizeof (float) * n_bins);
+  memset (transmit_im, 0, sizeof (float) * n_bins);
+  for (guint n = first; n < end; n++) {
+    const double path = emitter_legs[n] * stretch;
+    const gsize at = (gsize) n * n_bins;
+    sonar_kernel_steer_accumulate_split (transmit_re, transmit_im,
+        templates->re + at, templates->im + at, n_bins, s->k0 * path,
+        s->dk * path, TRUE);
+  }
+}
+
+void
+sonar_steering_emitter_blocks (const SonarSteering * s,
+    const float *receive_re, const float *receive_im,
+    const SonarSplitSpectra * templates, guint emitter, double emitter_leg,
+    double stretch, double range, guint block, SonarComplex * blocks)
+{
+  /* The two-way range plus the stretched emitter leg: the receive sum
+   * already holds the microphone legs. */
+  const double path = 2.0 * range + emitter_leg * stretch;
+  const gsize at = (gsize) emitter * s->n_bins;
+
+  sonar_kernel_steer_block_sums_conj (blocks, receive_re, receive_im,
+      templates->re + at, templates->im + at, s->n_bins, s->k0 * path,
+      s->dk * path, block);
+}
+
+SonarComplex
+sonar_steering_blocks_at (const SonarSteering * s,
+    const SonarComplex * blocks, guint block, double offset)
+{
+  const double path = 2.0 * offset;
+
+  return sonar_kernel_steer_sum (blocks, (s->n_bins + block - 1) / block,
+      (s->k0 + s->dk * 0.5 * (block - 1)) * path, s->dk * block * path);
+}

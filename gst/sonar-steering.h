@@ -1,0 +1,106 @@
+/* sonar-steering.h: the array's delay model and the steering sums on the
+ * band, the one definition the imager (sonar-imager.c) and the velocity
+ * stage (sonar-velocity.c) both use.
+ *
+ * The delay model. The array centre is the origin. A reflector at the
+ * point p, range r = |p|, moving at radial velocity v (a Doppler
+ * hypothesis), returns what emitter n (at E_n) sends to microphone j (at
+ * M_j) later than an echo from the centre to p and back, by
+ *
+ *   tau_nj = (e_n / alpha + m_j) / c,   e_n = |p - E_n| - r,
+ *                                       m_j = |p - M_j| - r,
+ *   alpha = (c - v) / (c + v).
+ *
+ * e_n and m_j are the legs. A moving reflector meets each emitter's pulse
+ * at a slightly different instant, which stretches the emitter leg by
+ * 1 / alpha (the wideband Doppler scale of the paper's templates): a 7 m/s
+ * mover then stays at its true azimuth. The legs are exact at p, so a
+ * caller focuses where it evaluates them: the imager at the focus range of
+ * each range zone (near field: the array is within a few metres of what
+ * it sees), the velocity stage at the centroid's own point.
+ *
+ * The steering sums. On the band, bin k (frequency f_k = f_0 + k df), a
+ * path of d metres is the phase (k0 + k dk) d, k0 = 2 pi f_0 / c,
+ * dk = 2 pi df / c. Delays of emitters and microphones add, so the
+ * delay-and-sum of the N x J matched filter outputs factors into a receive
+ * sum over the microphones (spectra X_j) times a transmit sum over the
+ * emitters (templates S_n of the hypothesis):
+ *
+ *   R(k) = sum_j X_j(k) exp(i (k0 + k dk) m_j),
+ *   T(k) = sum_n conj (S_n(k)) exp(i (k0 + k dk) e_n / alpha),
+ *
+ * J + N products per bin instead of N J. The inverse transform of R T is
+ * the output at every lag (the imager); emitter n's own output at the lag
+ * of range r is one dot product, sum_k R(k) conj (S_n(k)) exp(i (k0 +
+ * k dk) (2 r + e_n / alpha)) (the velocity stage, by blocks of bins).
+ * The sums run on the kernels of sonar-kernels.h, hence on the best
+ * implementation the CPU has.
+ */
+#ifndef SONAR_STEERING_H
+#define SONAR_STEERING_H
+
+#include "sonar-setup.h"
+#include "sonar-spectrum.h"
+#include "sonar-vec3.h"
+
+G_BEGIN_DECLS
+
+typedef struct
+{
+  const SonarGeometry *geometry;        /* the set-up's, borrowed */
+  double speed_of_sound;        /* c, m/s */
+  guint n_bins;                 /* of the band */
+  double k0, dk;                /* rad per metre of path: at the band's
+                                 * first bin, per bin */
+} SonarSteering;
+
+/* Steering of @setup's array on @band; borrows @setup's geometry, which
+ * must outlive it. */
+void sonar_steering_init (SonarSteering * steering, const SonarSetup * setup,
+    const SonarBand * band);
+
+/* The legs of the point @range m along the unit vector @direction: m_j of
+ * every microphone into @mic_legs, e_n of every emitter into
+ * @emitter_legs (either may be NULL). */
+void sonar_steering_legs (const SonarSteering * steering,
+    SonarVec3 direction, double range, double *mic_legs,
+    double *emitter_legs);
+
+/* 1 / alpha = (c + v) / (c - v): the emitter legs' stretch for a
+ * reflector at radial velocity @velocity (m/s). */
+double sonar_steering_stretch (const SonarSteering * steering,
+    double velocity);
+
+/* R(k) of @mic_spectra (n_microphones x n_bins) into @receive_re, _im
+ * (n_bins each). */
+void sonar_steering_receive_sum (const SonarSteering * steering,
+    const SonarSplitSpectra * mic_spectra, const double *mic_legs,
+    float *receive_re, float *receive_im);
+
+/* T(k) of emitters @first to @end - 1, @templates (n_emitters x n_bins)
+ * stretched by @stretch, into @transmit_re, _im (n_bins each). */
+void sonar_steering_transmit_sum (const SonarSteering * steering,
+    const SonarSplitSpectra * templates, const double *emitter_legs,
+    double stretch, guint first, guint end, float *transmit_re,
+    float *transmit_im);
+
+/* Emitter @emitter's output, for the receive sum @receive_re, _im and
+ * @templates stretched by @stretch, at the lag of range @range, as partial
+ * sums over blocks of @block bins (sonar_kernel_steer_block_sums_conj ())
+ * into @blocks (ceil (n_bins / block) of them). */
+void sonar_steering_emitter_blocks (const SonarSteering * steering,
+    const float *receive_re, const float *receive_im,
+    const SonarSplitSpectra * templates, guint emitter, double emitter_leg,
+    double stretch, double range, guint block, SonarComplex * blocks);
+
+/* The output of sonar_steering_emitter_blocks ()'s @blocks at the lag of
+ * @offset m further in range, each block's phase taken at its centre bin:
+ * over a block, the extra phase of a lag two range bins away turns by
+ * 0.06 rad, an error of -60 dB (tests/test-kernels.c), so a window's lags
+ * cost one pass over the bins. */
+SonarComplex sonar_steering_blocks_at (const SonarSteering * steering,
+    const SonarComplex * blocks, guint block, double offset);
+
+G_END_DECLS
+
+#endif

@@ -1,0 +1,175 @@
+/* test-golden.c: the whole chain's detections on the presets against
+ * files committed before the steering and clustering refactors
+ * (tests/data/golden-*.jsonl), to the last digit the JSON prints: a
+ * refactor that changes what users see fails here.
+ *
+ * Rejected centroids are kept (keep-rejected=true) so that the ghosts'
+ * positions, which the coherence prescreen refines, are guarded too.
+ * Members are compared by name, so a key added to the JSON later does not
+ * break the comparison; a key of the file missing from the output does.
+ *
+ * SONAR_UPDATE_GOLDEN=1 rewrites the files from the current build instead
+ * (only after a change meant to alter the detections; say why in its
+ * commit). */
+#include <gst/app/gstappsink.h>
+#include <json-glib/json-glib.h>
+#include <string.h>
+
+#include "sonar-test-util.h"
+
+typedef struct
+{
+  const char *name;             /* tests/data/golden-<name>.jsonl */
+  const char *source;           /* sonarsrc's properties */
+  const char *bank;             /* dopplerbank's properties */
+  const char *imager;           /* mimobeamform's properties */
+} GoldenCase;
+
+/* The README's recipes: Fig. 10 with its +-0.4 / 0.02 m/s bank, Fig. 9
+ * and the default scene with the elements' defaults; and a small 3-D
+ * image, whose steering has elevations. */
+static const GoldenCase cases[] = {
+  {"default", "num-buffers=2", "", ""},
+  {"fig9", "scene=fig9 num-buffers=1", "", ""},
+  {"fig10", "scene=fig10 num-buffers=3",
+      "velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02", ""},
+  {"default-3d", "num-buffers=1",
+        "velocity-min=-1.5 velocity-max=1.5",
+      "azimuth-min=-45 azimuth-max=45 azimuth-count=31 elevation-min=-12 "
+        "elevation-max=12 elevation-count=9"},
+};
+
+/* The JSON lines of the chain's output, one per ping. */
+static GString *
+run_chain (const GoldenCase * c)
+{
+  g_autofree char *launch = g_strdup_printf ("sonarsrc %s ! dopplerbank %s "
+      "! mimobeamform %s ! wardcluster ! velocityest keep-rejected=true "
+      "! appsink name=sink sync=false", c->source, c->bank, c->imager);
+  GstElement *pipeline = gst_parse_launch (launch, NULL);
+  GstElement *sink;
+  GstSample *sample;
+  GString *lines = g_string_new (NULL);
+
+  g_assert_nonnull (pipeline);
+  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    GstBuffer *buffer = gst_sample_get_buffer (sample);
+    GstMapInfo map;
+
+    g_assert_true (gst_buffer_map (buffer, &map, GST_MAP_READ));
+    g_string_append_len (lines, (const char *) map.data, map.size);
+    gst_buffer_unmap (buffer, &map);
+    gst_sample_unref (sample);
+  }
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+  return lines;
+}
+
+static JsonObject *
+parse_line (JsonParser * parser, const char *line)
+{
+  GError *error = NULL;
+
+  json_parser_load_from_data (parser, line, -1, &error);
+  g_assert_no_error (error);
+  return json_node_get_object (json_parser_get_root (parser));
+}
+
+/* "<where> <name>=<value>": the text a failed comparison shows. */
+static char *
+describe_member (JsonObject * object, const char *name, const char *where)
+{
+  JsonNode *node = json_object_get_member (object, name);
+  g_autofree char *value = node ? json_to_string (node, FALSE) :
+      g_strdup ("(missing)");
+
+  return g_strdup_printf ("%s: %s=%s", where, name, value);
+}
+
+/* Every member of @expected is in @actual with the same value (numbers as
+ * parsed from their printed digits). */
+static void
+assert_members_equal (JsonObject * expected, JsonObject * actual,
+    const char *where)
+{
+  g_autoptr (GList) names = json_object_get_members (expected);
+
+  for (GList * l = names; l; l = l->next) {
+    const char *name = l->data;
+    JsonNode *want = json_object_get_member (expected, name);
+    JsonNode *got = json_object_get_member (actual, name);
+
+    if (JSON_NODE_HOLDS_ARRAY (want) && got && JSON_NODE_HOLDS_ARRAY (got))
+      continue;                 /* the detections, compared one by one */
+    if (!got || !json_node_equal (want, got)) {
+      g_autofree char *w = describe_member (expected, name, where);
+      g_autofree char *g = describe_member (actual, name, where);
+      g_assert_cmpstr (g, ==, w);
+    }
+  }
+}
+
+static void
+compare_line (const char *expected, const char *actual, guint ping)
+{
+  g_autoptr (JsonParser) want_parser = json_parser_new ();
+  g_autoptr (JsonParser) got_parser = json_parser_new ();
+  JsonObject *want = parse_line (want_parser, expected);
+  JsonObject *got = parse_line (got_parser, actual);
+  JsonArray *want_dets = json_object_get_array_member (want, "detections");
+  JsonArray *got_dets = json_object_get_array_member (got, "detections");
+  g_autofree char *where = g_strdup_printf ("ping %u", ping);
+
+  assert_members_equal (want, got, where);
+  g_assert_cmpuint (json_array_get_length (got_dets), ==,
+      json_array_get_length (want_dets));
+  for (guint d = 0; d < json_array_get_length (want_dets); d++) {
+    g_autofree char *det = g_strdup_printf ("ping %u, detection %u", ping, d);
+    assert_members_equal (json_array_get_object_element (want_dets, d),
+        json_array_get_object_element (got_dets, d), det);
+  }
+}
+
+static void
+test_golden (gconstpointer data)
+{
+  const GoldenCase *c = data;
+  g_autofree char *basename = g_strdup_printf ("golden-%s.jsonl", c->name);
+  g_autofree char *relative = g_build_filename ("tests", "data", basename,
+      NULL);
+  g_autofree char *path = sonar_test_source_path (relative);
+  g_autoptr (GString) output = run_chain (c);
+  g_autofree char *golden = NULL;
+  g_auto (GStrv) want = NULL, got = NULL;
+  GError *error = NULL;
+  guint n;
+
+  if (g_getenv ("SONAR_UPDATE_GOLDEN")) {
+    g_file_set_contents (path, output->str, output->len, &error);
+    g_assert_no_error (error);
+    g_test_message ("wrote %s", path);
+  }
+  g_file_get_contents (path, &golden, NULL, &error);
+  g_assert_no_error (error);
+  want = g_strsplit (g_strchomp (golden), "\n", -1);
+  got = g_strsplit (g_strchomp (output->str), "\n", -1);
+  n = g_strv_length (want);
+  g_assert_cmpuint (g_strv_length (got), ==, n);
+  for (guint p = 0; p < n; p++)
+    compare_line (want[p], got[p], p);
+}
+
+int
+main (int argc, char **argv)
+{
+  sonar_test_init_gst (&argc, &argv);
+  for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
+    g_autofree char *name = g_strdup_printf ("/golden/%s", cases[i].name);
+    g_test_add_data_func (name, &cases[i], test_golden);
+  }
+  return g_test_run ();
+}

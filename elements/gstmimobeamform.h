@@ -3,6 +3,7 @@
 #define GST_MIMO_BEAMFORM_H
 
 #include "gstsonarfilter.h"
+#include "sonar-imager.h"
 
 G_BEGIN_DECLS
 

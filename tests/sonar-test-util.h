@@ -1,11 +1,11 @@
 /* sonar-test-util.h: what the tests share: measurements in double
  * precision, independent of the code under test; the default sensor and
- * one ping through the core; a pipeline runner. */
+ * one ping through the core. Plain C: the core's tests link no GStreamer
+ * (the elements' tests add sonar-test-gst.h). */
 #ifndef SONAR_TEST_UTIL_H
 #define SONAR_TEST_UTIL_H
 
 #include <glib.h>
-#include <gst/gst.h>
 
 #include "sonar-doppler-bank.h"
 #include "sonar-setup.h"
@@ -69,16 +69,6 @@ void sonar_test_chain_spectra (SonarTestChain * chain);
  * chain->ping, takes its spectra, returns the truth of reflector 0. */
 SonarTruth sonar_test_chain_simulate (SonarTestChain * chain,
     const char *json, double noise);
-
-/* Runs a gst-launch style pipeline to EOS (or the first error). Returns
- * NULL on success, else the error message (and its debug text after a
- * newline): g_free it. @pipeline_out, if not NULL, receives the pipeline
- * (already set to NULL state; unref it) to inspect appsinks afterwards. */
-char *sonar_test_run_pipeline (const char *description,
-    GstElement ** pipeline_out);
-
-/* Initialises GStreamer for a test program, with the build tree's plugin. */
-void sonar_test_init_gst (int *argc, char ***argv);
 
 G_END_DECLS
 

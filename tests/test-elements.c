@@ -8,7 +8,8 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
-#include "sonar-test-util.h"
+#include "sonar-imager.h"
+#include "sonar-test-gst.h"
 
 #define RECORDING_CAPS "audio/x-raw, format=F32LE, layout=interleaved, " \
   "rate=450000, channels=32, channel-mask=(bitmask)0"

@@ -15,7 +15,7 @@
 #include <json-glib/json-glib.h>
 #include <string.h>
 
-#include "sonar-test-util.h"
+#include "sonar-test-gst.h"
 
 typedef struct
 {

@@ -8,7 +8,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
-#include "sonar-test-util.h"
+#include "sonar-test-gst.h"
 
 #define FIG10_BANK "velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02"
 

@@ -7,7 +7,6 @@
 #include <math.h>
 #include <sndfile.h>
 
-#include "sonar-contracts.h"
 #include "sonar-interp.h"
 #include "sonar-sensor-file.h"
 #include "sonar-setup.h"
@@ -233,36 +232,6 @@ test_setup_validation (void)
 }
 
 /* The event carries the whole set-up, bit for bit. */
-static void
-test_setup_event_round_trip (void)
-{
-  g_autoptr (SonarSetup) setup = make_small_setup (5000, NULL);
-  GstEvent *event = sonar_setup_event_new (setup);
-  GError *error = NULL;
-  g_autoptr (SonarSetup) copy = NULL;
-  GstStructure *broken;
-
-  g_assert_true (sonar_event_is_setup (event));
-  g_assert_true (GST_EVENT_IS_STICKY (event));
-  copy = sonar_setup_from_event (event, &error);
-  g_assert_no_error (error);
-  g_assert_true (sonar_setup_equal (setup, copy));
-  g_assert_cmpuint (copy->ping_length, ==, 5000);
-
-  broken = gst_structure_copy (gst_event_get_structure (event));
-  gst_structure_remove_field (broken, "emitters");
-  g_assert_null (sonar_setup_from_structure (broken, &error));
-  g_assert_nonnull (strstr (error->message, "missing field \"emitters\""));
-  g_clear_error (&error);
-  gst_structure_set (broken, "emitters", G_TYPE_BYTES,
-      g_bytes_new_static ("abc", 3), NULL);
-  g_assert_null (sonar_setup_from_structure (broken, &error));
-  g_assert_nonnull (strstr (error->message, "expected 8 positions"));
-  g_clear_error (&error);
-  gst_structure_free (broken);
-  gst_event_unref (event);
-}
-
 /* A sensor description of 2 microphones on a line and 2 emitters, with
  * @extra members (ending in a comma), 20-sample waveforms and (unless
  * @extra gives one) a ping period of 10 ms. */
@@ -453,7 +422,7 @@ test_sensor_file_emissions_wav (void)
 int
 main (int argc, char **argv)
 {
-  sonar_test_init_gst (&argc, &argv);
+  g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/setup/default-geometry-is-ertis",
       test_default_geometry_is_ertis);
   g_test_add_func ("/setup/geometry-file", test_geometry_file);
@@ -466,6 +435,5 @@ main (int argc, char **argv)
   g_test_add_func ("/setup/sensor-file-errors", test_sensor_file_errors);
   g_test_add_func ("/setup/sensor-file-emissions-wav",
       test_sensor_file_emissions_wav);
-  g_test_add_func ("/setup/event-round-trip", test_setup_event_round_trip);
   return g_test_run ();
 }

@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
-#include "sonar-test-util.h"
+#include "sonar-test-gst.h"
 
 /* Pulls events until the set-up event; returns its set-up. */
 static SonarSetup *

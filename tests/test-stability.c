@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "sonar-contracts.h"
-#include "sonar-test-util.h"
+#include "sonar-test-gst.h"
 
 /* A light chain: small bank, 31 directions, 2 m. */
 #define CHAIN "dopplerbank velocity-min=-0.5 velocity-max=0.5 velocity-step=0.05 " \

@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
-#include "sonar-test-util.h"
+#include "sonar-test-gst.h"
 
 #define NARROW_BANK "velocity-min=-1.5 velocity-max=1.5 velocity-step=0.05"
 #define FIG10_BANK "velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02"

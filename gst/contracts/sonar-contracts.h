@@ -8,7 +8,7 @@
 #include <gst/gst.h>
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
-#include "sonar-imager.h"
+#include "sonar-image-grid.h"
 #include "sonar-setup.h"
 #include "sonar-simulator.h"
 

@@ -70,6 +70,7 @@ struct _GstVelocityEst
   SonarVelocityPool *pool;
   SonarImageGrid grid;
   guint n_emitters;
+  double emission_centre;       /* s after the trigger */
   GArray *detections;           /* SonarDetection, reused every ping */
   SonarVelocityEstimate *results;       /* 2 per centroid, reused */
   guint *counts;                /* estimates per centroid */
@@ -113,6 +114,8 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
       gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
+  self->emission_centre = sonar_setup_emission_centre
+      (gst_sonar_filter_get_setup (filter));
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }
 
@@ -130,15 +133,18 @@ add_detection (GstVelocityEst * self, guint centroid,
   const double c = gst_sonar_filter_get_setup (GST_SONAR_FILTER
       (self))->speed_of_sound;
   SonarDetection d;
+  double delay;
 
+  /* Position and velocity at one instant: the velocity's. */
   d.centroid = centroid;
-  d.range = e->range;
+  d.range = sonar_velocity_centre_range (e->range, e->radial_velocity, c,
+      self->emission_centre, &delay);
   d.azimuth = e->azimuth;
   d.elevation = e->elevation;
   d.position = sonar_vec3_scale (sonar_vec3_from_direction (e->azimuth,
-          e->elevation), e->range);
+          e->elevation), d.range);
   d.instant = GST_CLOCK_TIME_IS_VALID (ping_time) ?
-      (double) ping_time / GST_SECOND + e->range / c : NAN;
+      (double) ping_time / GST_SECOND + delay : NAN;
   d.radial_velocity = e->radial_velocity;
   d.approaching = e->radial_velocity < 0.0;
   d.confidence = (double) e->agreeing_emitters / self->n_emitters;

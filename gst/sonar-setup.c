@@ -485,6 +485,22 @@ sonar_setup_unref (SonarSetup * setup)
   }
 }
 
+double
+sonar_setup_emission_centre (const SonarSetup * setup)
+{
+  double moment = 0.0, energy = 0.0;
+
+  for (guint n = 0; n < setup->geometry.n_emitters; n++) {
+    const float *row = sonar_setup_waveform (setup, n);
+    for (guint i = 0; i < setup->waveform_length; i++) {
+      const double e = (double) row[i] * row[i];
+      moment += e * i;
+      energy += e;
+    }
+  }
+  return energy > 0.0 ? moment / energy / setup->sample_rate : 0.0;
+}
+
 gboolean
 sonar_setup_equal (const SonarSetup * a, const SonarSetup * b)
 {

@@ -177,6 +177,11 @@ SonarSetup *sonar_setup_new_from_files (const char *geometry_file,
 SonarSetup *sonar_setup_ref (SonarSetup * setup);
 void sonar_setup_unref (SonarSetup * setup);
 
+/* Seconds after the trigger at which the emissions' energy is centred
+ * (all emitters together): 4.44 ms for 4000 samples of noise at 450 kHz.
+ * A radial velocity measured over the echo holds there. */
+double sonar_setup_emission_centre (const SonarSetup * setup);
+
 /* TRUE when both describe the same sensor (every number equal). */
 gboolean sonar_setup_equal (const SonarSetup * a, const SonarSetup * b);
 

@@ -745,3 +745,14 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   pool->counts = counts;
   sonar_workers_run (pool->workers, estimate_share, pool);
 }
+
+double
+sonar_velocity_centre_range (double range, double radial_velocity,
+    double speed_of_sound, double emission_centre, double *delay)
+{
+  const double v = isfinite (radial_velocity) ? radial_velocity : 0.0;
+  const double later = emission_centre / (1.0 - v / speed_of_sound);
+
+  *delay = range / speed_of_sound + later;
+  return range + v * later;
+}

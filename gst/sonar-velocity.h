@@ -106,6 +106,17 @@ G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
     sonar_velocity_estimator_free)
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityPool, sonar_velocity_pool_free)
 
+/* When a detection holds: its radial velocity is measured over the whole
+ * echo, so it holds when the emissions' energy centre (@emission_centre s
+ * after the trigger, sonar_setup_emission_centre ()) reaches the object;
+ * its imaged @range (m) is the object's when the wave leaving the array at
+ * the trigger reached it. Returns the range at the later instant (moved on
+ * at @radial_velocity, m/s) and sets *@delay to that instant, in seconds
+ * after the trigger: the wave leaving at the trigger reaches the object
+ * after range / c, the energy centre emission_centre / (1 - v / c) later. */
+double sonar_velocity_centre_range (double range, double radial_velocity,
+    double speed_of_sound, double emission_centre, double *delay);
+
 G_END_DECLS
 
 #endif

@@ -178,9 +178,9 @@ test_empty_scene (void)
 /* A WAV recording of pings, with the waveforms file, gives exactly the
  * live pings' JSON. */
 /* Each detection's instant is when the object was where the detection
- * puts it: for movers at +-6.5 m/s (3 cm in the 4.4 ms of a pulse), the
- * simulator's truth moved to that instant lies within 1 mm of the
- * detection's range. */
+ * puts it: for movers at +-6.5 m/s (3 cm in the 4.4 ms of a pulse, 3 cm
+ * more in the time of flight), the simulator's truth moved to that instant
+ * lies within 1 mm of the detection's range. */
 static void
 test_detection_instant (void)
 {

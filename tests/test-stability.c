@@ -843,8 +843,10 @@ test_wide_and_fast (void)
       if (!d->valid)
         continue;
       for (guint k = 0; k < 3; k++) {
+        /* The scene's ranges are at t = 0; a 7 m/s mover is reported 7 cm
+         * on, when the emissions' centre reaches it (CONTRACTS). */
         if (isnan (cases[c].range[k])
-            || fabs (d->range - cases[c].range[k]) > 0.05
+            || fabs (d->range - cases[c].range[k]) > 0.1
             || fabs (d->azimuth - cases[c].azimuth[k]) > 3.0)
           continue;
         known = TRUE;

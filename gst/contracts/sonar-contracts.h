@@ -194,10 +194,10 @@ typedef struct
   guint centroid;               /* index of the centroid it was found at */
   double range, azimuth, elevation;     /* m, degrees */
   SonarVec3 position;           /* m, sensor frame */
-  /* s, the ping's clock: when the object was at that range and moving at
-   * that speed, the instant a wave leaving the array centre at the ping's
-   * trigger instant reaches it (ping time + range / c); NaN without a
-   * ping time. */
+  /* s, the ping's clock: when the object was at that position and moving
+   * at that radial velocity, the instant the emissions' energy centre
+   * reaches it (sonar_velocity_centre_range ()); NaN without a ping
+   * time. */
   double instant;
   double radial_velocity;       /* m/s, d(range)/dt: + moving away */
   gboolean approaching;         /* radial_velocity < 0 */

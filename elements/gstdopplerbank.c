@@ -83,7 +83,7 @@ struct _GstDopplerBank
   SonarSpectrum *analyzer;
   float *converted;             /* one ping as float, for other formats */
   gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
-  gboolean warned_non_finite;
+  gboolean warned_non_finite, warned_overflow;
 
   /* Framing: the adapter holds the stream from sample adapter_position on;
    * next_ping is the first ping not yet output or dropped. */
@@ -208,16 +208,22 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->info = info;
   self->channels = setup->geometry.n_microphones;
   self->ping_length = setup->ping_length;
-  if (GST_AUDIO_INFO_FORMAT (&info) != GST_AUDIO_FORMAT_F32LE) {
-    const gsize n = (gsize) self->channels * self->ping_length;
-    self->converted = g_new (float, n);
-    self->unpacked = g_malloc (n * (GST_AUDIO_INFO_IS_FLOAT (&info) ?
-            sizeof (double) : sizeof (gint32)));
-  }
+  self->converted = g_new (float, (gsize) self->channels *
+      self->ping_length);
+  if (GST_AUDIO_INFO_FORMAT (&info) != GST_AUDIO_FORMAT_F32LE)
+    self->unpacked = g_malloc ((gsize) self->channels * self->ping_length *
+        (GST_AUDIO_INFO_IS_FLOAT (&info) ? sizeof (double) :
+            sizeof (gint32)));
   sonar_doppler_bank_prepare_ping_band (bank);
   self->band = *sonar_doppler_bank_band (bank);
   self->analyzer = sonar_spectrum_new (&self->band);
   gst_sonar_filter_set_bank (filter, bank, &self->band);
+  {
+    g_autofree char *problems = sonar_setup_check (setup);
+    if (problems)
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The sensor cannot work "
+              "as the chain needs: %s", problems), (NULL));
+  }
   GST_INFO_OBJECT (self, "%u velocities, FFT %u, %u band bins",
       sonar_doppler_bank_n_velocities (bank), self->band.fft_size,
       self->band.n_bins);
@@ -253,7 +259,7 @@ ping_samples (GstDopplerBank * self, const guint8 * data)
   const GstAudioFormatInfo *format = self->info.finfo;
   const gsize n = (gsize) self->channels * self->ping_length;
 
-  if (!self->converted)
+  if (!self->unpacked)
     return (const float *) data;
   format->unpack_func (format, GST_AUDIO_PACK_FLAG_NONE, self->unpacked,
       data, (int) n);
@@ -266,6 +272,38 @@ ping_samples (GstDopplerBank * self, const guint8 * data)
     const gint32 *unpacked = self->unpacked;
     for (gsize i = 0; i < n; i++)
       self->converted[i] = unpacked[i] * (1.0f / 2147483648.0f);
+  }
+  return self->converted;
+}
+
+/* Samples beyond this would overflow float spectra and images (a ping's
+ * FFT sums 10^4 of them, the matched filters square that). */
+#define MAX_SAFE_SAMPLE 1e30f
+
+/* A ping of huge samples, scaled down by a power of two: exact, and no
+ * position or velocity depends on the scale. */
+static const float *
+tame_overflow (GstDopplerBank * self, const float *samples, guint64 index)
+{
+  const gsize n = (gsize) self->channels * self->ping_length;
+  float peak = 0.0f, scale;
+  int exponent;
+
+  for (gsize i = 0; i < n; i++)
+    if (isfinite (samples[i]))
+      peak = MAX (peak, fabsf (samples[i]));
+  if (peak <= MAX_SAFE_SAMPLE)
+    return samples;
+  frexpf (peak / MAX_SAFE_SAMPLE, &exponent);
+  scale = ldexpf (1.0f, -exponent);
+  for (gsize i = 0; i < n; i++)
+    self->converted[i] = samples[i] * scale;
+  if (!self->warned_overflow) {
+    GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The recording's samples "
+            "reach %g in ping %" G_GUINT64_FORMAT ", beyond what float "
+            "spectra hold; such pings are scaled by 2^-%d, which changes "
+            "no position or velocity", peak, index, exponent), (NULL));
+    self->warned_overflow = TRUE;
   }
   return self->converted;
 }
@@ -286,7 +324,7 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
   if (!out)
     return NULL;
 
-  samples = ping_samples (self, data);
+  samples = tame_overflow (self, ping_samples (self, data), index);
   gst_buffer_map (out, &map, GST_MAP_WRITE);
   for (guint j = 0; j < self->channels; j++)
     sonar_spectrum_process (self->analyzer, samples + j, self->ping_length,
@@ -482,7 +520,7 @@ gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
   gst_adapter_clear (self->adapter);
   self->position_known = FALSE;
   if (!drain) {
-    self->warned_non_finite = FALSE;
+    self->warned_non_finite = self->warned_overflow = FALSE;
     self->stream_start_pts = GST_CLOCK_TIME_NONE;
   }
 }

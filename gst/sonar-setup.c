@@ -1,9 +1,11 @@
 /* sonar-setup.c: see sonar-setup.h. */
 #include "sonar-setup.h"
+#include "sonar-fftw.h"
 #include "sonar-interp.h"
 #include "sonar-json.h"
 #include "sonar-spectrum.h"
 
+#include <fftw3.h>
 #include <gio/gio.h>
 #include <math.h>
 #include <string.h>
@@ -523,4 +525,128 @@ sonar_setup_equal (const SonarSetup * a, const SonarSetup * b)
       sizeof (SonarVec3) * ga->n_emitters) == 0
       && memcmp (a->waveforms, b->waveforms,
       sizeof (float) * ga->n_emitters * a->waveform_length) == 0;
+}
+
+/* Extent of the virtual array (emitter + microphone) along @axis. */
+static double
+virtual_aperture (const SonarGeometry * g, SonarVec3 axis)
+{
+  double low = G_MAXDOUBLE, high = -G_MAXDOUBLE;
+
+  for (guint n = 0; n < g->n_emitters; n++) {
+    for (guint j = 0; j < g->n_microphones; j++) {
+      const double x = sonar_vec3_dot (sonar_vec3_add (g->emitters[n],
+              g->microphones[j]), axis);
+      low = MIN (low, x);
+      high = MAX (high, x);
+    }
+  }
+  return high - low;
+}
+
+/* Appends to @problems the emissions' band energy and cross-talk: every
+ * emission's spectrum once (FFT of twice the length: linear, not circular,
+ * correlations), then each pair's correlation by an inverse FFT. */
+static void
+check_emissions (const SonarSetup * setup, GString * problems)
+{
+  const guint n = setup->geometry.n_emitters, length = setup->waveform_length;
+  const guint size = sonar_fft_good_size (2 * length), bins = size / 2 + 1;
+  float *signal = fftwf_alloc_real (size);
+  fftwf_complex *spectra = fftwf_alloc_complex ((gsize) bins * n);
+  fftwf_complex *product = fftwf_alloc_complex (bins);
+  float *correlation = fftwf_alloc_real (size);
+  double *energy = g_new0 (double, n), *power = g_new0 (double, n);
+  fftwf_plan forward, inverse;
+  double worst = 0.0;
+  guint worst_a = 0, worst_b = 0;
+
+  sonar_fftw_lock ();
+  forward = fftwf_plan_dft_r2c_1d (size, signal, spectra, FFTW_ESTIMATE);
+  inverse = fftwf_plan_dft_c2r_1d (size, product, correlation,
+      FFTW_ESTIMATE);
+  sonar_fftw_unlock ();
+  for (guint e = 0; e < n; e++) {
+    double in_band = 0.0;
+    memset (signal, 0, sizeof (float) * size);
+    memcpy (signal, sonar_setup_waveform (setup, e), sizeof (float) * length);
+    for (guint i = 0; i < length; i++)
+      power[e] += (double) signal[i] * signal[i];
+    fftwf_execute_dft_r2c (forward, signal, spectra + (gsize) e * bins);
+    for (guint k = 0; k < bins; k++) {
+      const double f = k * setup->sample_rate / size;
+      const fftwf_complex s = spectra[(gsize) e * bins + k];
+      const double p = crealf (s * conjf (s));
+      energy[e] += p;
+      if (f >= setup->band_low && f <= setup->band_high)
+        in_band += p;
+    }
+    if (!(energy[e] > 0.0))
+      g_string_append_printf (problems, "; emitter %u sends nothing", e);
+    else if (in_band < SONAR_MIN_BAND_ENERGY * energy[e])
+      g_string_append_printf (problems, "; emitter %u sends only %.0f %% "
+          "of its energy in the band %g-%g Hz", e, 100.0 * in_band /
+          energy[e], setup->band_low, setup->band_high);
+  }
+  for (guint a = 0; a < n; a++) {
+    for (guint b = a + 1; b < n; b++) {
+      double peak = 0.0;
+      if (!(energy[a] > 0.0 && energy[b] > 0.0))
+        continue;
+      for (guint k = 0; k < bins; k++)
+        product[k] = spectra[(gsize) a * bins + k] *
+            conjf (spectra[(gsize) b * bins + k]);
+      fftwf_execute (inverse);
+      for (guint i = 0; i < size; i++)
+        peak = MAX (peak, fabs (correlation[i]));
+      /* The unnormalised inverse transform multiplies by size. */
+      peak /= size * sqrt (power[a] * power[b]);
+      if (peak > worst) {
+        worst = peak;
+        worst_a = a;
+        worst_b = b;
+      }
+    }
+  }
+  if (n > 1 && 20.0 * log10 (worst) > SONAR_MAX_CROSS_CORRELATION_DB)
+    g_string_append_printf (problems, "; the emissions of emitters %u and "
+        "%u are too alike to be told apart (cross-correlation peak %.1f dB "
+        "of their energy; at most %.0f dB)", worst_a, worst_b,
+        20.0 * log10 (worst), SONAR_MAX_CROSS_CORRELATION_DB);
+  sonar_fftw_lock ();
+  fftwf_destroy_plan (forward);
+  fftwf_destroy_plan (inverse);
+  sonar_fftw_unlock ();
+  fftwf_free (signal);
+  fftwf_free (spectra);
+  fftwf_free (product);
+  fftwf_free (correlation);
+  g_free (energy);
+  g_free (power);
+}
+
+char *
+sonar_setup_check (const SonarSetup * setup)
+{
+  const double wavelength = setup->speed_of_sound / setup->band_high;
+  GString *problems = g_string_new (NULL);
+  const SonarVec3 x = { 1.0, 0.0, 0.0 }, y = { 0.0, 1.0, 0.0 };
+
+  /* Less than a quarter wavelength of aperture: no direction. */
+  if (virtual_aperture (&setup->geometry, x) < 0.25 * wavelength
+      || (setup->field_of_view == SONAR_FIELD_OF_VIEW_HEMISPHERE
+          && virtual_aperture (&setup->geometry, y) < 0.25 * wavelength))
+    g_string_append_printf (problems, "; the array (%u microphones, %u "
+        "emitters) spans less than a quarter wavelength (%.1f mm) %s: it "
+        "cannot resolve direction", setup->geometry.n_microphones,
+        setup->geometry.n_emitters, 250.0 * wavelength,
+        setup->field_of_view == SONAR_FIELD_OF_VIEW_HEMISPHERE ?
+        "across x or y" : "along x");
+  check_emissions (setup, problems);
+  if (problems->len == 0) {
+    g_string_free (problems, TRUE);
+    return NULL;
+  }
+  g_string_erase (problems, 0, 2);
+  return g_string_free (problems, FALSE);
 }

@@ -177,6 +177,18 @@ SonarSetup *sonar_setup_new_from_files (const char *geometry_file,
 SonarSetup *sonar_setup_ref (SonarSetup * setup);
 void sonar_setup_unref (SonarSetup * setup);
 
+/* Limits of sonar_setup_check (). */
+#define SONAR_MIN_BAND_ENERGY 0.5       /* share of the emissions' energy */
+#define SONAR_MAX_CROSS_CORRELATION_DB -6.0
+/* What the set-up cannot do, in words for a user (NULL when nothing): a
+ * virtual array (every emitter + microphone position) with no aperture
+ * across the directions it images cannot resolve direction; an emission
+ * with less than SONAR_MIN_BAND_ENERGY of its energy in the band, or none,
+ * is mostly filtered away; two emissions whose normalised cross-correlation
+ * peaks above SONAR_MAX_CROSS_CORRELATION_DB cannot be told apart, so the
+ * MIMO image and the per-emitter Doppler curves mix them. g_free it. */
+char *sonar_setup_check (const SonarSetup * setup);
+
 /* Seconds after the trigger at which the emissions' energy is centred
  * (all emitters together): 4.44 ms for 4000 samples of noise at 450 kHz.
  * A radial velocity measured over the echo holds there. */

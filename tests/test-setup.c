@@ -419,6 +419,74 @@ test_sensor_file_emissions_wav (void)
   g_rmdir (dir);
 }
 
+/* A copy of @setup with @geometry (NULL: its own) and @waveforms. */
+static SonarSetup *
+setup_with (const SonarSetup * setup, const SonarGeometry * geometry,
+    const float *waveforms)
+{
+  SonarSetup *copy = sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = setup->sample_rate,
+        .speed_of_sound = setup->speed_of_sound,
+        .band_low = setup->band_low, .band_high = setup->band_high,
+        .geometry = geometry ? geometry : &setup->geometry,
+        .waveform_length = setup->waveform_length, .waveforms = waveforms,
+        .ping_length = setup->ping_length,
+        .field_of_view = SONAR_FIELD_OF_VIEW_HEMISPHERE}, NULL);
+  g_assert_nonnull (copy);
+  return copy;
+}
+
+/* A set-up that cannot do what the chain needs says so, in words: no
+ * aperture, an emitter sending nothing or out of band, emissions too alike
+ * to tell apart. The default sensor passes. */
+static void
+test_setup_check (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17262);
+  const gsize n = (gsize) setup->geometry.n_emitters *
+      setup->waveform_length;
+  g_autofree float *w = g_memdup2 (setup->waveforms, sizeof (float) * n);
+  g_autofree char *fine = sonar_setup_check (setup);
+  SonarGeometry point = { 0 };
+  SonarVec3 origin = { 0, 0, 0 }, above = { 0, 0.0005, 0 };
+
+  g_assert_null (fine);
+  /* Emitter 3 silent, emitter 5 a 5 kHz tone, emitter 7 a copy of 6. */
+  memset (w + 3 * setup->waveform_length, 0, sizeof (float) *
+      setup->waveform_length);
+  for (guint i = 0; i < setup->waveform_length; i++)
+    w[5 * setup->waveform_length + i] = (float) sin (2 * G_PI * 5000.0 * i /
+        setup->sample_rate);
+  memcpy (w + 7 * setup->waveform_length, w + 6 * setup->waveform_length,
+      sizeof (float) * setup->waveform_length);
+  {
+    g_autoptr (SonarSetup) bad = setup_with (setup, NULL, w);
+    g_autofree char *problems = sonar_setup_check (bad);
+    g_test_message ("%s", problems);
+    g_assert_nonnull (strstr (problems, "emitter 3 sends nothing"));
+    g_assert_nonnull (strstr (problems, "emitter 5 sends only 0 % of its "
+            "energy in the band"));
+    g_assert_nonnull (strstr (problems, "the emissions of emitters 6 and 7 "
+            "are too alike to be told apart (cross-correlation peak 0.0 dB"));
+  }
+  /* One microphone and one emitter half a millimetre apart. */
+  point.n_microphones = point.n_emitters = 1;
+  point.microphones = &origin;
+  point.emitters = &above;
+  {
+    g_autoptr (SonarSetup) blind = sonar_setup_new (&(SonarSetupParams) {
+          .sample_rate = setup->sample_rate, .speed_of_sound = 343,
+          .band_low = setup->band_low, .band_high = setup->band_high,
+          .geometry = &point, .waveform_length = setup->waveform_length,
+          .waveforms = setup->waveforms, .ping_length = 17262}, NULL);
+    g_autofree char *problems = sonar_setup_check (blind);
+    g_test_message ("%s", problems);
+    g_assert_cmpstr (problems, ==, "the array (1 microphones, 1 emitters) "
+        "spans less than a quarter wavelength (1.1 mm) along x: it cannot "
+        "resolve direction");
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -429,6 +497,7 @@ main (int argc, char **argv)
   g_test_add_func ("/setup/geometry-file-errors", test_geometry_file_errors);
   g_test_add_func ("/setup/waveforms-file", test_waveforms_file);
   g_test_add_func ("/setup/validation", test_setup_validation);
+  g_test_add_func ("/setup/check", test_setup_check);
   g_test_add_func ("/setup/sensor-file", test_sensor_file);
   g_test_add_func ("/setup/sensor-file-defaults", test_sensor_file_defaults);
   g_test_add_func ("/setup/sensor-file-delays", test_sensor_file_delays);

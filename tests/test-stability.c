@@ -669,9 +669,20 @@ test_denormals (void)
   chain_run_clear (&r);
 }
 
-/* Amplitudes of 1e-30 (a reflector of strength 1e-30 in noise of 1e-32)
- * and of 1e30 (the ping scaled): the same object at the same speed as at
- * full scale. */
+static void
+edit_to_float_max (float *x, gsize n, gpointer data)
+{
+  float peak = 0.0f;
+
+  for (gsize i = 0; i < n; i++)
+    peak = MAX (peak, fabsf (x[i]));
+  for (gsize i = 0; i < n; i++)
+    x[i] = x[i] / peak * 3.3e38f;
+}
+
+/* Amplitudes of 1e-30 (a reflector of strength 1e-30 in noise of 1e-32),
+ * of 1e30 and of 3.3e38 (the ping scaled): the same object at the same
+ * speed as at full scale. */
 static void
 test_amplitudes_extreme (void)
 {
@@ -686,6 +697,16 @@ test_amplitudes_extreme (void)
 
   run_chain (ONE_OBJECT, "", CHAIN, edit_scale, &scale, &r);
   assert_one_object (&r);
+  chain_run_clear (&r);
+
+  /* Up to float's largest: the ping is scaled down by a power of two, with
+   * a warning that says so. */
+  run_chain (ONE_OBJECT, "", CHAIN, edit_to_float_max, NULL, &r);
+  assert_one_object (&r);
+  g_assert_nonnull (r.warning);
+  g_test_message ("%s", r.warning);
+  g_assert_nonnull (strstr (r.warning, "beyond what float spectra hold; "
+          "such pings are scaled by 2^-"));
   chain_run_clear (&r);
 }
 

@@ -14,6 +14,8 @@
 #define MIN_ELEMENT_SPACING 1e-4
 /* Elements must sit on a sensor, not metres away from it. */
 #define MAX_ELEMENT_OFFSET 1.0
+/* Largest magnitude of a waveform sample read from a file. */
+#define MAX_SAMPLE 1e6
 
 void
 sonar_geometry_clear (SonarGeometry * geometry)
@@ -219,14 +221,10 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
   for (guint n = 0; n < n_rows; n++) {
     JsonArray *row = json_node_get_array (json_array_get_element (rows, n));
     for (guint i = 0; i < n_cols; i++) {
-      JsonNode *v = json_array_get_element (row, i);
-      GType type = JSON_NODE_HOLDS_VALUE (v) ? json_node_get_value_type (v)
-          : G_TYPE_INVALID;
-      double value = type == G_TYPE_DOUBLE ? json_node_get_double (v)
-          : type == G_TYPE_INT64 ? (double) json_node_get_int (v) : NAN;
-      if (!isfinite (value) || fabs (value) > 1e6) {
-        g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
-            "%s: \"waveforms\"[%u][%u] must be a finite number", path, n, i);
+      double value;
+      if (!sonar_json_node_get_number (json_array_get_element (row, i),
+              -MAX_SAMPLE, MAX_SAMPLE, &value, error,
+              "%s: \"waveforms\"[%u][%u]", path, n, i)) {
         g_free (waveforms);
         return NULL;
       }
@@ -238,9 +236,11 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
     JsonArray *edges = JSON_NODE_HOLDS_ARRAY (band_node) ?
         json_node_get_array (band_node) : NULL;
     if (!edges || json_array_get_length (edges) != 2
-        || !((*band_low = json_array_get_double_element (edges, 0)) > 0.0)
-        || !((*band_high = json_array_get_double_element (edges, 1))
-            > *band_low) || *band_high > *sample_rate / 2.0) {
+        || !sonar_json_node_get_number (json_array_get_element (edges, 0),
+            0.0, *sample_rate / 2.0, band_low, NULL, "band")
+        || !sonar_json_node_get_number (json_array_get_element (edges, 1),
+            0.0, *sample_rate / 2.0, band_high, NULL, "band")
+        || !(*band_low > 0.0 && *band_high > *band_low)) {
       g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
           "%s: \"band\" must be [low, high] in Hz with 0 < low < high <= "
           "sample-rate / 2", path);

@@ -215,6 +215,46 @@ test_strict_json (void)
   g_clear_error (&error);
 }
 
+static void
+assert_waveforms_error (const char *json, const char *expected)
+{
+  g_autofree char *path = sonar_test_write_temp ("wf.json", json);
+  g_autoptr (GString) message = g_string_new (expected);
+  guint n, length;
+  double rate, low, high;
+  GError *error = NULL;
+
+  g_string_replace (message, "@", path, 0);
+  g_assert_null (sonar_waveforms_load_file (path, &n, &length, &rate, &low,
+          &high, &error));
+  g_assert_cmpstr (error->message, ==, message->str);
+  g_error_free (error);
+}
+
+#define SAMPLES_15 "0,0,0,0,0,0,0,0,0,0,0,0,0,0,0"
+
+/* A sample out of range names its range; members of the wrong type are the
+ * loader's error, with no Json-CRITICAL first (criticals abort tests). */
+static void
+test_waveforms_values (void)
+{
+  assert_waveforms_error ("{\"sample-rate\": 450000, \"waveforms\": [["
+      SAMPLES_15 ", 1e300]]}", "@: \"waveforms\"[0][15] is 1e+300, out of "
+      "range (allowed: -1e+06 to 1e+06)");
+  assert_waveforms_error ("{\"sample-rate\": 450000, \"waveforms\": [["
+      SAMPLES_15 ", {}]]}", "@: \"waveforms\"[0][15] must be a finite "
+      "number in [-1e+06, 1e+06]");
+  for (guint i = 0; i < 3; i++) {
+    const char *bands[] = { "[{}, 80000]", "[20000, [80000]]",
+      "[\"low\", null]"
+    };
+    g_autofree char *json = g_strdup_printf ("{\"sample-rate\": 450000, "
+        "\"band\": %s, \"waveforms\": [[" SAMPLES_15 ", 1]]}", bands[i]);
+    assert_waveforms_error (json, "@: \"band\" must be [low, high] in Hz "
+        "with 0 < low < high <= sample-rate / 2");
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -226,5 +266,6 @@ main (int argc, char **argv)
   g_test_add_func ("/json/repeated-member", test_repeated_member);
   g_test_add_func ("/json/number-range", test_number_range);
   g_test_add_func ("/json/strict-json", test_strict_json);
+  g_test_add_func ("/json/waveforms-values", test_waveforms_values);
   return g_test_run ();
 }

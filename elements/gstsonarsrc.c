@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
+#include "sonar-memory.h"
 #include "sonar-scene.h"
 #include "sonar-setup.h"
 #include "sonar-simulator.h"
@@ -105,6 +106,7 @@ enum
   PROP_AIR_ABSORPTION,
   PROP_IS_LIVE,
   PROP_POST_MESSAGES,
+  PROP_MAX_MEMORY,
 };
 
 /* What the properties say; read under the object lock, used at start. */
@@ -120,6 +122,7 @@ typedef struct
   double ping_rate;
   SonarSimulatorParams simulation;
   gboolean post_messages;
+  guint64 max_memory;
 } SonarSrcSettings;
 
 struct _GstSonarSrc
@@ -168,6 +171,7 @@ gst_sonar_src_init (GstSonarSrc * self)
   s->simulation.noise_amplitude = DEFAULT_NOISE_AMPLITUDE;
   s->simulation.seed = DEFAULT_NOISE_SEED;
   s->post_messages = DEFAULT_POST_MESSAGES;
+  s->max_memory = SONAR_DEFAULT_MAX_MEMORY;
 
   gst_base_src_set_format (GST_BASE_SRC (self), GST_FORMAT_TIME);
   gst_base_src_set_live (GST_BASE_SRC (self), DEFAULT_IS_LIVE);
@@ -254,6 +258,9 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       s->post_messages = g_value_get_boolean (value);
       break;
+    case PROP_MAX_MEMORY:
+      s->max_memory = g_value_get_uint64 (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -327,6 +334,9 @@ gst_sonar_src_get_property (GObject * object, guint prop_id, GValue * value,
       break;
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, s->post_messages);
+      break;
+    case PROP_MAX_MEMORY:
+      g_value_set_uint64 (value, s->max_memory);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -434,11 +444,19 @@ gst_sonar_src_start (GstBaseSrc * bsrc)
   } else {
     sonar_scene_init_preset (&self->scene, s.scene);
   }
+  /* The simulator, the planar window and the buffer pushed. */
+  g = &self->setup->geometry;
+  if (!sonar_memory_check (sonar_simulator_memory (self->setup, 2),
+          s.max_memory, &error, "sonarsrc: %u emitters x %u-sample "
+          "waveforms (waveform-length) and %u microphones x %u-sample "
+          "recording windows (max-range %g m)", g->n_emitters,
+          self->setup->waveform_length, g->n_microphones,
+          self->setup->ping_length, s.max_range))
+    goto failed;
   self->simulator = sonar_simulator_new (self->setup, &s.simulation, &error);
   if (!self->simulator)
     goto failed;
 
-  g = &self->setup->geometry;
   self->planar = g_new (float, (gsize) g->n_microphones *
       self->setup->ping_length);
   self->truths = g_new0 (SonarTruth, MAX (self->scene.n_reflectors, 1));
@@ -732,6 +750,8 @@ gst_sonar_src_class_init (GstSonarSrcClass * klass)
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-truth\" element message with the ground truth of every "
           "ping", DEFAULT_POST_MESSAGES, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
+      sonar_memory_param_spec (flags));
 
   gst_element_class_add_static_pad_template (element_class, &src_template);
   gst_element_class_set_static_metadata (element_class,

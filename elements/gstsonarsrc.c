@@ -196,6 +196,18 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
   SonarSrcSettings *s = &self->settings;
 
   if (prop_id == PROP_IS_LIVE) {
+    GstState state;
+    GST_OBJECT_LOCK (self);
+    state = MAX (GST_STATE (self), GST_STATE_PENDING (self));
+    GST_OBJECT_UNLOCK (self);
+    /* GstBaseSrc reads it as it starts: changed later, a running source
+     * would neither pace its pings nor report its latency as told. */
+    if (state > GST_STATE_READY) {
+      g_warning ("%s: is-live can only be changed in the NULL or READY "
+          "state, not in %s: ignored", GST_OBJECT_NAME (self),
+          gst_element_state_get_name (state));
+      return;
+    }
     gst_base_src_set_live (GST_BASE_SRC (self), g_value_get_boolean (value));
     return;
   }

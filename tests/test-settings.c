@@ -1,6 +1,8 @@
 /* test-settings.c: settings the elements cannot honour are refused or
  * reported, never silently changed: is-live while playing, more agreeing
  * emitters than emitters, more centroids than wardcluster keeps. */
+#include <string.h>
+
 #include "sonar-test-util.h"
 
 /* is-live is documented as changeable only in NULL or READY: GstBaseSrc
@@ -32,11 +34,47 @@ test_is_live_while_playing (void)
   gst_object_unref (pipeline);
 }
 
+#define VELOCITY_CHAIN "sonarsrc num-buffers=1 max-range=2 ! dopplerbank " \
+  "velocity-step=0.5 ! mimobeamform range-max=2 ! wardcluster ! velocityest "
+
+static void
+assert_first_line (const char *launch, const char *expected)
+{
+  g_autofree char *message = sonar_test_run_pipeline (launch, NULL);
+
+  if (!expected) {
+    g_assert_null (message);
+    return;
+  }
+  g_assert_nonnull (message);
+  *strchrnul (message, '\n') = '\0';
+  g_assert_cmpstr (message, ==, expected);
+}
+
+/* Like emitters=9 on an 8-emitter sensor, an impossible agreement is an
+ * error, not clamped to what the sensor has. */
+static void
+test_min_agreeing_emitters (void)
+{
+  assert_first_line (VELOCITY_CHAIN "min-agreeing-emitters=9 ! fakesink",
+      "velocityest: min-agreeing-emitters is 9, but only 8 emitters enter "
+      "the product (emitters=0: all of the set-up's)");
+  assert_first_line (VELOCITY_CHAIN "emitters=4 min-agreeing-emitters=5 ! "
+      "fakesink", "velocityest: min-agreeing-emitters is 5, but only 4 "
+      "emitters enter the product (emitters=4)");
+  /* The default (5) is lowered to the emitters there are, as before. */
+  assert_first_line (VELOCITY_CHAIN "emitters=4 ! fakesink", NULL);
+  assert_first_line (VELOCITY_CHAIN "min-agreeing-emitters=8 ! fakesink",
+      NULL);
+}
+
 int
 main (int argc, char **argv)
 {
   sonar_test_init_gst (&argc, &argv);
   g_test_add_func ("/settings/is-live-while-playing",
       test_is_live_while_playing);
+  g_test_add_func ("/settings/min-agreeing-emitters",
+      test_min_agreeing_emitters);
   return g_test_run ();
 }

@@ -1,8 +1,10 @@
 /* test-settings.c: settings the elements cannot honour are refused or
  * reported, never silently changed: is-live while playing, more agreeing
  * emitters than emitters, more centroids than wardcluster keeps. */
+#include <gst/app/gstappsink.h>
 #include <string.h>
 
+#include "sonar-contracts.h"
 #include "sonar-test-util.h"
 
 /* is-live is documented as changeable only in NULL or READY: GstBaseSrc
@@ -68,6 +70,51 @@ test_min_agreeing_emitters (void)
       NULL);
 }
 
+/* Noise clustered with no merging gives more than the 256 centroids a
+ * ping keeps: the strongest 256 are kept and one warning says so. */
+static void
+test_centroids_dropped_warning (void)
+{
+  GstElement *pipeline = gst_parse_launch ("sonarsrc scene=empty "
+      "num-buffers=3 ! dopplerbank velocity-step=0.5 ! mimobeamform "
+      "coarse-spacing=0 ! wardcluster stop=distance distance=0 floor=0 "
+      "threshold=-200 max-peaks=4096 ! appsink name=sink sync=false", NULL);
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstBus *bus = gst_element_get_bus (pipeline);
+  GstSample *sample;
+  GstMessage *msg;
+  guint pings = 0, warnings = 0;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    SonarCentroidsMeta *meta =
+        sonar_buffer_get_centroids_meta (gst_sample_get_buffer (sample));
+    g_assert_nonnull (meta);
+    g_assert_cmpuint (meta->n_centroids, ==, 256);
+    gst_sample_unref (sample);
+    pings++;
+  }
+  g_assert_cmpuint (pings, ==, 3);
+  while ((msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING |
+              GST_MESSAGE_ERROR))) {
+    GError *error = NULL;
+    g_assert_cmpint (GST_MESSAGE_TYPE (msg), ==, GST_MESSAGE_WARNING);
+    gst_message_parse_warning (msg, &error, NULL);
+    g_assert_cmpstr (error->message, ==, "wardcluster: ping 0 has more than "
+        "256 centroids: only the 256 strongest are kept, on this ping and any "
+        "other (a higher threshold or floor, or stop=distance with a larger "
+        "distance, gives fewer)");
+    g_error_free (error);
+    gst_message_unref (msg);
+    warnings++;
+  }
+  g_assert_cmpuint (warnings, ==, 1);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -76,5 +123,7 @@ main (int argc, char **argv)
       test_is_live_while_playing);
   g_test_add_func ("/settings/min-agreeing-emitters",
       test_min_agreeing_emitters);
+  g_test_add_func ("/settings/centroids-dropped-warning",
+      test_centroids_dropped_warning);
   return g_test_run ();
 }

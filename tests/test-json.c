@@ -180,6 +180,8 @@ test_number_range (void)
         "t: reflectors[0].position[2]: 1e400 is out of range (numbers: "
           "magnitude at most 1.79769e+308)"},
     /* The member's own range, once the number is one. */
+    {"{\"dimensions\": 1e300, \"reflectors\": []}",
+        "t: \"dimensions\" must be 2 or 3, not 1e+300"},
     {"{\"reflectors\": [{\"range\": 1, \"strength\": 9223372036854775807}]}",
         "t: scene: reflector 0: strength 9.22337e+18 must be in [0, 1e+06]"},
   };

@@ -132,6 +132,7 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   double v_min, v_max, v_step;
   guint64 max_memory, bank_bytes;
   guint n_velocities;
+  SonarBand ping_band;
 
   if (!in_caps || !gst_audio_info_from_caps (&info, in_caps)) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
@@ -157,11 +158,16 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GST_OBJECT_UNLOCK (self);
 
   bank_bytes = sonar_doppler_bank_memory (setup, v_min, v_max, v_step,
-      &n_velocities);
-  if (!sonar_memory_check (bank_bytes, max_memory, error, "dopplerbank: a "
-          "bank of %u velocities (velocity-min %g, velocity-max %g, "
-          "velocity-step %g m/s) for %u emitters", n_velocities, v_min, v_max,
-          v_step, setup->geometry.n_emitters))
+      &n_velocities, &ping_band);
+  if (!sonar_memory_check_buffers (bank_bytes, sizeof (SonarComplex) *
+          (guint64) ping_band.n_bins * setup->geometry.n_microphones,
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, max_memory, error,
+          "dopplerbank: a bank of %u velocities (velocity-min %g, "
+          "velocity-max %g, velocity-step %g m/s) for %u emitters and %u "
+          "output buffers of %u microphones x %u band bins", n_velocities,
+          v_min, v_max, v_step, setup->geometry.n_emitters,
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, setup->geometry.n_microphones,
+          ping_band.n_bins))
     return NULL;
   bank = sonar_doppler_bank_new (setup, v_min, v_max, v_step, error);
   if (!bank)

@@ -194,10 +194,11 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   grid = sonar_imager_grid (self->imager);
   buffer_size = sonar_memory_array (records, sizeof (SonarEnergyscapeHeader)
       + sizeof (float) * (guint64) sonar_image_grid_size (grid));
-  if (!sonar_memory_check_buffers (buffer_size, GST_SONAR_FILTER_POOL_MIN_BUFFERS, max_memory,
-          error, "mimobeamform: %u output buffers of %u image%s of %u "
-          "azimuths x %u elevations x %u ranges (azimuth-count, "
-          "elevation-count, range-min, range-max, range-resolution)",
+  if (!sonar_memory_check_buffers (0, buffer_size,
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, max_memory, error,
+          "mimobeamform: %u output buffers of %u image%s of %u azimuths x "
+          "%u elevations x %u ranges (azimuth-count, elevation-count, "
+          "range-min, range-max, range-resolution)",
           GST_SONAR_FILTER_POOL_MIN_BUFFERS, records,
           records > 1 ? "s (mode=datacube)" : "", grid->n_azimuth,
           grid->n_elevation, grid->n_range))

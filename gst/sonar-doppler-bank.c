@@ -6,6 +6,7 @@
 
 #include <gio/gio.h>
 #include <math.h>
+#include <string.h>
 
 struct _SonarDopplerBank
 {
@@ -94,29 +95,38 @@ template_length (double c, guint length, double v)
   return (guint) ceil ((length - 1) / sonar_doppler_scale (c, v)) + 1;
 }
 
+/* The FFT of a whole ping plus the longest template (linear, not circular,
+ * correlations) on the set-up's band. */
+static void
+ping_band_init (SonarBand * band, const SonarSetup * setup, guint max_length)
+{
+  sonar_band_init (band, setup->sample_rate, setup->ping_length + max_length,
+      setup->band_low, setup->band_high);
+}
+
 guint64
 sonar_doppler_bank_memory (const SonarSetup * setup, double v_min,
-    double v_max, double v_step, guint * n_velocities)
+    double v_max, double v_step, guint * n_velocities, SonarBand * ping_band)
 {
   const double c = setup->speed_of_sound;
   const guint n_emitters = setup->geometry.n_emitters;
   guint max_length;
-  SonarBand band;
   guint64 templates, spectra;
 
   *n_velocities = bank_size (c, v_min, v_max, v_step, NULL);
-  if (!*n_velocities)
+  if (!*n_velocities) {
+    memset (ping_band, 0, sizeof (*ping_band));
     return 0;
+  }
   /* alpha falls as v grows: the longest template is at an end. */
   max_length = MAX (template_length (c, setup->waveform_length, v_min),
       template_length (c, setup->waveform_length, v_max));
-  sonar_band_init (&band, setup->sample_rate, setup->ping_length +
-      max_length, setup->band_low, setup->band_high);
+  ping_band_init (ping_band, setup, max_length);
   templates = sonar_memory_array (sonar_memory_array (n_emitters,
           *n_velocities), sizeof (float) * (guint64) max_length);
   /* Split spectra: real and imaginary parts, float each. */
   spectra = sonar_memory_array (sonar_memory_array (n_emitters,
-          *n_velocities), 2 * sizeof (float) * (guint64) band.n_bins);
+          *n_velocities), 2 * sizeof (float) * (guint64) ping_band->n_bins);
   return sonar_memory_add (templates, spectra);
 }
 
@@ -287,11 +297,9 @@ sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
 void
 sonar_doppler_bank_prepare_ping_band (SonarDopplerBank * bank)
 {
-  const SonarSetup *setup = bank->setup;
   SonarBand band;
 
-  sonar_band_init (&band, setup->sample_rate, setup->ping_length +
-      bank->max_length, setup->band_low, setup->band_high);
+  ping_band_init (&band, bank->setup, bank->max_length);
   sonar_doppler_bank_prepare_band (bank, &band);
 }
 

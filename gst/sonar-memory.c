@@ -96,8 +96,9 @@ sonar_memory_check (guint64 bytes, guint64 max_memory, GError ** error,
 }
 
 gboolean
-sonar_memory_check_buffers (guint64 buffer_size, guint n_buffers,
-    guint64 max_memory, GError ** error, const char *format, ...)
+sonar_memory_check_buffers (guint64 held_bytes, guint64 buffer_size,
+    guint n_buffers, guint64 max_memory, GError ** error,
+    const char *format, ...)
 {
   va_list args;
   gboolean ok;
@@ -111,8 +112,9 @@ sonar_memory_check_buffers (guint64 buffer_size, guint n_buffers,
         what, size, G_MAXUINT);
     ok = FALSE;
   } else {
-    ok = check_memory (sonar_memory_array (buffer_size, n_buffers),
-        max_memory, error, format, args);
+    ok = check_memory (sonar_memory_add (held_bytes,
+            sonar_memory_array (buffer_size, n_buffers)), max_memory, error,
+        format, args);
   }
   va_end (args);
   return ok;

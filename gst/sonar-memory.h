@@ -14,7 +14,8 @@ G_BEGIN_DECLS
 
 /* The max-memory property (bytes, default SONAR_DEFAULT_MAX_MEMORY) of the
  * elements that allocate by sizes their settings give: dopplerbank (the
- * bank), mimobeamform (the images), sonarsrc (the recording window). */
+ * bank and its spectra), mimobeamform (the images), sonarsrc (the
+ * recording window); docs/CONTRACTS.md, section 11. */
 GParamSpec *sonar_memory_param_spec (GParamFlags flags);
 
 /* @count elements of @size bytes, and sums of such, saturating at
@@ -23,17 +24,17 @@ guint64 sonar_memory_array (guint64 count, guint64 size);
 guint64 sonar_memory_add (guint64 a, guint64 b);
 
 /* FALSE with @error set when @bytes is more than @max_memory: "<what>
- * needs 5.9 GiB (6357437856 bytes), more than max-memory (4.0 GiB)",
+ * needs 5.9 GiB (6358913952 bytes), more than max-memory (4.0 GiB)",
  * <what> being the printf-style @format, which names the settings. */
 gboolean sonar_memory_check (guint64 bytes, guint64 max_memory,
     GError ** error, const char *format, ...) G_GNUC_PRINTF (4, 5);
 
-/* The same for @n_buffers output buffers of @buffer_size bytes from a
- * GstBufferPool, which also refuses buffers of more than G_MAXUINT bytes
- * (the pool's size parameter is a guint). */
-gboolean sonar_memory_check_buffers (guint64 buffer_size, guint n_buffers,
-    guint64 max_memory, GError ** error, const char *format, ...)
-    G_GNUC_PRINTF (5, 6);
+/* The same for @held_bytes plus @n_buffers output buffers of
+ * @buffer_size bytes from a GstBufferPool, which also refuses buffers of
+ * more than G_MAXUINT bytes (the pool's size parameter is a guint). */
+gboolean sonar_memory_check_buffers (guint64 held_bytes,
+    guint64 buffer_size, guint n_buffers, guint64 max_memory,
+    GError ** error, const char *format, ...) G_GNUC_PRINTF (6, 7);
 
 G_END_DECLS
 

@@ -28,38 +28,44 @@ test_bank_too_large (void)
   assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
       "velocity-step=0.0007 ! fakesink", "dopplerbank: a bank of 20001 "
       "velocities (velocity-min -7, velocity-max 7, velocity-step 0.0007 "
-      "m/s) for 8 emitters needs 5.9 GiB (6357437856 bytes), more than "
-      "max-memory (4.0 GiB)");
+      "m/s) for 8 emitters and 2 output buffers of 32 microphones x 2883 "
+      "band bins needs 5.9 GiB (6358913952 bytes), more than max-memory "
+      "(4.0 GiB)");
   assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
       "max-memory=10000000 ! fakesink", "dopplerbank: a bank of 281 "
       "velocities (velocity-min -7, velocity-max 7, velocity-step 0.05 m/s) "
-      "for 8 emitters needs 85.2 MiB (89317536 bytes), more than "
-      "max-memory (9.5 MiB)");
+      "for 8 emitters and 2 output buffers of 32 microphones x 2883 band "
+      "bins needs 86.6 MiB (90793632 bytes), more than max-memory "
+      "(9.5 MiB)");
 }
 
 /* The estimate is what the bank allocates: its templates and their split
- * spectra on the ping band. */
+ * spectra on the ping band, the band it prepares. */
 static void
 test_bank_estimate_is_exact (void)
 {
   g_autoptr (SonarSetup) setup = sonar_test_default_setup (17261);
   g_autoptr (SonarDopplerBank) bank = NULL;
   guint n_velocities;
+  SonarBand ping_band;
   const guint64 estimate = sonar_doppler_bank_memory (setup, -1.0, 2.0, 0.1,
-      &n_velocities);
+      &n_velocities, &ping_band);
   guint64 allocated;
 
   bank = sonar_doppler_bank_new (setup, -1.0, 2.0, 0.1, NULL);
   sonar_doppler_bank_prepare_ping_band (bank);
   g_assert_cmpuint (n_velocities, ==, sonar_doppler_bank_n_velocities (bank));
+  g_assert_true (sonar_band_equal (&ping_band,
+          sonar_doppler_bank_band (bank)));
   allocated = (guint64) setup->geometry.n_emitters * n_velocities *
       sizeof (float) * (sonar_doppler_bank_max_length (bank) +
       2 * sonar_doppler_bank_band (bank)->n_bins);
   g_assert_cmpuint (estimate, ==, allocated);
   /* Settings the bank refuses have no estimate: its own error says why. */
   g_assert_cmpuint (sonar_doppler_bank_memory (setup, 1.0, -1.0, 0.1,
-          &n_velocities), ==, 0);
+          &n_velocities, &ping_band), ==, 0);
   g_assert_cmpuint (n_velocities, ==, 0);
+  g_assert_cmpuint (ping_band.n_bins, ==, 0);
 }
 
 /* A datacube of 29 images of 65536 x 1754 pixels is a 12.4 GiB buffer: the

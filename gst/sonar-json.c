@@ -123,7 +123,7 @@ number_in_range (const char *text, gsize length, gboolean * is_integer)
 {
   char buffer[64];
   g_autofree char *copy = NULL;
-  const char *number = text;
+  const char *number;
   char *end;
 
   *is_integer = !memchr (text, '.', length) && !memchr (text, 'e', length)
@@ -137,10 +137,8 @@ number_in_range (const char *text, gsize length, gboolean * is_integer)
   errno = 0;
   if (*is_integer)
     (void) g_ascii_strtoll (number, &end, 10);
-  else if (isinf (g_ascii_strtod (number, &end)))
-    errno = ERANGE;
-  else
-    errno = 0;                  /* underflow to 0 or a denormal is fine */
+  else                          /* underflow to 0 or a denormal is fine */
+    errno = isinf (g_ascii_strtod (number, &end)) ? ERANGE : 0;
   return !(errno == ERANGE && *end == '\0');
 }
 

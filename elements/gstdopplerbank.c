@@ -34,6 +34,7 @@
 #endif
 
 #include "gstdopplerbank.h"
+#include "sonar-memory.h"
 
 #include <gio/gio.h>
 #include <gst/audio/audio.h>
@@ -61,6 +62,7 @@ enum
   PROP_SPEED_OF_SOUND,
   PROP_SENSOR_FILE,
   PROP_DROPPED,
+  PROP_MAX_MEMORY,
 };
 
 struct _GstDopplerBank
@@ -70,6 +72,7 @@ struct _GstDopplerBank
   /* Properties, protected by the object lock. */
   double velocity_min, velocity_max, velocity_step;
   char *sensor_file, *geometry_file, *waveforms_file;
+  guint64 max_memory;
   guint ping_length_setting;
   double speed_of_sound;
   guint64 dropped;              /* pings dropped since start */
@@ -176,6 +179,9 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GstAudioInfo info;
   GstCaps *out_caps;
   double v_min, v_max, v_step;
+  guint64 max_memory, bank_bytes;
+  guint n_velocities;
+  SonarBand ping_band;
 
   if (!in_caps || !recording_info_from_caps (&info, in_caps)) {
     g_autofree char *text = in_caps ? gst_caps_to_string (in_caps) : NULL;
@@ -199,8 +205,21 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   v_min = self->velocity_min;
   v_max = self->velocity_max;
   v_step = self->velocity_step;
+  max_memory = self->max_memory;
   GST_OBJECT_UNLOCK (self);
 
+  bank_bytes = sonar_doppler_bank_memory (setup, v_min, v_max, v_step,
+      &n_velocities, &ping_band);
+  if (!sonar_memory_check_buffers (bank_bytes, sizeof (SonarComplex) *
+          (guint64) ping_band.n_bins * setup->geometry.n_microphones,
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, max_memory, error,
+          "dopplerbank: a bank of %u velocities (velocity-min %g, "
+          "velocity-max %g, velocity-step %g m/s) for %u emitters and %u "
+          "output buffers of %u microphones x %u band bins", n_velocities,
+          v_min, v_max, v_step, setup->geometry.n_emitters,
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, setup->geometry.n_microphones,
+          ping_band.n_bins))
+    return NULL;
   bank = sonar_doppler_bank_new (setup, v_min, v_max, v_step, error);
   if (!bank)
     return NULL;
@@ -560,6 +579,9 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
     case PROP_SPEED_OF_SOUND:
       self->speed_of_sound = g_value_get_double (value);
       break;
+    case PROP_MAX_MEMORY:
+      self->max_memory = g_value_get_uint64 (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -602,6 +624,9 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
     case PROP_SPEED_OF_SOUND:
       g_value_set_double (value, self->speed_of_sound);
       break;
+    case PROP_MAX_MEMORY:
+      g_value_set_uint64 (value, self->max_memory);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -628,6 +653,7 @@ gst_doppler_bank_init (GstDopplerBank * self)
   self->velocity_max = DEFAULT_VELOCITY_MAX;
   self->velocity_step = DEFAULT_VELOCITY_STEP;
   self->speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND;
+  self->max_memory = SONAR_DEFAULT_MAX_MEMORY;
   self->adapter = gst_adapter_new ();
   self->stream_start_pts = GST_CLOCK_TIME_NONE;
 }
@@ -686,6 +712,8 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
       g_param_spec_double ("speed-of-sound", "Speed of sound", "With "
           "waveforms-file: speed of sound, in m/s (a sensor file gives its "
           "own)", 100.0, 2000.0, SONAR_DEFAULT_SPEED_OF_SOUND, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
+      sonar_memory_param_spec (flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

@@ -21,6 +21,7 @@
 #endif
 
 #include "gstmimobeamform.h"
+#include "sonar-memory.h"
 
 #include <math.h>
 #include <string.h>
@@ -79,6 +80,7 @@ enum
   PROP_HYPOTHESIS_SPACING,
   PROP_EMITTER,
   PROP_THREADS,
+  PROP_MAX_MEMORY,
 };
 
 struct _GstMimoBeamform
@@ -94,6 +96,7 @@ struct _GstMimoBeamform
   double velocity;
   double hypothesis_spacing;
   int emitter;
+  guint64 max_memory;
 
   /* Configured state. */
   SonarImager *imager;
@@ -128,6 +131,8 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   SonarBand band;
   double velocity, spacing, range_max;
   GstCaps *out_caps;
+  const SonarImageGrid *grid;
+  guint64 max_memory, buffer_size;
   guint records;
 
   if (!in_caps || !sonar_spectra_caps_parse (in_caps, &self->channels, &band)
@@ -157,6 +162,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->active_emitter = self->emitter;
   velocity = self->velocity;
   spacing = self->hypothesis_spacing;
+  max_memory = self->max_memory;
   GST_OBJECT_UNLOCK (self);
 
   if (self->active_emitter >= (int) setup->geometry.n_emitters) {
@@ -208,11 +214,20 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
         self->indices[h]);
   GST_INFO_OBJECT (self, "%u Doppler hypotheses", self->n_hypotheses);
   records = self->active_mode == IMAGE_MODE_DATACUBE ? self->n_hypotheses : 1;
-  out_caps = sonar_energyscape_caps_new (sonar_imager_grid (self->imager),
-      records);
-  if (!gst_sonar_filter_use_pool (filter, out_caps, records *
-          (sizeof (SonarEnergyscapeHeader) + sizeof (float) *
-              sonar_image_grid_size (sonar_imager_grid (self->imager))))) {
+  grid = sonar_imager_grid (self->imager);
+  buffer_size = sonar_memory_array (records, sizeof (SonarEnergyscapeHeader)
+      + sizeof (float) * (guint64) sonar_image_grid_size (grid));
+  if (!sonar_memory_check_buffers (0, buffer_size,
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, max_memory, error,
+          "mimobeamform: %u output buffers of %u image%s of %u azimuths x "
+          "%u elevations x %u ranges (azimuth-count, elevation-count, "
+          "range-min, range-max, range-resolution)",
+          GST_SONAR_FILTER_POOL_MIN_BUFFERS, records,
+          records > 1 ? "s (mode=datacube)" : "", grid->n_azimuth,
+          grid->n_elevation, grid->n_range))
+    return NULL;
+  out_caps = sonar_energyscape_caps_new (grid, records);
+  if (!gst_sonar_filter_use_pool (filter, out_caps, buffer_size)) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_FAILED,
         "mimobeamform: could not make its buffer pool");
     gst_caps_unref (out_caps);
@@ -354,6 +369,9 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
     case PROP_THREADS:
       p->threads = g_value_get_uint (value);
       break;
+    case PROP_MAX_MEMORY:
+      self->max_memory = g_value_get_uint64 (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -421,6 +439,9 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
     case PROP_THREADS:
       g_value_set_uint (value, p->threads);
       break;
+    case PROP_MAX_MEMORY:
+      g_value_set_uint64 (value, self->max_memory);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -436,6 +457,7 @@ gst_mimo_beamform_init (GstMimoBeamform * self)
   self->velocity = DEFAULT_VELOCITY;
   self->hypothesis_spacing = DEFAULT_HYPOTHESIS_SPACING;
   self->emitter = DEFAULT_EMITTER;
+  self->max_memory = SONAR_DEFAULT_MAX_MEMORY;
 }
 
 static void
@@ -528,6 +550,8 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
       g_param_spec_uint ("threads", "Threads", "Workers sharing the "
           "directions of an image (0: one per processor); the image does not "
           "depend on it", 0, SONAR_MAX_WORKERS, d.threads, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
+      sonar_memory_param_spec (flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

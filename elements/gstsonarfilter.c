@@ -73,11 +73,17 @@ gst_sonar_filter_use_pool (GstSonarFilter * filter, GstCaps * caps,
     gsize size)
 {
   GstSonarFilterPrivate *priv = PRIV (filter);
-  GstBufferPool *pool = gst_buffer_pool_new ();
-  GstStructure *config = gst_buffer_pool_get_config (pool);
+  GstBufferPool *pool;
+  GstStructure *config;
 
+  /* The pool's size is a guint: a larger one would wrap. */
+  if (size > G_MAXUINT)
+    return FALSE;
+  pool = gst_buffer_pool_new ();
+  config = gst_buffer_pool_get_config (pool);
   /* No upper bound: a tee or queue downstream may hold several pings. */
-  gst_buffer_pool_config_set_params (config, caps, size, 2, 0);
+  gst_buffer_pool_config_set_params (config, caps, size,
+      GST_SONAR_FILTER_POOL_MIN_BUFFERS, 0);
   if (!gst_buffer_pool_set_config (pool, config)
       || !gst_buffer_pool_set_active (pool, TRUE)) {
     gst_object_unref (pool);

@@ -59,7 +59,11 @@ void gst_sonar_filter_set_bank (GstSonarFilter * filter,
     SonarDopplerBank * bank, const SonarBand * band);
 
 /* In configure(): output buffers of @size bytes come from a pool made now,
- * so that steady streaming allocates nothing per ping. */
+ * so that steady streaming allocates nothing per ping. The pool allocates
+ * GST_SONAR_FILTER_POOL_MIN_BUFFERS of them at once; FALSE for a size a
+ * pool cannot hold (more than G_MAXUINT bytes: check it first with
+ * sonar_memory_check_buffers to say why). */
+#define GST_SONAR_FILTER_POOL_MIN_BUFFERS 2
 gboolean gst_sonar_filter_use_pool (GstSonarFilter * filter, GstCaps * caps,
     gsize size);
 /* A buffer of the pool's size (or a new one of @size when there is no

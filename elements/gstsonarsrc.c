@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
+#include "sonar-memory.h"
 #include "sonar-scene.h"
 #include "sonar-sensor-file.h"
 #include "sonar-setup.h"
@@ -116,6 +117,7 @@ enum
   PROP_IS_LIVE,
   PROP_POST_MESSAGES,
   PROP_WRITE_SENSOR_FILE,
+  PROP_MAX_MEMORY,
 };
 
 /* What the properties say; read under the object lock, used at start. */
@@ -132,6 +134,7 @@ typedef struct
   SonarSimulatorParams simulation;
   gboolean post_messages;
   char *write_sensor_file;
+  guint64 max_memory;
 } SonarSrcSettings;
 
 struct _GstSonarSrc
@@ -180,6 +183,7 @@ gst_sonar_src_init (GstSonarSrc * self)
   s->simulation.noise_amplitude = DEFAULT_NOISE_AMPLITUDE;
   s->simulation.seed = DEFAULT_NOISE_SEED;
   s->post_messages = DEFAULT_POST_MESSAGES;
+  s->max_memory = SONAR_DEFAULT_MAX_MEMORY;
 
   gst_base_src_set_format (GST_BASE_SRC (self), GST_FORMAT_TIME);
   gst_base_src_set_live (GST_BASE_SRC (self), DEFAULT_IS_LIVE);
@@ -205,6 +209,18 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
   SonarSrcSettings *s = &self->settings;
 
   if (prop_id == PROP_IS_LIVE) {
+    GstState state;
+    GST_OBJECT_LOCK (self);
+    state = MAX (GST_STATE (self), GST_STATE_PENDING (self));
+    GST_OBJECT_UNLOCK (self);
+    /* GstBaseSrc reads it as it starts: changed later, a running source
+     * would neither pace its pings nor report its latency as told. */
+    if (state > GST_STATE_READY) {
+      g_warning ("%s: is-live can only be changed in the NULL or READY "
+          "state, not in %s: ignored", GST_OBJECT_NAME (self),
+          gst_element_state_get_name (state));
+      return;
+    }
     gst_base_src_set_live (GST_BASE_SRC (self), g_value_get_boolean (value));
     return;
   }
@@ -270,6 +286,9 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
     case PROP_WRITE_SENSOR_FILE:
       g_free (s->write_sensor_file);
       s->write_sensor_file = g_value_dup_string (value);
+      break;
+    case PROP_MAX_MEMORY:
+      s->max_memory = g_value_get_uint64 (value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -347,6 +366,9 @@ gst_sonar_src_get_property (GObject * object, guint prop_id, GValue * value,
       break;
     case PROP_WRITE_SENSOR_FILE:
       g_value_set_string (value, s->write_sensor_file);
+      break;
+    case PROP_MAX_MEMORY:
+      g_value_set_uint64 (value, s->max_memory);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -468,11 +490,19 @@ gst_sonar_src_start (GstBaseSrc * bsrc)
   if (s.write_sensor_file && !sonar_sensor_file_save (self->setup,
           s.write_sensor_file, &error))
     goto failed;
+  /* The simulator, the planar window and the buffer pushed. */
+  g = &self->setup->geometry;
+  if (!sonar_memory_check (sonar_simulator_memory (self->setup, 2),
+          s.max_memory, &error, "sonarsrc: %u emitters x %u-sample "
+          "waveforms (waveform-length) and %u microphones x %u-sample "
+          "recording windows (max-range %g m)", g->n_emitters,
+          self->setup->waveform_length, g->n_microphones,
+          self->setup->ping_length, s.max_range))
+    goto failed;
   self->simulator = sonar_simulator_new (self->setup, &s.simulation, &error);
   if (!self->simulator)
     goto failed;
 
-  g = &self->setup->geometry;
   self->planar = g_new (float, (gsize) g->n_microphones *
       self->setup->ping_length);
   self->truths = g_new0 (SonarTruth, MAX (self->scene.n_reflectors, 1));
@@ -773,6 +803,8 @@ gst_sonar_src_class_init (GstSonarSrcClass * klass)
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-truth\" element message with the ground truth of every "
           "ping", DEFAULT_POST_MESSAGES, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
+      sonar_memory_param_spec (flags));
 
   gst_element_class_add_static_pad_template (element_class, &src_template);
   gst_element_class_set_static_metadata (element_class,

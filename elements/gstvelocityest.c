@@ -61,6 +61,9 @@ struct _GstVelocityEst
 
   /* Properties, protected by the object lock. */
   SonarVelocityParams params;
+  /* Set by the application: more than the emitters is then an error; the
+   * default is lowered to their number on a sensor with fewer. */
+  gboolean min_agreeing_set;
   gboolean keep_rejected;
   gboolean post_messages;
 
@@ -94,6 +97,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
 {
   GstVelocityEst *self = GST_VELOCITY_EST (filter);
   SonarVelocityParams params;
+  gboolean min_agreeing_set;
   guint records, threads;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
@@ -105,6 +109,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   }
   GST_OBJECT_LOCK (self);
   params = self->params;
+  min_agreeing_set = self->min_agreeing_set;
   threads = self->threads;
   GST_OBJECT_UNLOCK (self);
   self->pool = sonar_velocity_pool_new (gst_sonar_filter_get_bank (filter),
@@ -116,6 +121,15 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
       gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
   self->emission_centre = sonar_setup_emission_centre
       (gst_sonar_filter_get_setup (filter));
+  if (min_agreeing_set && params.min_agreeing_emitters > self->n_emitters) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+        "velocityest: min-agreeing-emitters is %u, but only %u emitters "
+        "enter the product (emitters=%u%s)", params.min_agreeing_emitters,
+        self->n_emitters, params.emitters,
+        params.emitters ? "" : ": all of the set-up's");
+    g_clear_pointer (&self->pool, sonar_velocity_pool_free);
+    return NULL;
+  }
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }
 
@@ -233,6 +247,7 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
       break;
     case PROP_MIN_AGREEING_EMITTERS:
       p->min_agreeing_emitters = g_value_get_uint (value);
+      self->min_agreeing_set = TRUE;
       break;
     case PROP_MIN_COHERENCE:
       p->min_coherence = g_value_get_double (value);
@@ -367,7 +382,9 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
       g_param_spec_uint ("min-agreeing-emitters", "Minimum agreeing "
           "emitters", "A reflector needs at least this many emitters whose "
           "own Doppler-ACF curve comes within 3 dB of its maximum within half "
-          "a Doppler main lobe of the product's peak", 0, 64, d.min_agreeing_emitters, flags));
+          "a Doppler main lobe of the product's peak; set above the emitters "
+          "entering the product, an error at start (the default is lowered "
+          "to their number)", 0, 64, d.min_agreeing_emitters, flags));
   g_object_class_install_property (gobject_class, PROP_MIN_COHERENCE,
       g_param_spec_double ("min-coherence", "Minimum coherence", "A "
           "reflector's emitters add up coherently at its velocity: coherence "

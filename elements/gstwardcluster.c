@@ -21,6 +21,8 @@
 GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
 #define GST_CAT_DEFAULT ward_cluster_debug
 
+/* Centroids per ping, the strongest kept (docs/CONTRACTS.md, section 8):
+ * more is noise clustered into dust, not reflectors. */
 #define MAX_CENTROIDS 256
 #define DEFAULT_POST_MESSAGES TRUE
 
@@ -89,7 +91,9 @@ struct _GstWardCluster
 
   SonarClusterer *clusterer;
   SonarImageGrid grid;
-  SonarCentroid centroids[MAX_CENTROIDS];
+  /* One more than are kept: room for one tells when some were dropped. */
+  SonarCentroid centroids[MAX_CENTROIDS + 1];
+  gboolean warned_dropped;      /* the bus warning is posted once */
 };
 
 G_DEFINE_TYPE (GstWardCluster, gst_ward_cluster, GST_TYPE_SONAR_FILTER);
@@ -124,6 +128,7 @@ gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->clusterer = sonar_clusterer_new (&self->grid, &params, error);
   if (!self->clusterer)
     return NULL;
+  self->warned_dropped = FALSE;
   return gst_caps_ref (in_caps);
 }
 
@@ -157,8 +162,19 @@ gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
   ping = header->ping_index;
   n = sonar_clusterer_process (self->clusterer,
       (const float *) (map.data + sizeof (SonarEnergyscapeHeader)),
-      self->centroids, MAX_CENTROIDS);
+      self->centroids, MAX_CENTROIDS + 1);
   gst_buffer_unmap (buffer, &map);
+  if (n > MAX_CENTROIDS) {
+    n = MAX_CENTROIDS;
+    if (!self->warned_dropped) {
+      self->warned_dropped = TRUE;
+      GST_ELEMENT_WARNING (self, STREAM, FAILED, ("wardcluster: ping %"
+              G_GUINT64_FORMAT " has more than %u centroids: only the %u "
+              "strongest are kept, on this ping and any other (a higher "
+              "threshold or floor, or stop=distance with a larger distance, "
+              "gives fewer)", ping, MAX_CENTROIDS, MAX_CENTROIDS), (NULL));
+    }
+  }
   GST_LOG_OBJECT (self, "ping %" G_GUINT64_FORMAT ": %u peaks, %u centroids",
       ping, sonar_clusterer_n_peaks (self->clusterer), n);
 

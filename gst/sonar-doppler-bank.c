@@ -1,10 +1,12 @@
 /* sonar-doppler-bank.c: see sonar-doppler-bank.h. */
 #include "sonar-doppler-bank.h"
+#include "sonar-memory.h"
 #include "sonar-kernels.h"
 #include "sonar-interp.h"
 
 #include <gio/gio.h>
 #include <math.h>
+#include <string.h>
 
 struct _SonarDopplerBank
 {
@@ -59,6 +61,75 @@ sonar_doppler_bank_new (SonarSetup * setup, double v_min, double v_max,
       SONAR_TEMPLATE_BAND_LIMITED, error);
 }
 
+/* Velocities of the bank from v_min to v_max in steps of v_step; 0 with
+ * @error set when they are not allowed. */
+static guint
+bank_size (double c, double v_min, double v_max, double v_step,
+    GError ** error)
+{
+  double count;
+
+  if (!(isfinite (v_min) && isfinite (v_max) && v_min <= v_max
+          && fabs (v_min) < c / 4.0 && fabs (v_max) < c / 4.0)) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "Doppler bank: velocities %g to %g m/s must satisfy min <= max and "
+        "|v| < c / 4 (%.1f m/s)", v_min, v_max, c / 4.0);
+    return 0;
+  }
+  count = v_max > v_min ? floor ((v_max - v_min) / v_step + 1e-9) + 1.0 : 1.0;
+  if (!(v_step > 0.0) || count > SONAR_MAX_BANK_VELOCITIES) {
+    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+        "Doppler bank: step %g m/s must be positive and give at most %u "
+        "velocities between %g and %g m/s", v_step, SONAR_MAX_BANK_VELOCITIES,
+        v_min, v_max);
+    return 0;
+  }
+  return (guint) count;
+}
+
+/* Samples of the template of an emission of @length samples at velocity
+ * @v: the stretched emission ends where alpha t reaches its last sample. */
+static guint
+template_length (double c, guint length, double v)
+{
+  return (guint) ceil ((length - 1) / sonar_doppler_scale (c, v)) + 1;
+}
+
+/* The FFT of a whole ping plus the longest template (linear, not circular,
+ * correlations) on the set-up's band. */
+static void
+ping_band_init (SonarBand * band, const SonarSetup * setup, guint max_length)
+{
+  sonar_band_init (band, setup->sample_rate, setup->ping_length + max_length,
+      setup->band_low, setup->band_high);
+}
+
+guint64
+sonar_doppler_bank_memory (const SonarSetup * setup, double v_min,
+    double v_max, double v_step, guint * n_velocities, SonarBand * ping_band)
+{
+  const double c = setup->speed_of_sound;
+  const guint n_emitters = setup->geometry.n_emitters;
+  guint max_length;
+  guint64 templates, spectra;
+
+  *n_velocities = bank_size (c, v_min, v_max, v_step, NULL);
+  if (!*n_velocities) {
+    memset (ping_band, 0, sizeof (*ping_band));
+    return 0;
+  }
+  /* alpha falls as v grows: the longest template is at an end. */
+  max_length = MAX (template_length (c, setup->waveform_length, v_min),
+      template_length (c, setup->waveform_length, v_max));
+  ping_band_init (ping_band, setup, max_length);
+  templates = sonar_memory_array (sonar_memory_array (n_emitters,
+          *n_velocities), sizeof (float) * (guint64) max_length);
+  /* Split spectra: real and imaginary parts, float each. */
+  spectra = sonar_memory_array (sonar_memory_array (n_emitters,
+          *n_velocities), 2 * sizeof (float) * (guint64) ping_band->n_bins);
+  return sonar_memory_add (templates, spectra);
+}
+
 SonarDopplerBank *
 sonar_doppler_bank_new_with_interp (SonarSetup * setup, double v_min,
     double v_max, double v_step, SonarTemplateInterp interp, GError ** error)
@@ -67,36 +138,22 @@ sonar_doppler_bank_new_with_interp (SonarSetup * setup, double v_min,
   const guint n_emitters = setup->geometry.n_emitters;
   const guint length = setup->waveform_length;
   SonarDopplerBank *bank;
-  double count;
+  guint count;
 
-  if (!(isfinite (v_min) && isfinite (v_max) && v_min <= v_max
-          && fabs (v_min) < c / 4.0 && fabs (v_max) < c / 4.0)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
-        "Doppler bank: velocities %g to %g m/s must satisfy min <= max and "
-        "|v| < c / 4 (%.1f m/s)", v_min, v_max, c / 4.0);
+  count = bank_size (c, v_min, v_max, v_step, error);
+  if (!count)
     return NULL;
-  }
-  count = v_max > v_min ? floor ((v_max - v_min) / v_step + 1e-9) + 1.0 : 1.0;
-  if (!(v_step > 0.0) || count > SONAR_MAX_BANK_VELOCITIES) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
-        "Doppler bank: step %g m/s must be positive and give at most %u "
-        "velocities between %g and %g m/s", v_step, SONAR_MAX_BANK_VELOCITIES,
-        v_min, v_max);
-    return NULL;
-  }
 
   bank = g_new0 (SonarDopplerBank, 1);
   bank->ref_count = 1;
   bank->setup = sonar_setup_ref (setup);
   bank->v_min = v_min;
   bank->v_step = v_step;
-  bank->n_velocities = (guint) count;
+  bank->n_velocities = count;
   bank->lengths = g_new (guint, bank->n_velocities);
   for (guint i = 0; i < bank->n_velocities; i++) {
-    const double alpha = sonar_doppler_scale (c, sonar_doppler_bank_velocity
-        (bank, i));
-    /* The stretched emission ends where alpha t reaches its last sample. */
-    bank->lengths[i] = (guint) ceil ((length - 1) / alpha) + 1;
+    bank->lengths[i] = template_length (c, length,
+        sonar_doppler_bank_velocity (bank, i));
     bank->max_length = MAX (bank->max_length, bank->lengths[i]);
   }
   bank->templates = g_new0 (float, (gsize) n_emitters * bank->n_velocities *
@@ -240,11 +297,9 @@ sonar_doppler_bank_prepare_band (SonarDopplerBank * bank,
 void
 sonar_doppler_bank_prepare_ping_band (SonarDopplerBank * bank)
 {
-  const SonarSetup *setup = bank->setup;
   SonarBand band;
 
-  sonar_band_init (&band, setup->sample_rate, setup->ping_length +
-      bank->max_length, setup->band_low, setup->band_high);
+  ping_band_init (&band, bank->setup, bank->max_length);
   sonar_doppler_bank_prepare_band (bank, &band);
 }
 

@@ -39,6 +39,14 @@ SonarDopplerBank *sonar_doppler_bank_new (SonarSetup * setup, double v_min,
 SonarDopplerBank *sonar_doppler_bank_new_with_interp (SonarSetup * setup,
     double v_min, double v_max, double v_step, SonarTemplateInterp interp,
     GError ** error);
+/* Bytes the bank of these velocities will allocate for @setup (templates
+ * and their spectra on the ping band), computed before it is made;
+ * *n_velocities receives its size and *ping_band the band
+ * sonar_doppler_bank_prepare_ping_band will use. 0 (0 velocities, 0 bins)
+ * for settings sonar_doppler_bank_new refuses: its error says why. */
+guint64 sonar_doppler_bank_memory (const SonarSetup * setup, double v_min,
+    double v_max, double v_step, guint * n_velocities,
+    SonarBand * ping_band);
 SonarDopplerBank *sonar_doppler_bank_ref (SonarDopplerBank * bank);
 void sonar_doppler_bank_unref (SonarDopplerBank * bank);
 

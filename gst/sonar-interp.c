@@ -53,6 +53,25 @@ rebuild_unref (SonarInterpRebuild * r)
   g_free (r);
 }
 
+/* The transform reaches one point further: the end of the last step. */
+static guint
+table_points (guint length)
+{
+  return SONAR_INTERP_OVERSAMPLE * (length - 1 + 2 * SONAR_INTERP_PAD) + 1;
+}
+
+guint64
+sonar_interp_memory (guint length)
+{
+  const guint64 n = sonar_fft_good_size (length + 2 * SONAR_INTERP_PAD);
+
+  /* The table (4 floats a point), then, while it is made or to filter it,
+   * the padded signal, its spectrum and the oversampled rebuild buffers. */
+  return 4 * sizeof (float) * (guint64) table_points (length)
+      + sizeof (float) * n + sizeof (fftwf_complex) * (n / 2 + 1)
+      + 2 * sizeof (fftwf_complex) * (n * SONAR_INTERP_OVERSAMPLE / 2 + 1);
+}
+
 static SonarInterp *
 interp_new (const float *signal, guint length, gboolean filterable,
     SonarInterp * share)
@@ -63,9 +82,7 @@ interp_new (const float *signal, guint length, gboolean filterable,
   fftwf_plan forward;
 
   in->fft_size = n;
-  /* The transform reaches one point further: the end of the last step. */
-  in->table_points = SONAR_INTERP_OVERSAMPLE * (length - 1 +
-      2 * SONAR_INTERP_PAD) + 1;
+  in->table_points = table_points (length);
   in->table = g_new (float, 4 * (gsize) in->table_points);
   in->spectrum = fftwf_alloc_complex (n / 2 + 1);
   if (share) {

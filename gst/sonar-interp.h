@@ -56,6 +56,9 @@ SonarInterp *sonar_interp_new (const float *signal, guint length);
 SonarInterp *sonar_interp_new_filterable (const float *signal, guint length,
     SonarInterp * share);
 void sonar_interp_free (SonarInterp * interp);
+/* Bytes an interpolator of a signal of @length samples allocates at most
+ * (a filterable one, while it is made). */
+guint64 sonar_interp_memory (guint length);
 
 /* Bins of the signal's spectrum (for sonar_interp_filter) and their
  * frequency in cycles per sample. */

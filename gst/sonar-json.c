@@ -1,28 +1,291 @@
 /* sonar-json.c: see sonar-json.h. */
 #include "sonar-json.h"
 
+#include <errno.h>
+#include <fcntl.h>
 #include <gio/gio.h>
 #include <math.h>
+#include <stdarg.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #define SET_ERROR(error, ...) \
   g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA, __VA_ARGS__)
+
+/* Reads the whole of @path, refusing what is not a regular file (a FIFO
+ * with no writer would block, /dev/zero never ends) or is larger than
+ * SONAR_JSON_MAX_FILE_SIZE, before reading a byte. */
+static char *
+read_json_file (const char *path, gsize * length, GError ** error)
+{
+  struct stat st;
+  char *contents;
+  gsize done = 0;
+  int fd;
+
+  /* O_NONBLOCK: opening a FIFO for reading must not wait for a writer. */
+  fd = open (path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    int saved_errno = errno;
+    g_set_error (error, G_IO_ERROR, g_io_error_from_errno (saved_errno),
+        "%s: cannot open: %s", path, g_strerror (saved_errno));
+    return NULL;
+  }
+  if (fstat (fd, &st) != 0 || !S_ISREG (st.st_mode)) {
+    SET_ERROR (error, "%s: not a regular file (devices, FIFOs and "
+        "directories are not read)", path);
+    close (fd);
+    return NULL;
+  }
+  if (st.st_size > SONAR_JSON_MAX_FILE_SIZE) {
+    SET_ERROR (error, "%s: %" G_GINT64_FORMAT " bytes, larger than the %u "
+        "MiB allowed for a JSON file", path, (gint64) st.st_size,
+        SONAR_JSON_MAX_FILE_SIZE / (1024 * 1024));
+    close (fd);
+    return NULL;
+  }
+  /* A file that grows while it is read is cut at its size when stat'ed. */
+  contents = g_malloc ((gsize) st.st_size + 1);
+  while (done < (gsize) st.st_size) {
+    ssize_t n = read (fd, contents + done, (gsize) st.st_size - done);
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n < 0) {
+      int saved_errno = errno;
+      g_set_error (error, G_IO_ERROR, g_io_error_from_errno (saved_errno),
+          "%s: cannot read: %s", path, g_strerror (saved_errno));
+      g_free (contents);
+      close (fd);
+      return NULL;
+    }
+    if (n == 0)
+      break;
+    done += (gsize) n;
+  }
+  close (fd);
+  contents[done] = '\0';
+  *length = done;
+  return contents;
+}
+
+/* The pre-scan's record of one open array or object, to name the member
+ * where a number is out of range. */
+typedef struct
+{
+  gboolean is_object;
+  gboolean expects_key;         /* object: the next string is a key */
+  const char *key;              /* object: the member being read, as written */
+  gsize key_length;
+  guint index;                  /* array: the element being read */
+} ScanLevel;
+
+/* "reflectors[0].strength": where the scan is, for messages. */
+static char *
+scan_path (const ScanLevel * levels, guint depth)
+{
+  GString *path = g_string_new (NULL);
+
+  for (guint d = 0; d < depth; d++) {
+    if (!levels[d].is_object)
+      g_string_append_printf (path, "[%u]", levels[d].index);
+    else if (levels[d].key)
+      g_string_append_printf (path, "%s%.*s", path->len ? "." : "",
+          (int) MIN (levels[d].key_length, 64), levels[d].key);
+  }
+  if (path->len == 0)
+    g_string_append (path, "top level");
+  return g_string_free (path, FALSE);
+}
+
+static void
+line_and_column (const char *text, gsize offset, guint * line,
+    guint * column)
+{
+  gsize line_start = 0;
+
+  *line = 1;
+  for (gsize i = 0; i < offset; i++) {
+    if (text[i] == '\n') {
+      (*line)++;
+      line_start = i + 1;
+    }
+  }
+  *column = (guint) (offset - line_start) + 1;
+}
+
+/* Checks the number written at @text[0 .. @length): an integer must fit
+ * in 64 bits and any number in a double (json-glib would silently read
+ * 18446744073709551617 as -1 and 1e400 as infinity). What is not a
+ * well-formed number is left to json-glib's syntax errors. */
+static gboolean
+number_in_range (const char *text, gsize length, gboolean * is_integer)
+{
+  char buffer[64];
+  g_autofree char *copy = NULL;
+  const char *number;
+  char *end;
+
+  *is_integer = !memchr (text, '.', length) && !memchr (text, 'e', length)
+      && !memchr (text, 'E', length);
+  if (length < sizeof (buffer)) {
+    memcpy (buffer, text, length);
+    buffer[length] = '\0';
+    number = buffer;
+  } else
+    number = copy = g_strndup (text, length);
+  errno = 0;
+  if (*is_integer)
+    (void) g_ascii_strtoll (number, &end, 10);
+  else                          /* underflow to 0 or a denormal is fine */
+    errno = isinf (g_ascii_strtod (number, &end)) ? ERANGE : 0;
+  return !(errno == ERANGE && *end == '\0');
+}
+
+/* Unlike strchr, never matches the terminating NUL: a NUL byte in the
+ * text is not whitespace. */
+static gboolean
+char_in (char c, const char *set)
+{
+  return c != '\0' && strchr (set, c) != NULL;
+}
+
+/* One pass over the text before json-glib parses it: nesting depth,
+ * numbers out of range, and characters strict JSON does not allow outside
+ * strings. json-glib accepts comments and single-quoted strings; they are
+ * refused here so that no bracket json-glib sees escapes this count. */
+static gboolean
+prescan_json (const char *text, gsize length, const char *origin,
+    GError ** error)
+{
+  ScanLevel levels[SONAR_JSON_MAX_DEPTH] = { 0 };
+  guint depth = 0, line, column;
+  gsize i = 0;
+
+  while (i < length) {
+    const char c = text[i];
+    ScanLevel *top = depth ? &levels[depth - 1] : NULL;
+
+    if (c == '"') {
+      const gsize start = ++i;
+      while (i < length && text[i] != '"')
+        i += text[i] == '\\' ? 2 : 1;
+      if (top && top->is_object && top->expects_key) {
+        top->key = text + start;
+        top->key_length = MIN (i, length) - start;
+        top->expects_key = FALSE;
+      }
+      i++;
+    } else if (c == '{' || c == '[') {
+      if (depth == SONAR_JSON_MAX_DEPTH) {
+        line_and_column (text, i, &line, &column);
+        SET_ERROR (error, "%s: line %u, column %u: nested deeper than %d "
+            "arrays and objects", origin, line, column, SONAR_JSON_MAX_DEPTH);
+        return FALSE;
+      }
+      levels[depth++] = (ScanLevel) {.is_object = c == '{',
+        .expects_key = c == '{'};
+      i++;
+    } else if (c == '}' || c == ']') {
+      depth -= depth > 0;
+      i++;
+    } else if (c == ',') {
+      if (top && top->is_object)
+        top->expects_key = TRUE;
+      else if (top)
+        top->index++;
+      i++;
+    } else if (c == '-' || g_ascii_isdigit (c)) {
+      const gsize start = i;
+      gboolean is_integer;
+      while (i < length && (g_ascii_isdigit (text[i])
+              || char_in (text[i], "+-.eE")))
+        i++;
+      if (!number_in_range (text + start, i - start, &is_integer)) {
+        g_autofree char *path = scan_path (levels, depth);
+        if (is_integer)
+          SET_ERROR (error, "%s: %s: %.*s is out of range (integers: %"
+              G_GINT64_FORMAT " to %" G_GINT64_FORMAT ")", origin, path,
+              (int) MIN (i - start, 64), text + start, G_MININT64,
+              G_MAXINT64);
+        else
+          SET_ERROR (error, "%s: %s: %.*s is out of range (numbers: "
+              "magnitude at most %g)", origin, path,
+              (int) MIN (i - start, 64), text + start, G_MAXDOUBLE);
+        return FALSE;
+      }
+    } else if (g_ascii_isalpha (c) || char_in (c, " \t\r\n:")) {
+      /* Whitespace, separators and the letters of true, false and null. */
+      i++;
+    } else {
+      line_and_column (text, i, &line, &column);
+      SET_ERROR (error, "%s: line %u, column %u: unexpected character "
+          "'%s' (strict JSON: no comments, strings in double quotes)",
+          origin, line, column, g_ascii_isprint (c) ? (char[]) {c, 0} : "?");
+      return FALSE;
+    }
+  }
+  return TRUE;
+}
+
+/* json-glib keeps the last of repeated members silently; the parser's
+ * object-member signal comes after the member is set, so an object that
+ * did not grow already had it. */
+typedef struct
+{
+  GHashTable *members_seen;     /* JsonObject -> members parsed so far */
+  char *repeated;               /* the first repeated member */
+} RepeatCheck;
+
+static void
+on_object_member (JsonParser * parser, JsonObject * object,
+    const char *member, RepeatCheck * check)
+{
+  guint seen = GPOINTER_TO_UINT (g_hash_table_lookup (check->members_seen,
+          object)) + 1;
+
+  g_hash_table_insert (check->members_seen, object, GUINT_TO_POINTER (seen));
+  if (!check->repeated && json_object_get_size (object) < seen)
+    check->repeated = g_strdup (member);
+}
 
 JsonNode *
 sonar_json_parse (const char *path, const char *data, const char *origin,
     JsonObject ** root, GError ** error)
 {
   g_autoptr (JsonParser) parser = json_parser_new_immutable ();
+  g_autofree char *contents = NULL;
+  RepeatCheck check = { g_hash_table_new (NULL, NULL), NULL };
   GError *parse_error = NULL;
   JsonNode *node;
-  gboolean ok = path ? json_parser_load_from_file (parser, path, &parse_error)
-      : json_parser_load_from_data (parser, data, -1, &parse_error);
+  gsize length;
+  gboolean ok;
 
+  if (path) {
+    contents = read_json_file (path, &length, error);
+    if (!contents)
+      return NULL;
+    data = contents;
+  } else
+    length = strlen (data);
+  if (!prescan_json (data, length, origin, error))
+    return NULL;
+
+  g_signal_connect (parser, "object-member", G_CALLBACK (on_object_member),
+      &check);
+  ok = json_parser_load_from_data (parser, data, (gssize) length,
+      &parse_error);
+  g_hash_table_destroy (check.members_seen);
   if (!ok) {
-    g_set_error (error, G_IO_ERROR,
-        parse_error->domain == G_FILE_ERROR ? G_IO_ERROR_NOT_FOUND :
-        G_IO_ERROR_INVALID_DATA, "%s: %s", origin, parse_error->message);
+    SET_ERROR (error, "%s: %s", origin, parse_error->message);
     g_error_free (parse_error);
+    g_free (check.repeated);
+    return NULL;
+  }
+  if (check.repeated) {
+    SET_ERROR (error, "%s: member \"%s\" appears twice in one object",
+        origin, check.repeated);
+    g_free (check.repeated);
     return NULL;
   }
   node = json_parser_steal_root (parser);
@@ -56,7 +319,7 @@ sonar_json_check_members (JsonObject * object, const char *where,
 static gboolean
 node_to_double (JsonNode * node, double *value)
 {
-  if (!JSON_NODE_HOLDS_VALUE (node))
+  if (!node || !JSON_NODE_HOLDS_VALUE (node))
     return FALSE;
   switch (json_node_get_value_type (node)) {
     case G_TYPE_INT64:
@@ -86,6 +349,30 @@ sonar_json_get_double (JsonObject * object, const char *member,
     return FALSE;
   }
   return TRUE;
+}
+
+gboolean
+sonar_json_node_get_number (JsonNode * node, double min, double max,
+    double *value, GError ** error, const char *format, ...)
+{
+  g_autofree char *where = NULL;
+  double number;
+  va_list args;
+
+  if (node_to_double (node, &number) && number >= min && number <= max) {
+    *value = number;
+    return TRUE;
+  }
+  va_start (args, format);
+  where = g_strdup_vprintf (format, args);
+  va_end (args);
+  if (!node_to_double (node, &number))
+    SET_ERROR (error, "%s must be a finite number in [%g, %g]", where, min,
+        max);
+  else
+    SET_ERROR (error, "%s is %g, out of range (allowed: %g to %g)", where,
+        number, min, max);
+  return FALSE;
 }
 
 static gboolean
@@ -261,15 +548,9 @@ sonar_json_get_sample_rows (JsonObject * object, const char *member,
     JsonArray *row = json_node_get_array (json_array_get_element (rows, n));
     for (guint i = 0; i < n_cols; i++) {
       double value;
-      if (!node_to_double (json_array_get_element (row, i), &value)) {
-        SET_ERROR (error, "%s: \"%s\"[%u][%u] must be a finite number",
-            origin, member, n, i);
-        g_clear_pointer (samples, g_free);
-        return FALSE;
-      }
-      if (fabs (value) > max_abs) {
-        SET_ERROR (error, "%s: \"%s\"[%u][%u] is %g, beyond the allowed "
-            "+-%g", origin, member, n, i, value, max_abs);
+      if (!sonar_json_node_get_number (json_array_get_element (row, i),
+              -max_abs, max_abs, &value, error, "%s: \"%s\"[%u][%u]",
+              origin, member, n, i)) {
         g_clear_pointer (samples, g_free);
         return FALSE;
       }

@@ -8,8 +8,20 @@
 
 G_BEGIN_DECLS
 
+/* Limits of every JSON input (docs/FORMATS.md), checked before json-glib
+ * sees it: the largest file read, in bytes (a waveforms file of 8 emitters
+ * at the longest length, as sonar-waveforms writes it, is ~120 MB), and
+ * the deepest nesting of arrays and objects (json-glib's parser recurses
+ * once per level: 100,000 levels overflow the stack). */
+#define SONAR_JSON_MAX_FILE_SIZE (256u * 1024 * 1024)
+#define SONAR_JSON_MAX_DEPTH 64
+
 /* Parses @path (or @data when @path is NULL) and returns its root object,
- * or NULL with @error set. @origin names the input in messages. */
+ * or NULL with @error set. @origin names the input in messages. A file
+ * must be a regular file of at most SONAR_JSON_MAX_FILE_SIZE bytes; the
+ * text must be strict JSON (no comments), nested at most
+ * SONAR_JSON_MAX_DEPTH deep, with no number beyond the range of a 64-bit
+ * integer or a double, and no object repeating a member. */
 JsonNode *sonar_json_parse (const char *path, const char *data,
     const char *origin, JsonObject ** root, GError ** error);
 
@@ -28,6 +40,13 @@ gboolean sonar_json_get_vec3 (JsonObject * object, const char *member,
 gboolean sonar_json_get_string (JsonObject * object, const char *member,
     gboolean required, const char *origin, const char **value,
     GError ** error);
+/* A number in [@min, @max] from @node (an element of an array, say); the
+ * printf-style @format names it in messages ("<file>: <where>"), formatted
+ * only on error. A node of the wrong type is an error like any other, with
+ * no critical logged. */
+gboolean sonar_json_node_get_number (JsonNode * node, double min, double max,
+    double *value, GError ** error, const char *format, ...)
+    G_GNUC_PRINTF (6, 7);
 /* A member that is an array of [x, y, z] triples; *values is g_new'ed. */
 gboolean sonar_json_get_vec3_list (JsonObject * object, const char *member,
     gboolean required, const char *origin, guint max_count,

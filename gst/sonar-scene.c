@@ -308,7 +308,12 @@ load_scene (SonarScene * scene, const char *path, const char *data,
       || !sonar_json_get_double (root, "dimensions", FALSE, origin,
           &dimensions, error))
     return FALSE;
-  loaded.dimensions = dimensions == 2.0 ? 2 : dimensions == 3.0 ? 3 : 0;
+  if (dimensions != 2.0 && dimensions != 3.0) {
+    SET_ERROR (error, "%s: \"dimensions\" must be 2 or 3, not %g", origin,
+        dimensions);
+    return FALSE;
+  }
+  loaded.dimensions = (guint) dimensions;
 
   sensor = json_object_get_member (root, "sensor");
   if (sensor) {

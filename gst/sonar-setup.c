@@ -239,9 +239,11 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
     JsonArray *edges = JSON_NODE_HOLDS_ARRAY (band_node) ?
         json_node_get_array (band_node) : NULL;
     if (!edges || json_array_get_length (edges) != 2
-        || !((*band_low = json_array_get_double_element (edges, 0)) > 0.0)
-        || !((*band_high = json_array_get_double_element (edges, 1))
-            > *band_low) || *band_high > *sample_rate / 2.0) {
+        || !sonar_json_node_get_number (json_array_get_element (edges, 0),
+            0.0, *sample_rate / 2.0, band_low, NULL, "band")
+        || !sonar_json_node_get_number (json_array_get_element (edges, 1),
+            0.0, *sample_rate / 2.0, band_high, NULL, "band")
+        || !(*band_low > 0.0 && *band_high > *band_low)) {
       g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
           "%s: \"band\" must be [low, high] in Hz with 0 < low < high <= "
           "sample-rate / 2", path);
@@ -249,8 +251,8 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
       return NULL;
     }
   } else {
-    sonar_waveforms_estimate_band (waveforms, n_rows, n_cols, *sample_rate, 1e-4, band_low,
-        band_high);
+    sonar_waveforms_estimate_band (waveforms, n_rows, n_cols, *sample_rate,
+        1e-4, band_low, band_high);
   }
   *n_emitters = n_rows;
   *length = n_cols;
@@ -562,7 +564,10 @@ check_emissions (const SonarSetup * setup, GString * problems)
   guint worst_a = 0, worst_b = 0;
 
   sonar_fftw_lock ();
-  forward = fftwf_plan_dft_r2c_1d (size, signal, spectra, FFTW_ESTIMATE);
+  /* Each emission's spectrum goes to its own row: rows after the first
+   * need not have the plan's alignment. */
+  forward = fftwf_plan_dft_r2c_1d (size, signal, spectra,
+      FFTW_ESTIMATE | FFTW_UNALIGNED);
   inverse = fftwf_plan_dft_c2r_1d (size, product, correlation,
       FFTW_ESTIMATE);
   sonar_fftw_unlock ();

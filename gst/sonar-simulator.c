@@ -48,6 +48,7 @@
  * reflector and ping with the plans and buffers made in _new().
  */
 #include "sonar-simulator.h"
+#include "sonar-memory.h"
 #include "sonar-interp.h"
 #include "sonar-rng.h"
 
@@ -157,6 +158,19 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
   sim->heights = g_new (double, (gsize) n_emitters *
       setup->geometry.n_microphones);
   return sim;
+}
+
+guint64
+sonar_simulator_memory (const SonarSetup * setup, guint n_windows)
+{
+  const guint64 window = sonar_memory_array ((guint64)
+      setup->geometry.n_microphones * setup->ping_length, sizeof (float));
+
+  return sonar_memory_add (sonar_memory_array (setup->geometry.n_emitters,
+          sonar_interp_memory (setup->waveform_length)),
+      sonar_memory_add (sonar_memory_array (n_windows, window),
+          /* node_pos and node_amp */
+          2 * sizeof (double) * (setup->ping_length / NODE_SPACING + 4)));
 }
 
 void

@@ -60,6 +60,10 @@ void sonar_simulator_params_init_default (SonarSimulatorParams * params);
 SonarSimulator *sonar_simulator_new (SonarSetup * setup,
     const SonarSimulatorParams * params, GError ** error);
 void sonar_simulator_free (SonarSimulator * sim);
+/* Bytes a simulator of @setup allocates, plus @n_windows recording windows
+ * (microphones x ping length float32) that its user renders pings into:
+ * checked before sonar_simulator_new with sonar_memory_check. */
+guint64 sonar_simulator_memory (const SonarSetup * setup, guint n_windows);
 
 /* Renders ping number @ping_index, emitted at world time @ping_time (s),
  * into @out: n_microphones planar channels of setup->ping_length samples

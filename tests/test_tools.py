@@ -412,7 +412,10 @@ def bench_emitters_sweep():
         assert total == 6 and 0 <= found <= total and fp >= 0, r
         bank, chain, rss = (float(r[k]) for k in
                             ("mb_bank", "mb_chain", "peak_rss_mb"))
-        assert 0 < bank < chain < rss, r
+        # Under AddressSanitizer (meson test --setup asan) the heap is its
+        # allocator's, which glibc's mallinfo2 does not see: 0 MB.
+        if not os.environ.get("SONAR_SANITIZED"):
+            assert 0 < bank < chain < rss, r
         assert float(r["template_error_db"]) < -100, r
         assert int(r["bank_velocities"]) == 41, r
     # All eight emitters: every Fig. 10 object, no false positive.

@@ -32,6 +32,16 @@ resident_mb (void)
   return resident * (double) sysconf (_SC_PAGESIZE) / (1024.0 * 1024.0);
 }
 
+/* Under AddressSanitizer (meson test --setup asan) freed blocks wait in its
+ * quarantine (256 MB) and the heap is its own allocator's, which mallinfo2
+ * does not see: resident and heap readings say nothing of leaks there.
+ * The plain runs and memcheck check them. */
+static gboolean
+memory_readings_meaningful (void)
+{
+  return g_getenv ("SONAR_SANITIZED") == NULL;
+}
+
 /* NULL -> PLAYING -> EOS -> NULL, 100 times on one pipeline object: every
  * run gives the same detections and memory does not grow. */
 static void
@@ -64,7 +74,8 @@ test_state_changes (void)
   }
   g_test_message ("resident memory after 10 runs %.1f MB, after 100 %.1f MB",
       mb_10, resident_mb ());
-  g_assert_cmpfloat (resident_mb () - mb_10, <, 8.0);
+  if (memory_readings_meaningful ())
+    g_assert_cmpfloat (resident_mb () - mb_10, <, 8.0);
   gst_object_unref (sink);
   gst_object_unref (pipeline);
 }
@@ -189,9 +200,11 @@ test_long_run (void)
   /* sonar-truth, sonar-centroids and sonar-detections every ping. */
   g_assert_cmpuint (messages, ==, 3 * pings);
   g_assert_cmpuint (intervals, >=, 6);
-  g_assert_cmpuint (growing, <=, intervals / 2);
-  g_assert_cmpfloat (heap_last - heap_warm, <, 1048576.0);
-  g_assert_cmpfloat (resident_mb () - mb_warm, <, 8.0);
+  if (memory_readings_meaningful ()) {
+    g_assert_cmpuint (growing, <=, intervals / 2);
+    g_assert_cmpfloat (heap_last - heap_warm, <, 1048576.0);
+    g_assert_cmpfloat (resident_mb () - mb_warm, <, 8.0);
+  }
   gst_element_set_state (pipeline, GST_STATE_NULL);
   g_mutex_clear (&park.lock);
   g_cond_clear (&park.cond);

@@ -209,7 +209,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GST_INFO_OBJECT (self, "%u Doppler hypotheses", self->n_hypotheses);
   records = self->active_mode == IMAGE_MODE_DATACUBE ? self->n_hypotheses : 1;
   out_caps = sonar_energyscape_caps_new (sonar_imager_grid (self->imager),
-      records);
+      records, records == 1 ? self->n_hypotheses : 1);
   if (!gst_sonar_filter_use_pool (filter, out_caps, records *
           (sizeof (SonarEnergyscapeHeader) + sizeof (float) *
               sonar_image_grid_size (sonar_imager_grid (self->imager))))) {

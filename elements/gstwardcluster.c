@@ -1,8 +1,12 @@
 /* gstwardcluster.c: wardcluster, the reflectors' centroids (paper Section
  * III.A, Fig. 5).
  *
- * Thresholds the energyscape (relative to the ping's maximum and
- * absolutely), finds its local peaks and merges them by agglomerative
+ * Keeps the pixels that stand above the noise at a set probability of
+ * false alarm per pixel (pfa, for an image that is the maximum over the
+ * caps' "hypotheses"), above the noise floor along their direction
+ * (cross-talk ridges) and above the sidelobes of their range's strongest
+ * pixel (and, if set, relative to the ping's maximum and absolutely),
+ * finds their local peaks and merges them by agglomerative
  * hierarchical clustering (Ward's minimum variance by default; single,
  * complete, average and centroid linkage for comparison), stopping where
  * the inconsistency of the last levels jumps (or at a distance). The image

@@ -1,8 +1,12 @@
 /* sonar-cluster.h: reflector centroids from a sonar image (paper Sec.
  * III.A, Fig. 5), the core of the wardcluster stage.
  *
- * 1. Threshold: pixels below a level relative to the image maximum (and,
- *    optionally, below an absolute level) are ignored.
+ * 1. Thresholds: a pixel is kept when it passes the noise floor of its
+ *    range bin over the directions (a CFAR test at a probability of false
+ *    alarm per pixel, pfa), the noise floor along its direction (the
+ *    column floor, against cross-talk ridges), the sidelobe threshold of
+ *    its range, and, if set, a level relative to the image maximum and an
+ *    absolute level.
  * 2. Peaks: the remaining local maxima over the 8-neighbourhood (azimuth x
  *    range) or, for a 3-D image, the 26-neighbourhood (elevation x azimuth
  *    x range). Equal values are ordered by pixel index, so a plateau gives
@@ -74,16 +78,22 @@ typedef struct
   /* dB relative to the strongest pixel of the same range (within
    * SONAR_CLUSTER_SIDELOBE_RANGE, any direction), <= 0: weaker pixels
    * are no peaks. A point's delay-and-sum sidelobes lie at its range, the
-   * MIMO image's at most 21.8 dB below its peak (README): -20 dB. An
-   * object at the range of one 20 dB stronger is under its sidelobes
-   * anyway. -200: off. */
+   * 2-D MIMO image's at most 21.8 dB below its peak (README), the 3-D
+   * hemisphere image's 18-20 dB (measured on tests/test_foreign.py's 3-D
+   * case: at -20 dB its point at -25/-30 degrees gave a valid duplicate
+   * 14 degrees off): -16 dB. An object at the range of one 16 dB
+   * stronger is under its sidelobes anyway. -200: off. */
   double sidelobe_db;
   /* Probability that a noise-only pixel passes the noise-floor test (a
    * CFAR detector), per pixel and ping, in (0, 1]; 1 turns the test off.
    * The test: the pixel exceeds its range bin's lower quartile over the
    * directions (objects fill few of them) times the factor that noise of
    * the image's statistics exceeds with probability pfa
-   * (sonar_cluster_floor_gain ()). */
+   * (sonar_cluster_floor_gain ()). 1e-8: the default image has about
+   * 3e5 pixels (181 directions x 1754 ranges), so noise passes about once
+   * in 300 pings, and velocityest's tests reject those; 1e-6 (2 dB more
+   * sensitive) let 1 noise peak in 30 through them. The column floor
+   * uses the same factor less 2 dB (COLUMN_MARGIN, sonar-cluster.c). */
   double pfa;
   /* The Doppler hypotheses each pixel is the maximum of (the energyscape
    * caps' "hypotheses"; 1: one envelope): the maximum of K noise
@@ -112,8 +122,8 @@ typedef struct
   guint max_peaks;
 } SonarClusterParams;
 
-/* Range compensation on; relative threshold off, sidelobes -20 dB, pfa
- * 1e-6 over the noise floors with one hypothesis, absolute off; Ward,
+/* Range compensation on; relative threshold off, sidelobes -16 dB, pfa
+ * 1e-8 over the noise floors with one hypothesis, absolute off; Ward,
  * inconsistency
  * 1.0 over depth 3; distance 0.1 m; 2000 peaks. */
 void sonar_cluster_params_init_default (SonarClusterParams * params);

@@ -226,7 +226,8 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
           records > 1 ? "s (mode=datacube)" : "", grid->n_azimuth,
           grid->n_elevation, grid->n_range))
     return NULL;
-  out_caps = sonar_energyscape_caps_new (grid, records);
+  out_caps = sonar_energyscape_caps_new (grid, records,
+      records == 1 ? self->n_hypotheses : 1);
   if (!gst_sonar_filter_use_pool (filter, out_caps, buffer_size)) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_FAILED,
         "mimobeamform: could not make its buffer pool");

@@ -101,7 +101,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   guint records, threads;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
-          &records) || records != 1) {
+          &records, NULL) || records != 1) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
         "velocityest: it needs one energyscape per ping with centroids "
         "(mimobeamform ! wardcluster ! velocityest)");

@@ -1,8 +1,12 @@
 /* gstwardcluster.c: wardcluster, the reflectors' centroids (paper Section
  * III.A, Fig. 5).
  *
- * Thresholds the energyscape (relative to the ping's maximum and
- * absolutely), finds its local peaks and merges them by agglomerative
+ * Keeps the pixels that stand above the noise at a set probability of
+ * false alarm per pixel (pfa, for an image that is the maximum over the
+ * caps' "hypotheses"), above the noise floor along their direction
+ * (cross-talk ridges) and above the sidelobes of their range's strongest
+ * pixel (and, if set, relative to the ping's maximum and absolutely),
+ * finds their local peaks and merges them by agglomerative
  * hierarchical clustering (Ward's minimum variance by default; single,
  * complete, average and centroid linkage for comparison), stopping where
  * the inconsistency of the last levels jumps (or at a distance). The image
@@ -71,7 +75,8 @@ enum
   PROP_0,
   PROP_THRESHOLD,
   PROP_ABSOLUTE_THRESHOLD,
-  PROP_FLOOR,
+  PROP_SIDELOBE,
+  PROP_PFA,
   PROP_LINKAGE,
   PROP_STOP,
   PROP_INCONSISTENCY,
@@ -113,10 +118,10 @@ gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
 {
   GstWardCluster *self = GST_WARD_CLUSTER (filter);
   SonarClusterParams params;
-  guint records;
+  guint records, hypotheses;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
-          &records) || records != 1) {
+          &records, &hypotheses) || records != 1) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
         "wardcluster: it needs one energyscape per ping (mimobeamform "
         "mode=detection or mode=fixed, not datacube)");
@@ -125,6 +130,7 @@ gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GST_OBJECT_LOCK (self);
   params = self->params;
   GST_OBJECT_UNLOCK (self);
+  params.hypotheses = hypotheses;
   self->clusterer = sonar_clusterer_new (&self->grid, &params, error);
   if (!self->clusterer)
     return NULL;
@@ -170,8 +176,8 @@ gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
       self->warned_dropped = TRUE;
       GST_ELEMENT_WARNING (self, STREAM, FAILED, ("wardcluster: ping %"
               G_GUINT64_FORMAT " has more than %u centroids: only the %u "
-              "strongest are kept, on this ping and any other (a higher "
-              "threshold or floor, or stop=distance with a larger distance, "
+              "strongest are kept, on this ping and any other (a smaller pfa, "
+              "a higher threshold, or stop=distance with a larger distance, "
               "gives fewer)", ping, MAX_CENTROIDS, MAX_CENTROIDS), (NULL));
     }
   }
@@ -203,8 +209,11 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
     case PROP_ABSOLUTE_THRESHOLD:
       p->absolute_threshold = g_value_get_double (value);
       break;
-    case PROP_FLOOR:
-      p->floor_db = g_value_get_double (value);
+    case PROP_SIDELOBE:
+      p->sidelobe_db = g_value_get_double (value);
+      break;
+    case PROP_PFA:
+      p->pfa = g_value_get_double (value);
       break;
     case PROP_LINKAGE:
       p->linkage = g_value_get_enum (value);
@@ -252,8 +261,11 @@ gst_ward_cluster_get_property (GObject * object, guint prop_id,
     case PROP_ABSOLUTE_THRESHOLD:
       g_value_set_double (value, p->absolute_threshold);
       break;
-    case PROP_FLOOR:
-      g_value_set_double (value, p->floor_db);
+    case PROP_SIDELOBE:
+      g_value_set_double (value, p->sidelobe_db);
+      break;
+    case PROP_PFA:
+      g_value_set_double (value, p->pfa);
       break;
     case PROP_LINKAGE:
       g_value_set_enum (value, p->linkage);
@@ -309,18 +321,30 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
 
   g_object_class_install_property (gobject_class, PROP_THRESHOLD,
       g_param_spec_double ("threshold", "Threshold", "Pixels weaker than "
-          "this, in dB relative to the ping's strongest, are no peaks",
+          "this, in dB relative to the ping's strongest, are no peaks "
+          "(-200: off; the sidelobe and noise-floor tests bound what a "
+          "strong echo leaves elsewhere)",
           -200.0, 0.0, d.threshold_db, flags));
+  g_object_class_install_property (gobject_class, PROP_SIDELOBE,
+      g_param_spec_double ("sidelobe-threshold", "Sidelobe threshold",
+          "Pixels weaker than this, in dB relative to the strongest pixel "
+          "of their range (within 2 cm, any direction), are no "
+          "peaks: a point's sidelobes lie at its range, at most 21.8 dB "
+          "below it in the MIMO image (-200: off)",
+          -200.0, 0.0, d.sidelobe_db, flags));
   g_object_class_install_property (gobject_class, PROP_ABSOLUTE_THRESHOLD,
       g_param_spec_double ("absolute-threshold", "Absolute threshold",
           "Pixels weaker than this envelope value (range-compensated if "
           "range-compensation is on) are no peaks (0: off)",
           0.0, G_MAXDOUBLE, d.absolute_threshold, flags));
-  g_object_class_install_property (gobject_class, PROP_FLOOR,
-      g_param_spec_double ("floor", "Floor", "Pixels less than this many "
-          "dB above the noise floor of their range (the lower quartile over "
-          "the directions) are no peaks: noise alone yields nothing (0: off)",
-          0.0, 200.0, d.floor_db, flags));
+  g_object_class_install_property (gobject_class, PROP_PFA,
+      g_param_spec_double ("pfa", "Probability of false alarm",
+          "Probability that a pixel of noise alone passes the noise-floor "
+          "test, per pixel and ping: pixels below the lower quartile of "
+          "their range over the directions times the factor noise exceeds "
+          "that rarely (from the image's Doppler hypotheses, caps field "
+          "\"hypotheses\") are no peaks (1: off)",
+          1e-15, 1.0, d.pfa, flags));
   g_object_class_install_property (gobject_class, PROP_LINKAGE,
       g_param_spec_enum ("linkage", "Linkage", "How the distance between "
           "two clusters is measured", GST_TYPE_SONAR_LINKAGE, d.linkage,

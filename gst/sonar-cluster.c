@@ -13,6 +13,22 @@
 
 #define MAX_PEAKS 4096
 
+/* Range along one direction over which its noise floor is taken, m: a
+ * tenth of a pulse (4000 samples at 450 kHz, 1.5 m of range), over which
+ * a cross-talk ridge's level changes little, and 56 range bins at the
+ * default 2.7 mm step. At least COLUMN_MIN_BINS bins. */
+#define COLUMN_SPAN 0.15
+#define COLUMN_MIN_BINS 16
+/* The column floor's factor over the noise floor's (amplitude, -2 dB): an
+ * object sits in its own ridge, and seen between the directions of a
+ * coarse grid it loses more than the ridge does (the ridge adds up only
+ * over the microphones, a wider beam). Measured: at 0.7 a 79-degree
+ * point's ridge gives a peak (tests/test-velocityest.c, wide angles), at
+ * 1.0 a point 3 degrees off a 6-degree grid is lost
+ * (tests/test-stability.c, two reflectors 1 cm apart); 0.75-0.9 keep
+ * both. */
+#define COLUMN_MARGIN 0.8
+
 struct _SonarClusterer
 {
   SonarImageGrid grid;
@@ -31,16 +47,37 @@ struct _SonarClusterer
   int *slot;                    /* per label: output index, or -1 */
   float *compensated;           /* the image times r^2, with range_compensation */
   float *floor;                 /* per range bin: threshold over the noise floor */
+  float *row_max;               /* per range bin: strongest over the directions */
+  float *sidelobe;              /* per range bin: the sidelobe threshold */
   float *columns;               /* FLOOR_BLOCK range bins' values over the
                                  * directions, one column per bin */
+  /* Per direction and block of column_bins range bins: the threshold over
+   * the noise floor along the direction, of the image before range
+   * compensation (its noise is flat over range). */
+  guint column_bins, n_column_blocks;
+  float *column_floor;
+  float *column_values;         /* one block's values */
 };
+
+/* Range bins per block of the column floor: COLUMN_SPAN, at least
+ * COLUMN_MIN_BINS (at most the grid's). */
+static guint
+column_block_length (const SonarImageGrid * g)
+{
+  const guint bins = MAX (COLUMN_MIN_BINS, (guint) lround (COLUMN_SPAN /
+          MAX (g->range_step, 1e-9)));
+
+  return MIN (bins, MAX (g->n_range, 1));
+}
 
 void
 sonar_cluster_params_init_default (SonarClusterParams * p)
 {
   p->range_compensation = TRUE;
-  p->threshold_db = -10.0;
-  p->floor_db = 15.0;
+  p->threshold_db = -200.0;
+  p->sidelobe_db = -16.0;
+  p->pfa = 1e-8;
+  p->hypotheses = 1;
   p->absolute_threshold = 0.0;
   p->linkage = SONAR_LINKAGE_WARD;
   p->stop = SONAR_STOP_INCONSISTENCY;
@@ -64,8 +101,12 @@ validate (const SonarImageGrid * g, const SonarClusterParams * p,
     problem = "grid: first values and steps must be finite";
   else if (!(p->threshold_db <= 0.0 && p->threshold_db >= -200.0))
     problem = "threshold-db must be in [-200, 0] dB";
-  else if (!(p->floor_db >= 0.0 && p->floor_db <= 200.0))
-    problem = "floor-db must be in [0, 200] dB";
+  else if (!(p->sidelobe_db <= 0.0 && p->sidelobe_db >= -200.0))
+    problem = "sidelobe-db must be in [-200, 0] dB";
+  else if (!(p->pfa >= 1e-15 && p->pfa <= 1.0))
+    problem = "pfa must be in [1e-15, 1]";
+  else if (p->hypotheses < 1)
+    problem = "hypotheses must be >= 1";
   else if (!(p->absolute_threshold >= 0.0 && isfinite (p->absolute_threshold)))
     problem = "absolute-threshold must be finite and >= 0";
   else if ((guint) p->stop > SONAR_STOP_DISTANCE)
@@ -117,6 +158,13 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   if (params->range_compensation)
     c->compensated = g_new (float, sonar_image_grid_size (grid));
   c->floor = g_new (float, grid->n_range);
+  c->row_max = g_new (float, grid->n_range);
+  c->sidelobe = g_new (float, grid->n_range);
+  c->column_bins = column_block_length (grid);
+  c->n_column_blocks = (grid->n_range + c->column_bins - 1) / c->column_bins;
+  c->column_floor = g_new (float, (gsize) grid->n_azimuth *
+      grid->n_elevation * c->n_column_blocks);
+  c->column_values = g_new (float, c->column_bins);
   c->columns = g_new (float, (gsize) FLOOR_BLOCK * grid->n_azimuth *
       grid->n_elevation);
   return c;
@@ -137,7 +185,11 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->slot);
   g_free (c->compensated);
   g_free (c->floor);
+  g_free (c->row_max);
+  g_free (c->sidelobe);
   g_free (c->columns);
+  g_free (c->column_floor);
+  g_free (c->column_values);
   g_free (c);
 }
 
@@ -241,7 +293,33 @@ select_kth (float *v, gsize n, gsize k)
   return v[k];
 }
 
-/* Per range bin: floor_db above the lower quartile over the directions.
+/* Element n / 4 of @values in ascending order, 0 for none; reorders them. */
+static float
+lower_quartile (float *values, gsize n)
+{
+  return n > 0 ? select_kth (values, n, n / 4) : 0.0f;
+}
+
+double
+sonar_cluster_effective_hypotheses (guint hypotheses)
+{
+  return 1.0 + (MAX (hypotheses, 1) - 1.0) * SONAR_CLUSTER_HYPOTHESIS_SHARE;
+}
+
+double
+sonar_cluster_floor_gain (double pfa, double k)
+{
+  /* 1 - 4^(-1/K) and 1 - (1 - pfa)^(1/K), without cancellation. */
+  const double below_quartile = -expm1 (log (0.25) / k);
+  const double below_threshold = -expm1 (log1p (-pfa) / k);
+
+  if (pfa >= 1.0)
+    return 0.0;
+  return sqrt (log (below_threshold) / log (below_quartile));
+}
+
+/* Per range bin: the floor gain times the lower quartile over the
+ * directions.
  * Not the median: a reflector near +-90 degrees smears over most of the
  * fan and would lift it. The columns are gathered FLOOR_BLOCK range bins
  * at a time, each direction's bins read in one run: gathering one bin at
@@ -255,10 +333,11 @@ noise_floors (SonarClusterer * c, const float *image)
   const SonarImageGrid *g = &c->grid;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
   const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
-  const float gain = (float) pow (10.0, c->params.floor_db / 20.0);
+  const float gain = (float) sonar_cluster_floor_gain (c->params.pfa,
+      sonar_cluster_effective_hypotheses (c->params.hypotheses));
   gsize counts[FLOOR_BLOCK];
 
-  if (!(c->params.floor_db > 0.0)) {
+  if (!(gain > 0.0f)) {
     memset (c->floor, 0, sizeof (float) * g->n_range);
     return;
   }
@@ -272,11 +351,91 @@ noise_floors (SonarClusterer * c, const float *image)
           c->columns[b * n_dirs + counts[b]++] = pixels[b];
     }
     for (guint b = 0; b < block; b++)
-      c->floor[i0 + b] = counts[b] > 0 ? gain * select_kth (c->columns +
-          b * n_dirs, counts[b], counts[b] / 4) : 0.0f;
+      c->floor[i0 + b] = gain * lower_quartile (c->columns + b * n_dirs,
+          counts[b]);
   }
 }
 
+/* Per block of @block_bins of @column (@n values): @gain times the
+ * largest lower quartile of the block and its two neighbours. */
+static void
+column_block_floors (const float *column, guint n, guint block_bins,
+    float gain, float *scratch, float *floors)
+{
+  const guint n_blocks = (n + block_bins - 1) / block_bins;
+  float previous = 0.0f;
+
+  for (guint i0 = 0, b = 0; i0 < n; i0 += block_bins, b++) {
+    const guint i1 = MIN (i0 + block_bins, n);
+    gsize count = 0;
+    for (guint i = i0; i < i1; i++)
+      if (isfinite (column[i]))
+        scratch[count++] = column[i];
+    floors[b] = gain * lower_quartile (scratch, count);
+  }
+  /* The largest of a block's and its neighbours': where a ridge ends
+   * within a block its quartile is the lower part's, and the rest of the
+   * ridge would pass. */
+  for (guint b = 0; b < n_blocks; b++) {
+    const float own = floors[b];
+    floors[b] = MAX (own, previous);
+    if (b + 1 < n_blocks)
+      floors[b] = MAX (floors[b], floors[b + 1]);
+    previous = own;
+  }
+}
+
+/* Per direction and block of column_bins range bins: the floor gain
+ * times the lower quartile of the block (and its neighbours), on the
+ * image before range compensation (@raw, whose noise is flat over range).
+ * The range bin's floor over the directions misses what fills one
+ * direction over a long range: a strong echo's cross-talk ridge,
+ * noise-like, about 20 dB below it and 1.5 m long at its direction. Along
+ * the direction the ridge is the floor, and its peaks pass about as
+ * rarely as noise's. An object fills 1-3 bins of a block: the quartile
+ * ignores it, and a second object within the block. */
+static void
+column_floors (SonarClusterer * c, const float *raw, float gain)
+{
+  const SonarImageGrid *g = &c->grid;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+
+  for (gsize d = 0; d < n_dirs; d++)
+    column_block_floors (raw + d * g->n_range, g->n_range, c->column_bins,
+        gain, c->column_values, c->column_floor + d * c->n_column_blocks);
+}
+
+/* Per range bin: sidelobe_db below the strongest pixel within
+ * SONAR_CLUSTER_SIDELOBE_RANGE, over every direction. */
+static void
+sidelobe_thresholds (SonarClusterer * c, const float *image)
+{
+  const SonarImageGrid *g = &c->grid;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  const float ratio = (float) pow (10.0, c->params.sidelobe_db / 20.0);
+  const int w = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
+      MAX (g->range_step, 1e-9));
+
+  memset (c->row_max, 0, sizeof (float) * g->n_range);
+  for (gsize d = 0; d < n_dirs; d++)
+    for (guint i = 0; i < g->n_range; i++) {
+      const float v = image[d * g->n_range + i];
+      if (v > c->row_max[i] && isfinite (v))
+        c->row_max[i] = v;
+    }
+  for (guint i = 0; i < g->n_range; i++) {
+    float top = 0.0f;
+    for (int j = MAX ((int) i - w, 0); j <= MIN ((int) i + w,
+            (int) g->n_range - 1); j++)
+      top = MAX (top, c->row_max[j]);
+    c->sidelobe[i] = top * ratio;
+  }
+}
+
+/* The pixels of @image (range-compensated if so set) above @threshold,
+ * their range bin's floor, their direction's column floor (of the
+ * uncompensated image, so times r^2 when compensated) and their range's
+ * sidelobe threshold. */
 static void
 find_peaks (SonarClusterer * c, const float *image, float threshold)
 {
@@ -290,8 +449,13 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
       for (guint i = 0; i < g->n_range; i++) {
         const gsize p = ((gsize) e * g->n_azimuth + a) * g->n_range + i;
         const float v = image[p];
+        const float r = (float) (g->range_first + i * g->range_step);
+        const float column = c->column_floor[((gsize) e * g->n_azimuth +
+                a) * c->n_column_blocks + i / c->column_bins] *
+            (c->compensated ? r * r : 1.0f);
         gboolean peak = TRUE;
-        if (!(v >= threshold) || !(v >= c->floor[i]) || !isfinite (v))
+        if (!(v >= threshold) || !(v >= c->floor[i]) || !(v >= column)
+            || !(v >= c->sidelobe[i]) || !isfinite (v))
           continue;
         for (int de = -1; de <= 1 && peak; de++) {
           if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
@@ -407,6 +571,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
     SonarCentroid * out, guint max_centroids)
 {
   const SonarImageGrid *g;
+  const float *raw = image;
   gsize n_pixels;
   const double *Z = NULL;
   float max = 0.0f, threshold;
@@ -435,6 +600,10 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   threshold = MAX (max * pow (10.0, c->params.threshold_db / 20.0),
       c->params.absolute_threshold);
   noise_floors (c, image);
+  sidelobe_thresholds (c, image);
+  column_floors (c, raw, (float) (COLUMN_MARGIN * sonar_cluster_floor_gain
+          (c->params.pfa, sonar_cluster_effective_hypotheses
+              (c->params.hypotheses))));
   find_peaks (c, image, threshold);
   n = c->n_peaks;
   if (n == 0)

@@ -1,8 +1,12 @@
 /* sonar-cluster.h: reflector centroids from a sonar image (paper Sec.
  * III.A, Fig. 5), the core of the wardcluster stage.
  *
- * 1. Threshold: pixels below a level relative to the image maximum (and,
- *    optionally, below an absolute level) are ignored.
+ * 1. Thresholds: a pixel is kept when it passes the noise floor of its
+ *    range bin over the directions (a CFAR test at a probability of false
+ *    alarm per pixel, pfa), the noise floor along its direction (the
+ *    column floor, against cross-talk ridges), the sidelobe threshold of
+ *    its range, and, if set, a level relative to the image maximum and an
+ *    absolute level.
  * 2. Peaks: the remaining local maxima over the 8-neighbourhood (azimuth x
  *    range) or, for a 3-D image, the 26-neighbourhood (elevation x azimuth
  *    x range). Equal values are ordered by pixel index, so a plateau gives
@@ -66,14 +70,36 @@ typedef struct
    * are velocityest's to reject. */
   gboolean range_compensation;
   /* dB relative to the image's maximum (<= 0): weaker pixels are no peaks.
-   * With range compensation the objects of a scene come out at similar
-   * levels and cross-talk ridges 10-20 dB below them: -10 dB. */
+   * Off (-200 dB) by default: it would lose every object that much weaker
+   * than the strongest; what a strong echo leaves elsewhere is bounded
+   * by sidelobe_db at its range and by the column floor along its
+   * direction. */
   double threshold_db;
-  /* dB above the noise floor of the pixel's range bin (the lower quartile
-   * over the directions, which objects occupy few of): weaker pixels are
-   * no peaks, so that noise alone makes none (a CFAR detector). 0 turns it
-   * off. */
-  double floor_db;
+  /* dB relative to the strongest pixel of the same range (within
+   * SONAR_CLUSTER_SIDELOBE_RANGE, any direction), <= 0: weaker pixels
+   * are no peaks. A point's delay-and-sum sidelobes lie at its range, the
+   * 2-D MIMO image's at most 21.8 dB below its peak (README), the 3-D
+   * hemisphere image's 18-20 dB (measured on tests/test_foreign.py's 3-D
+   * case: at -20 dB its point at -25/-30 degrees gave a valid duplicate
+   * 14 degrees off): -16 dB. An object at the range of one 16 dB
+   * stronger is under its sidelobes anyway. -200: off. */
+  double sidelobe_db;
+  /* Probability that a noise-only pixel passes the noise-floor test (a
+   * CFAR detector), per pixel and ping, in (0, 1]; 1 turns the test off.
+   * The test: the pixel exceeds its range bin's lower quartile over the
+   * directions (objects fill few of them) times the factor that noise of
+   * the image's statistics exceeds with probability pfa
+   * (sonar_cluster_floor_gain ()). 1e-8: the default image has about
+   * 3e5 pixels (181 directions x 1754 ranges), so noise passes about once
+   * in 300 pings, and velocityest's tests reject those; 1e-6 (2 dB more
+   * sensitive) let 1 noise peak in 30 through them. The column floor
+   * uses the same factor less 2 dB (COLUMN_MARGIN, sonar-cluster.c). */
+  double pfa;
+  /* The Doppler hypotheses each pixel is the maximum of (the energyscape
+   * caps' "hypotheses"; 1: one envelope): the maximum of K noise
+   * envelopes spreads far less than one does, so the factor over the
+   * quartile shrinks with K. */
+  guint hypotheses;
   /* Linear envelope value: weaker pixels are no peaks; 0 turns it off. */
   double absolute_threshold;
   SonarLinkage linkage;
@@ -96,8 +122,9 @@ typedef struct
   guint max_peaks;
 } SonarClusterParams;
 
-/* Range compensation on; thresholds -10 dB, 15 dB over the floor, and
- * absolute off; Ward, inconsistency
+/* Range compensation on; relative threshold off, sidelobes -16 dB, pfa
+ * 1e-8 over the noise floors with one hypothesis, absolute off; Ward,
+ * inconsistency
  * 1.0 over depth 3; distance 0.1 m; 2000 peaks. */
 void sonar_cluster_params_init_default (SonarClusterParams * params);
 
@@ -131,6 +158,36 @@ void sonar_clusterer_free (SonarClusterer * c);
  * written. Non-finite pixels are ignored. Never allocates. */
 guint sonar_clusterer_process (SonarClusterer * c, const float *image,
     SonarCentroid * centroids, guint max_centroids);
+
+/* The factor over the noise quartile (amplitude) that a pixel of noise
+ * alone exceeds with probability @pfa, for an image that is the maximum
+ * of @hypotheses Doppler hypotheses' envelopes. The noise envelope of one
+ * hypothesis is Rayleigh: P(A <= x) = 1 - exp (-x^2 / 2 s^2). The maximum
+ * of K independent ones has the distribution F(x) = (1 - exp (-x^2 /
+ * 2 s^2))^K, so its quartile q solves F(q) = 1/4 and the threshold t
+ * solves 1 - F(t) = pfa:
+ *   q^2 = -2 s^2 ln (1 - 4^(-1/K)),  t^2 = -2 s^2 ln (1 - (1 - pfa)^(1/K)),
+ * and the factor is t / q, free of s. Neighbouring hypotheses are
+ * correlated (0.3 m/s apart, within one Doppler main lobe), so K enters as
+ * the effective count of independent ones, K_eff = 1 + (K - 1) x
+ * SONAR_CLUSTER_HYPOTHESIS_SHARE, measured on noise-only images
+ * (sonar-bench --sweep noise). */
+double sonar_cluster_floor_gain (double pfa, double effective_hypotheses);
+
+/* m either side of a pixel's range whose strongest pixel sets its
+ * sidelobe threshold: near the sensor and towards +-90 degrees a point's
+ * sidelobes curve off its range, by 1 cm at 1.5 m and -42 degrees for a
+ * point at -85 (tests/test-velocityest.c, wide angles). */
+#define SONAR_CLUSTER_SIDELOBE_RANGE 0.02
+
+/* K_eff for an image over @hypotheses Doppler hypotheses (see above). */
+double sonar_cluster_effective_hypotheses (guint hypotheses);
+
+/* Effective independent hypotheses per further hypothesis (see above):
+ * on 100 dense noise-only images over the default 47 hypotheses (0.3 m/s
+ * apart), the K_eff that makes the measured exceedance equal the design
+ * pfa is 41.1 at 1e-3 and 40.7 at 1e-4: (41 - 1) / 46. */
+#define SONAR_CLUSTER_HYPOTHESIS_SHARE 0.87
 
 /* Peaks found by the last process call (before the max_peaks cap). */
 guint sonar_clusterer_n_peaks (const SonarClusterer * c);

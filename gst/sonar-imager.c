@@ -513,9 +513,12 @@ run_units (SonarImager * im, guint n)
 /* From the coarse pass's zone peaks: a (coarse direction, zone) is hot
  * when a hypothesis's r^2-weighted peak there comes within the refine
  * level of the coarse image's maximum, and the fine units around it image
- * those hypotheses only. A pixel wardcluster could keep (10 dB below the
- * maximum at most) has its best hypothesis among them: 1.5 degrees off,
- * at a coarse corner, the beam loses at most 6 dB of the 20. */
+ * those hypotheses only. A pixel within 10 dB of the maximum has its best
+ * hypothesis among them: 1.5 degrees off, at a coarse corner, the beam
+ * loses at most 6 dB of the 20. wardcluster keeps fainter pixels too (it
+ * has no relative threshold by default): those are interpolated between
+ * coarse directions, which keep their peaks (a 40 dB weaker object beside
+ * a strong one is found: tests/test-velocityest.c, near-far). */
 static void
 mark_hot (SonarImager * im, guint n_coarse)
 {

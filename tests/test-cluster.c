@@ -22,7 +22,8 @@ synthetic_params (SonarClusterParams * p)
   sonar_cluster_params_init_default (p);
   p->range_compensation = FALSE;
   p->threshold_db = -20.0;
-  p->floor_db = 0.0;
+  p->pfa = 1.0;
+  p->sidelobe_db = -200.0;
 }
 
 /* The methods of sonar-linkage.h: their nicks are SciPy's method names,
@@ -631,6 +632,18 @@ spoil (guint i, SonarImageGrid * g, SonarClusterParams * p)
     case 11:
       g->range_step = NAN;
       break;
+    case 12:
+      p->pfa = 0.0;
+      break;
+    case 13:
+      p->pfa = 1.5;
+      break;
+    case 14:
+      p->hypotheses = 0;
+      break;
+    case 15:
+      p->sidelobe_db = 1.0;
+      break;
     default:
       return FALSE;
   }
@@ -709,6 +722,50 @@ test_speed (void)
   }
 }
 
+/* The noise-floor factor against the statistics it is derived from: the
+ * maximum of K independent Rayleigh envelopes, its quartile and its
+ * 1 - pfa point computed by bisection on the distribution function
+ * F(x) = (1 - exp (-x^2 / 2))^K, and the values the issue quotes (about
+ * 17 dB for one envelope and 7 dB for 47 at pfa 1e-6); pfa 1 is off. */
+static double
+max_rayleigh_quantile (double k, double p)
+{
+  double lo = 0.0, hi = 20.0;
+
+  for (int i = 0; i < 200; i++) {
+    const double mid = 0.5 * (lo + hi);
+    if (pow (-expm1 (-0.5 * mid * mid), k) < p)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+static void
+test_floor_gain (void)
+{
+  const double pfas[] = { 1e-2, 1e-4, 1e-6 };
+  const double ks[] = { 1.0, 8.0, 41.0 };
+
+  for (guint i = 0; i < G_N_ELEMENTS (pfas); i++)
+    for (guint j = 0; j < G_N_ELEMENTS (ks); j++) {
+      const double want = max_rayleigh_quantile (ks[j], 1.0 - pfas[i]) /
+          max_rayleigh_quantile (ks[j], 0.25);
+      g_assert_cmpfloat (fabs (sonar_cluster_floor_gain (pfas[i], ks[j]) /
+              want - 1.0), <, 1e-6);
+    }
+  g_assert_cmpfloat (fabs (20.0 * log10 (sonar_cluster_floor_gain (1e-6,
+                  1.0)) - 16.8), <, 0.1);
+  g_assert_cmpfloat (fabs (20.0 * log10 (sonar_cluster_floor_gain (1e-6,
+                  47.0)) - 7.0), <, 0.1);
+  g_assert_cmpfloat (sonar_cluster_floor_gain (1.0, 47.0), ==, 0.0);
+  /* K_eff: one hypothesis is one envelope; more are fewer independent. */
+  g_assert_cmpfloat (sonar_cluster_effective_hypotheses (1), ==, 1.0);
+  g_assert_cmpfloat (sonar_cluster_effective_hypotheses (47), <, 47.0);
+  g_assert_cmpfloat (sonar_cluster_effective_hypotheses (47), >, 30.0);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -722,6 +779,7 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/degenerate", test_degenerate);
   g_test_add_func ("/cluster/max-centroids", test_max_centroids);
   g_test_add_func ("/cluster/bad-params", test_bad_params);
+  g_test_add_func ("/cluster/floor-gain", test_floor_gain);
   g_test_add_func ("/cluster/speed", test_speed);
   return g_test_run ();
 }

@@ -213,7 +213,7 @@ test_chain_output (void)
   caps = gst_sample_get_caps (g_ptr_array_index (run->samples, 0));
   s = gst_caps_get_structure (caps, 0);
   g_assert_true (gst_structure_has_name (s, SONAR_ENERGYSCAPE_MEDIA_TYPE));
-  g_assert_true (sonar_energyscape_caps_parse (caps, &grid, &records));
+  g_assert_true (sonar_energyscape_caps_parse (caps, &grid, &records, NULL));
   g_assert_cmpuint (records, ==, 1);
   g_assert_cmpuint (grid.n_azimuth, ==, 61);
   g_assert_cmpfloat (grid.azimuth_first, ==, -90.0);
@@ -383,7 +383,7 @@ test_taps (void)
     SonarImageGrid grid;
     guint records;
     g_assert_true (sonar_energyscape_caps_parse (gst_sample_get_caps
-            (g_ptr_array_index (run->samples, 0)), &grid, &records));
+            (g_ptr_array_index (run->samples, 0)), &grid, &records, NULL));
     g_test_message ("energyscape file: %" G_GSIZE_FORMAT " bytes, 3 records "
         "of %" G_GSIZE_FORMAT, length, sizeof (SonarEnergyscapeHeader) +
         sizeof (float) * sonar_image_grid_size (&grid));
@@ -1084,7 +1084,7 @@ test_datacube (void)
   g_assert_null (fixed->error);
   g_assert_cmpuint (cube->samples->len, ==, 1);
   g_assert_true (sonar_energyscape_caps_parse (gst_sample_get_caps
-          (g_ptr_array_index (cube->samples, 0)), &grid, &records));
+          (g_ptr_array_index (cube->samples, 0)), &grid, &records, NULL));
   g_assert_cmpuint (records, ==, 5);
   pixels = sonar_image_grid_size (&grid);
   gst_buffer_map (run_buffer (cube, 0), &cmap, GST_MAP_READ);

@@ -195,9 +195,8 @@ test_point_reflectors_3d (void)
 }
 
 /* Compares the coarse-to-fine image (the default) with the dense one
- * (coarse_spacing 0) of the same ping: every pixel wardcluster could keep
- * (r^2-weighted, within its default -10 dB of the maximum) is imaged in
- * full, so bit-identical; the work (unit x hypothesis passes) is at most
+ * (coarse_spacing 0) of the same ping: every pixel within -10 dB of the
+ * maximum (r^2-weighted) is imaged in full, so bit-identical; the work (unit x hypothesis passes) is at most
  * @max_work_fraction of the dense image's (measured: 46 % for four
  * objects, 11 % for one, 14 % for three movers over 47 hypotheses, 13 %
  * in 3-D for two). */

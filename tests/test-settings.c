@@ -77,8 +77,9 @@ test_centroids_dropped_warning (void)
 {
   GstElement *pipeline = gst_parse_launch ("sonarsrc scene=empty "
       "num-buffers=3 ! dopplerbank velocity-step=0.5 ! mimobeamform "
-      "coarse-spacing=0 ! wardcluster stop=distance distance=0 floor=0 "
-      "threshold=-200 max-peaks=4096 ! appsink name=sink sync=false", NULL);
+      "coarse-spacing=0 ! wardcluster stop=distance distance=0 pfa=1 "
+      "sidelobe-threshold=-200 max-peaks=4096 ! appsink name=sink "
+      "sync=false", NULL);
   GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
   GstBus *bus = gst_element_get_bus (pipeline);
   GstSample *sample;
@@ -102,8 +103,8 @@ test_centroids_dropped_warning (void)
     gst_message_parse_warning (msg, &error, NULL);
     g_assert_cmpstr (error->message, ==, "wardcluster: ping 0 has more than "
         "256 centroids: only the 256 strongest are kept, on this ping and any "
-        "other (a higher threshold or floor, or stop=distance with a larger "
-        "distance, gives fewer)");
+        "other (a smaller pfa, a higher threshold, or stop=distance with a "
+        "larger distance, gives fewer)");
     g_error_free (error);
     gst_message_unref (msg);
     warnings++;

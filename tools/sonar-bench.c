@@ -202,6 +202,8 @@ typedef struct
   guint n_range;
 } Result;
 
+struct _Bench;
+
 typedef struct
 {
   const char *name;
@@ -210,6 +212,9 @@ typedef struct
   /* Changes value @i on @c, made with the scene's defaults, and names it
    * into @label. */
   void (*apply) (Config * c, guint i, char *label, gsize size);
+  /* Instead of configurations: a sweep that renders its own pings one at
+   * a time (the sensitivity sweeps). */
+  gboolean (*run) (struct _Bench * b);
 } Sweep;
 
 typedef struct
@@ -219,7 +224,7 @@ typedef struct
   double template_error_db;
 } BankEntry;
 
-typedef struct
+typedef struct _Bench
 {
   SonarSetup *setup;
   guint n_threads;              /* velocity workers */
@@ -357,7 +362,7 @@ mean_of (const double *v, guint n)
  * seed 1, a window holding the whole echo of an object at max-range seen
  * from the farthest element. */
 static SonarSetup *
-make_setup (GError ** error)
+make_setup (double max_range, GError ** error)
 {
   g_autofree float *waveforms = NULL;
   SonarWaveformParams wp;
@@ -378,7 +383,7 @@ make_setup (GError ** error)
           .waveforms = waveforms,
           .ping_length = sonar_ping_length_for_range (&geometry,
               SONAR_DEFAULT_SPEED_OF_SOUND, wp.sample_rate, wp.length,
-              MAX_RANGE)}, error);
+              max_range)}, error);
   sonar_geometry_clear (&geometry);
   return setup;
 }
@@ -659,6 +664,7 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
   const guint n_mics = b->setup->geometry.n_microphones;
   g_autofree guint *indices = NULL;
   SonarDopplerBank *bank;
+  SonarClusterParams cluster;
   guint nv;
   double heap;
 
@@ -706,7 +712,10 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
   r->mb[STAGE_IMAGING] = heap_mb () - heap;
 
   heap = heap_mb ();
-  ch->clusterer = sonar_clusterer_new (ch->grid, &c->cluster, error);
+  /* As wardcluster reads it from the energyscape's caps. */
+  cluster = c->cluster;
+  cluster.hypotheses = ch->n_templates;
+  ch->clusterer = sonar_clusterer_new (ch->grid, &cluster, error);
   if (!ch->clusterer)
     return FALSE;
   r->mb[STAGE_CLUSTERING] = heap_mb () - heap;
@@ -1231,6 +1240,422 @@ apply_datacube (Config * c, guint i, char *label, gsize size)
   g_strlcpy (label, i == 0 ? "proposed" : "datacube", size);
 }
 
+/* Sensitivity ------------------------------------------------------------
+ *
+ * Pings rendered one at a time (a thousand pings would not fit in memory),
+ * at the elements' defaults: the -7..7 m/s bank at 0.05 m/s and its 47
+ * detection hypotheses.
+ *
+ * noise: sonarsrc scene=empty. (1) The false-alarm model: per range bin,
+ * every pixel over the bin's lower quartile over the directions, as
+ * wardcluster's noise-floor test sees it; the share of pixels above the
+ * factor sonar_cluster_floor_gain () gives for a design pfa, against
+ * that pfa, on the dense image (coarse-spacing=0: every pixel a true
+ * envelope) and on the defaults' (coarse to fine: pixels far below the
+ * maximum are interpolated, which narrows their spread). The effective
+ * number of independent hypotheses K_eff is the one whose factor makes
+ * the dense image's measured exceedance equal the design pfa (bisection),
+ * at 1e-3 and 1e-4, where thousands of pixels exceed. (2) False objects:
+ * the whole chain's valid detections on every ping.
+ *
+ * detection: one point reflector per ping, strength set for a per-channel
+ * SNR (below), at 2, 5 and 8 m (+-5 cm), a random azimuth in -60..60
+ * degrees and radial velocity in -1..1 m/s, noise seed = ping; found when
+ * a valid detection lies within MATCH_DISTANCE. Per-channel SNR: the
+ * echo's mean power at a microphone while it lasts, over the noise power
+ * per sample: (strength / (2 r)^2)^2 x sum over the emitters of the mean
+ * square of their emissions, over noise-amplitude^2 (every sample, the
+ * whole 0-225 kHz band). The sensor records to 8.5 m for it. */
+#define NOISE_PINGS 1000
+#define NOISE_DENSE_PINGS 100
+#define DETECTION_PINGS 20
+#define GOAL_PINGS 50
+#define GOAL_RANGE 7.0
+#define GOAL_SNR_DB -28.0
+#define SENSITIVITY_MAX_RANGE 8.5
+#define SENSITIVITY_AZIMUTH 60.0
+#define SENSITIVITY_SPEED 1.0
+#define SENSITIVITY_RANGE_JITTER 0.05
+/* Exceedance histogram of 20 log10 (pixel / quartile): dB. */
+#define RATIO_DB_MIN -60.0
+#define RATIO_DB_STEP 0.01
+#define RATIO_BINS 10000
+
+static guint noise_pings = NOISE_PINGS;
+static guint detection_pings = DETECTION_PINGS;
+
+static const double design_pfas[] = { 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7 };
+static const double detection_snrs_db[] =
+    { -35, -33, -31, -29, -28, -27, -25, -20, -15 };
+static const double detection_ranges[] = { 2.0, 5.0, 8.0 };
+
+typedef struct
+{
+  guint64 counts[RATIO_BINS];   /* [bin of 20 log10 (v / q)] */
+  guint64 above;                /* beyond the last bin */
+  guint64 total;
+} RatioHistogram;
+
+static int
+compare_floats (const void *a, const void *b)
+{
+  const float x = *(const float *) a, y = *(const float *) b;
+
+  return (x > y) - (x < y);
+}
+
+/* Every finite pixel of @image over its range bin's lower quartile over
+ * the directions (the quartile as wardcluster takes it: element n / 4 of
+ * the sorted column). */
+static void
+histogram_add_image (RatioHistogram * h, const float *image,
+    const SonarImageGrid * g, float *column)
+{
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+
+  for (guint i = 0; i < g->n_range; i++) {
+    gsize n = 0;
+    float q;
+
+    for (gsize d = 0; d < n_dirs; d++)
+      if (isfinite (image[d * g->n_range + i]))
+        column[n++] = image[d * g->n_range + i];
+    if (n < 4)
+      continue;
+    qsort (column, n, sizeof (float), compare_floats);
+    q = column[n / 4];
+    if (!(q > 0.0f))
+      continue;
+    for (gsize k = 0; k < n; k++) {
+      const double db = 20.0 * log10 (column[k] / q);
+      const double bin = floor ((db - RATIO_DB_MIN) / RATIO_DB_STEP);
+
+      h->total++;
+      if (bin >= RATIO_BINS)
+        h->above++;
+      else if (bin >= 0)
+        h->counts[(gsize) bin]++;
+    }
+  }
+}
+
+/* Share of the pixels above @gain (amplitude) times their quartile. */
+static double
+histogram_exceedance (const RatioHistogram * h, double gain)
+{
+  const double db = 20.0 * log10 (gain);
+  const double first = ceil ((db - RATIO_DB_MIN) / RATIO_DB_STEP);
+  guint64 n = h->above;
+
+  for (gsize k = (gsize) MAX (first, 0.0); k < RATIO_BINS; k++)
+    n += h->counts[k];
+  return h->total ? (double) n / h->total : NAN;
+}
+
+/* K_eff for which the measured exceedance at the design @pfa's factor is
+ * @pfa (bisection between 1 and @k_max). */
+static double
+fit_effective_hypotheses (const RatioHistogram * h, double pfa, double k_max)
+{
+  double lo = 1.0, hi = k_max;
+
+  if (histogram_exceedance (h, sonar_cluster_floor_gain (pfa, lo)) > pfa)
+    return lo;
+  if (histogram_exceedance (h, sonar_cluster_floor_gain (pfa, hi)) < pfa)
+    return hi;
+  for (int it = 0; it < 40; it++) {
+    const double mid = 0.5 * (lo + hi);
+    if (histogram_exceedance (h, sonar_cluster_floor_gain (pfa, mid)) < pfa)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+static void
+interleave (const float *planar, guint n_mics, gsize length, float *out)
+{
+  for (guint j = 0; j < n_mics; j++)
+    for (gsize i = 0; i < length; i++)
+      out[i * n_mics + j] = planar[j * length + i];
+}
+
+/* One ping through an initialised chain; returns the centroids. */
+static guint
+chain_run_ping (Chain * ch, const float *samples, guint n_mics,
+    gsize length)
+{
+  guint n;
+
+  chain_spectra (ch, samples, n_mics, length);
+  chain_imaging (ch);
+  n = sonar_clusterer_process (ch->clusterer, ch->image, ch->centroids,
+      MAX_CENTROIDS);
+  chain_velocity (ch, n);
+  return n;
+}
+
+static gboolean
+run_noise (Bench * b)
+{
+  const guint n_mics = b->setup->geometry.n_microphones;
+  const gsize length = b->setup->ping_length;
+  const guint n_dense = MIN (noise_pings, NOISE_DENSE_PINGS);
+  g_autoptr (GError) error = NULL;
+  g_autoptr (SonarSimulator) sim = NULL;
+  g_autofree Chain *dense = g_new0 (Chain, 1);
+  g_autofree Chain *chain = g_new0 (Chain, 1);
+  g_autofree RatioHistogram *h_dense = g_new0 (RatioHistogram, 1);
+  g_autofree RatioHistogram *h_chain = g_new0 (RatioHistogram, 1);
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  g_autofree float *column = NULL;
+  g_autofree double *times = g_new (double, MAX (noise_pings, 1));
+  Result r_dense = { 0 }, r_chain = { 0 };
+  Config c_dense, c_chain;
+  SonarSimulatorParams sp;
+  SonarScene scene;
+  guint centroids = 0, false_objects = 0, pings_with_false = 0;
+  guint max_centroids = 0;
+  double k, k_eff;
+
+  config_init (&c_chain, &scenes[SCENE_FIG9]);
+  c_dense = c_chain;
+  c_dense.imager.coarse_spacing = 0.0;
+  sonar_simulator_params_init_default (&sp);
+  sp.noise_amplitude = NOISE_AMPLITUDE;
+  sp.seed = NOISE_SEED;
+  sim = sonar_simulator_new (b->setup, &sp, &error);
+  if (!sim || !chain_init (dense, b, &c_dense, &r_dense, &error)
+      || !chain_init (chain, b, &c_chain, &r_chain, &error)) {
+    g_printerr ("noise: %s\n", error->message);
+    return FALSE;
+  }
+  column = g_new (float, (gsize) chain->grid->n_azimuth *
+      chain->grid->n_elevation);
+  sonar_scene_init_preset (&scene, SONAR_SCENE_PRESET_EMPTY);
+  g_printerr ("noise: %u noise-only pings (%u dense)\n", noise_pings,
+      n_dense);
+  for (guint p = 0; p < noise_pings; p++) {
+    double start;
+    guint n;
+
+    sonar_simulator_render (sim, &scene, p, p / PING_RATE, planar, NULL);
+    interleave (planar, n_mics, length, samples);
+    if (p < n_dense) {
+      chain_spectra (dense, samples, n_mics, length);
+      chain_imaging (dense);
+      histogram_add_image (h_dense, dense->image, dense->grid, column);
+    }
+    start = now_ms ();
+    n = chain_run_ping (chain, samples, n_mics, length);
+    times[p] = now_ms () - start;
+    histogram_add_image (h_chain, chain->image, chain->grid, column);
+    centroids += n;
+    max_centroids = MAX (max_centroids, n);
+
+    false_objects += chain->n_detections;
+    pings_with_false += chain->n_detections > 0;
+    for (guint d = 0; d < chain->n_detections; d++)
+      g_printerr ("noise: ping %u: false object at %.3f m, %+.4f m/s\n", p,
+          sonar_vec3_norm (chain->positions[d]), chain->velocities[d]);
+  }
+  k = chain->n_templates;
+  k_eff = sonar_cluster_effective_hypotheses (chain->n_templates);
+  g_print ("\nnoise (sonarsrc scene=empty, bank -7..7 / 0.05 m/s, %g "
+      "detection hypotheses; %u pings, the first %u also imaged dense; "
+      "%.3g pixels per ping)\n", k, noise_pings, n_dense,
+      (double) h_chain->total / MAX (noise_pings, 1));
+  g_print ("K_eff used %.1f (share %.2f of each further hypothesis); "
+      "fitted on the dense images: %.1f at 1e-3, %.1f at 1e-4\n", k_eff,
+      SONAR_CLUSTER_HYPOTHESIS_SHARE, fit_effective_hypotheses (h_dense,
+          1e-3, k), fit_effective_hypotheses (h_dense, 1e-4, k));
+  g_print ("%10s %12s %12s %12s %14s %14s\n", "design pfa", "factor dB",
+      "K=1 dB", "K=47 iid dB", "dense measured", "chain measured");
+  for (guint i = 0; i < G_N_ELEMENTS (design_pfas); i++) {
+    const double pfa = design_pfas[i];
+    const double gain = sonar_cluster_floor_gain (pfa, k_eff);
+    g_print ("%10.0e %12.2f %12.2f %12.2f %14.3g %14.3g\n", pfa,
+        20.0 * log10 (gain), 20.0 * log10 (sonar_cluster_floor_gain (pfa,
+                1.0)), 20.0 * log10 (sonar_cluster_floor_gain (pfa, k)),
+        histogram_exceedance (h_dense, gain),
+        histogram_exceedance (h_chain, gain));
+  }
+  g_print ("whole chain at the defaults: %.2f centroids per ping (at most "
+      "%u), %u false objects on %u pings (%u pings with any); %.1f ms per "
+      "ping (median)\n", (double) centroids / MAX (noise_pings, 1),
+      max_centroids, false_objects, noise_pings, pings_with_false,
+      median (times, noise_pings));
+  if (b->csv)
+    fprintf (b->csv, "noise,false-objects,empty,%u,0,0,%u,,,,,,,,,,,,,,,\n",
+        noise_pings, false_objects);
+  sonar_scene_clear (&scene);
+  chain_clear (dense);
+  chain_clear (chain);
+  return TRUE;
+}
+
+/* Sum over the emitters of the mean square of their emissions. */
+static double
+emission_power (const SonarSetup * setup)
+{
+  double sum = 0.0;
+
+  for (gsize i = 0; i < (gsize) setup->geometry.n_emitters *
+      setup->waveform_length; i++)
+    sum += (double) setup->waveforms[i] * setup->waveforms[i];
+  return sum / setup->waveform_length;
+}
+
+/* Detections of one point reflector over @n_pings pings (seeds from
+ * @seed): *found, *false_objects, *sum_error and *max_error (m/s). */
+static void
+detect_reflector (Chain * ch, SonarSimulator * sim, const SonarSetup * setup,
+    double range, double snr_db, guint n_pings, guint64 seed, guint * found,
+    guint * false_objects, double *sum_error, double *max_error,
+    double *times)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  /* SNR = (s / (2 r)^2)^2 P_emitted / noise^2, solved for s. */
+  const double strength = NOISE_AMPLITUDE * pow (10.0, snr_db / 20.0) *
+      4.0 * range * range / sqrt (emission_power (setup));
+  SonarReflector reflector = { 0 };
+  SonarScene scene;
+  SonarRng rng;
+
+  sonar_scene_init_preset (&scene, SONAR_SCENE_PRESET_EMPTY);
+  scene.reflectors = &reflector;
+  scene.n_reflectors = 1;
+  *found = *false_objects = 0;
+  *sum_error = *max_error = 0.0;
+  for (guint p = 0; p < n_pings; p++) {
+    const guint64 ping = seed + p;
+    SonarTruth truth;
+    double azimuth, speed, r, start;
+    SonarVec3 u;
+    gboolean hit = FALSE;
+
+    sonar_rng_init (&rng, RANDOM_SCENE_SEED, ping);
+    azimuth = SENSITIVITY_AZIMUTH * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+    speed = SENSITIVITY_SPEED * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+    r = range + SENSITIVITY_RANGE_JITTER * (2.0 * sonar_rng_uniform (&rng)
+        - 1.0);
+    u = sonar_vec3_from_direction (azimuth, 0.0);
+    reflector.kind = SONAR_REFLECTOR_POINT;
+    reflector.position = sonar_vec3_scale (u, r);
+    reflector.velocity = sonar_vec3_scale (u, speed);
+    reflector.strength = strength;
+    sonar_simulator_render (sim, &scene, ping, 0.0, planar, &truth);
+    interleave (planar, n_mics, length, samples);
+    start = now_ms ();
+    chain_run_ping (ch, samples, n_mics, length);
+    if (times)
+      times[p] = now_ms () - start;
+    for (guint d = 0; d < ch->n_detections; d++) {
+      if (!hit && sonar_vec3_norm (sonar_vec3_sub (ch->positions[d],
+                  truth.position)) < MATCH_DISTANCE) {
+        const double err = fabs (ch->velocities[d] - truth.radial_velocity);
+        hit = TRUE;
+        *sum_error += err;
+        *max_error = MAX (*max_error, err);
+      } else {
+        (*false_objects)++;
+        g_printerr ("detection: ping %" G_GUINT64_FORMAT ": false object at "
+            "%.3f m, %+.4f m/s (the object: %.3f m, %+.1f deg)\n", ping,
+            sonar_vec3_norm (ch->positions[d]), ch->velocities[d],
+            truth.range, truth.azimuth);
+      }
+    }
+    *found += hit;
+  }
+  scene.reflectors = NULL;
+  scene.n_reflectors = 0;
+  sonar_scene_clear (&scene);
+}
+
+static gboolean
+run_detection (Bench * b)
+{
+  g_autoptr (GError) error = NULL;
+  g_autoptr (SonarSetup) setup = make_setup (SENSITIVITY_MAX_RANGE, &error);
+  g_autoptr (SonarSimulator) sim = NULL;
+  g_autofree Chain *ch = g_new0 (Chain, 1);
+  g_autofree double *times = g_new (double, MAX (GOAL_PINGS, 1));
+  SonarSetup *saved = b->setup;
+  SonarSimulatorParams sp;
+  Result r = { 0 };
+  Config c;
+  guint found, false_objects, total_false = 0;
+  double sum_error, max_error, worst = 0.0, sum_all = 0.0;
+  guint found_all = 0;
+  gboolean ok;
+
+  if (!setup)
+    goto fail;
+  sonar_simulator_params_init_default (&sp);
+  sp.noise_amplitude = NOISE_AMPLITUDE;
+  sp.seed = NOISE_SEED;
+  sim = sonar_simulator_new (setup, &sp, &error);
+  if (!sim)
+    goto fail;
+  config_init (&c, &scenes[SCENE_FIG9]);
+  b->setup = setup;
+  ok = chain_init (ch, b, &c, &r, &error);
+  b->setup = saved;
+  if (!ok)
+    goto fail;
+  g_printerr ("detection: %u pings per cell\n", detection_pings);
+  g_print ("\ndetection (one point reflector, -60..60 deg, -1..1 m/s; "
+      "%u pings per cell; the elements' defaults, bank -7..7 / 0.05)\n"
+      "probability of detection against per-channel SNR (false objects):"
+      "\n%8s",
+      detection_pings, "SNR dB");
+  for (guint j = 0; j < G_N_ELEMENTS (detection_ranges); j++)
+    g_print (" %8.0f m  ", detection_ranges[j]);
+  g_print ("\n");
+  for (guint i = 0; i < G_N_ELEMENTS (detection_snrs_db); i++) {
+    g_print ("%8.0f", detection_snrs_db[i]);
+    for (guint j = 0; j < G_N_ELEMENTS (detection_ranges); j++) {
+      detect_reflector (ch, sim, setup, detection_ranges[j],
+          detection_snrs_db[i], detection_pings, 1000 * (j + 1),
+          &found, &false_objects, &sum_error, &max_error, NULL);
+      g_print (" %6.2f (%u)", (double) found / detection_pings,
+          false_objects);
+      total_false += false_objects;
+      found_all += found;
+      sum_all += sum_error;
+      worst = MAX (worst, max_error);
+      if (b->csv)
+        fprintf (b->csv, "detection,%g dB %g m,point,%u,%u,%u,%u,%.6g,%.6g,"
+            ",,,,,,,,,,,,\n", detection_snrs_db[i], detection_ranges[j],
+            detection_pings, found, detection_pings, false_objects,
+            found ? sum_error / found : NAN, max_error);
+    }
+    g_print ("\n");
+  }
+  g_print ("false objects %u; velocity error of the found: mean %.4f, "
+      "worst %.4f m/s\n", total_false, found_all ? sum_all / found_all :
+      NAN, worst);
+  detect_reflector (ch, sim, setup, GOAL_RANGE, GOAL_SNR_DB, GOAL_PINGS,
+      100000, &found, &false_objects, &sum_error, &max_error, times);
+  g_print ("goal: %g dB at %g m: found %u of %u (Pd %.2f), %u false "
+      "objects, velocity error mean %.4f worst %.4f m/s; %.1f ms per ping "
+      "(median, 8.5 m window)\n", GOAL_SNR_DB, GOAL_RANGE, found,
+      GOAL_PINGS, (double) found / GOAL_PINGS, false_objects,
+      found ? sum_error / found : NAN, max_error, median (times,
+          GOAL_PINGS));
+  chain_clear (ch);
+  return TRUE;
+fail:
+  g_printerr ("detection: %s\n", error->message);
+  chain_clear (ch);
+  return FALSE;
+}
+
 static const Sweep sweeps[] = {
   {"baseline", SCENE_FIG10, SCENE_FIG9 + 1, apply_baseline},
   {"linkage", SCENE_FIG10, SONAR_LINKAGE_CENTROID + 1, apply_linkage},
@@ -1251,6 +1676,8 @@ static const Sweep sweeps[] = {
   {"coarse-spacing", SCENE_FIG10, 5, apply_coarse_spacing},
   {"refine-db", SCENE_FIG10, 4, apply_refine_db},
   {"hemisphere", SCENE_FIG10, 4, apply_hemisphere},
+  {"noise", SCENE_FIG9, 0, NULL, run_noise},
+  {"detection", SCENE_FIG9, 0, NULL, run_detection},
 };
 
 static const Sweep *
@@ -1441,6 +1868,8 @@ run_sweep (Bench * b, const Sweep * sweep)
   char values[16][32];
   gboolean ok = TRUE;
 
+  if (sweep->run)
+    return sweep->run (b);
   g_assert (sweep->n_values <= G_N_ELEMENTS (values));
   print_header (sweep);
   for (guint i = 0; i < sweep->n_values; i++) {
@@ -1530,6 +1959,20 @@ parse_fig9_pings (const char *option_name, const char *value,
   return parse_pings (option_name, value, &scenes[SCENE_FIG9].n_pings, error);
 }
 
+static gboolean
+parse_noise_pings (const char *option_name, const char *value,
+    gpointer data, GError ** error)
+{
+  return parse_pings (option_name, value, &noise_pings, error);
+}
+
+static gboolean
+parse_detection_pings (const char *option_name, const char *value,
+    gpointer data, GError ** error)
+{
+  return parse_pings (option_name, value, &detection_pings, error);
+}
+
 /* Opens @path to append rows, with the header if it is new; a file of
  * other columns (an older sonar-bench's) is refused. */
 static FILE *
@@ -1585,6 +2028,10 @@ main (int argc, char **argv)
         "Pings of the fig10 drive (default 3)", "N"},
     {"fig9-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_fig9_pings,
         "Pings of the fig9 world (default 1)", "N"},
+    {"noise-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_noise_pings,
+        "Pings of the noise sweep (default 1000)", "N"},
+    {"detection-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_detection_pings,
+        "Pings per SNR and range of the detection sweep (default 20)", "N"},
     {"threads", 't', 0, G_OPTION_ARG_INT, &threads,
         "Velocity workers, as velocityest's threads (default 0: one per "
           "processor)", "N"},
@@ -1631,7 +2078,17 @@ main (int argc, char **argv)
       "  hemisphere                3-D, 91 x 91 directions at 2 degrees, "
       "one fig10 ping,\n"
       "                            coarse grids of 4, 6, 8 degrees and "
-      "dense\n");
+      "dense\n"
+      "Sensitivity sweeps (minutes; not in --all), pings rendered one at a "
+      "time, the defaults:\n"
+      "  noise                     noise-only pings: the false-alarm model "
+      "against the measured\n"
+      "                            exceedance, false objects "
+      "(--noise-pings)\n"
+      "  detection                 probability of detection against "
+      "per-channel SNR at 2, 5,\n"
+      "                            8 m; the 7 m / -28 dB goal "
+      "(--detection-pings)\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, &argc, &argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);
@@ -1650,8 +2107,10 @@ main (int argc, char **argv)
     g_ptr_array_add (selected, (gpointer) find_sweep ("linkage"));
     g_ptr_array_add (selected, (gpointer) find_sweep ("refine"));
   } else if (all) {
+    /* The sensitivity sweeps take minutes: only by name. */
     for (guint i = 1; i < G_N_ELEMENTS (sweeps); i++)
-      g_ptr_array_add (selected, (gpointer) &sweeps[i]);
+      if (!sweeps[i].run)
+        g_ptr_array_add (selected, (gpointer) &sweeps[i]);
   }
   for (guint i = 0; sweep_names && sweep_names[i]; i++) {
     const Sweep *sweep = find_sweep (sweep_names[i]);
@@ -1685,7 +2144,7 @@ main (int argc, char **argv)
     }
   }
 
-  b.setup = make_setup (&error);
+  b.setup = make_setup (MAX_RANGE, &error);
   if (!b.setup) {
     g_printerr ("sonar-bench: %s\n", error->message);
     return 1;

@@ -431,10 +431,12 @@ sonar_buffer_add_spectra_meta (GstBuffer * buffer, GstBuffer * spectra,
 /* Energyscapes ------------------------------------------------------------*/
 
 GstCaps *
-sonar_energyscape_caps_new (const SonarImageGrid * grid, guint records)
+sonar_energyscape_caps_new (const SonarImageGrid * grid, guint records,
+    guint hypotheses)
 {
   return gst_caps_new_simple (SONAR_ENERGYSCAPE_MEDIA_TYPE,
       "records", G_TYPE_INT, (int) records,
+      "hypotheses", G_TYPE_INT, (int) hypotheses,
       "n-azimuth", G_TYPE_INT, (int) grid->n_azimuth,
       "azimuth-first", G_TYPE_DOUBLE, grid->azimuth_first,
       "azimuth-step", G_TYPE_DOUBLE, grid->azimuth_step,
@@ -448,10 +450,10 @@ sonar_energyscape_caps_new (const SonarImageGrid * grid, guint records)
 
 gboolean
 sonar_energyscape_caps_parse (const GstCaps * caps, SonarImageGrid * grid,
-    guint * records)
+    guint * records, guint * hypotheses)
 {
   const GstStructure *s;
-  int n_rec, n_az, n_el, n_r;
+  int n_rec, n_az, n_el, n_r, n_hyp = 1;
 
   if (!gst_caps_is_fixed (caps))
     return FALSE;
@@ -469,6 +471,12 @@ sonar_energyscape_caps_parse (const GstCaps * caps, SonarImageGrid * grid,
           "range-step", G_TYPE_DOUBLE, &grid->range_step, NULL)
       || n_rec < 1 || n_az < 1 || n_el < 1 || n_r < 1)
     return FALSE;
+  /* Absent (an image made elsewhere): a single envelope per pixel. */
+  if (gst_structure_has_field (s, "hypotheses")
+      && (!gst_structure_get_int (s, "hypotheses", &n_hyp) || n_hyp < 1))
+    return FALSE;
+  if (hypotheses)
+    *hypotheses = n_hyp;
   grid->n_azimuth = n_az;
   grid->n_elevation = n_el;
   grid->n_range = n_r;

@@ -151,10 +151,14 @@ typedef struct
 
 G_STATIC_ASSERT (sizeof (SonarEnergyscapeHeader) == 96);
 
+/* @hypotheses: the Doppler hypotheses each pixel of a record is the
+ * maximum of (1: one envelope); it sets the noise statistics that
+ * wardcluster's false-alarm threshold assumes. Parsing, an absent field
+ * reads 1; @hypotheses may be NULL. */
 GstCaps *sonar_energyscape_caps_new (const SonarImageGrid * grid,
-    guint records);
+    guint records, guint hypotheses);
 gboolean sonar_energyscape_caps_parse (const GstCaps * caps,
-    SonarImageGrid * grid, guint * records);
+    SonarImageGrid * grid, guint * records, guint * hypotheses);
 void sonar_energyscape_header_init (SonarEnergyscapeHeader * header,
     const SonarImageGrid * grid, guint64 ping_index, double velocity,
     int emitter);

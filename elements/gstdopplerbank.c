@@ -86,7 +86,7 @@ struct _GstDopplerBank
   SonarSpectrum *analyzer;
   float *converted;             /* one ping as float, for other formats */
   gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
-  gboolean warned_non_finite, warned_overflow;
+  gboolean warned_non_finite, warned_overflow, warned_clipped;
 
   /* Framing: the adapter holds the stream from sample adapter_position on;
    * next_ping is the first ping not yet output or dropped. */
@@ -270,10 +270,16 @@ gst_doppler_bank_unconfigure (GstSonarFilter * filter)
   self->position_known = FALSE;
 }
 
+/* Integer samples this close to full scale (unpacked to 32 bits: the
+ * 16-bit format's largest, 32767 << 16) are taken as clipped. */
+#define CLIPPED_SAMPLE 0x7fff0000
+
 /* The ping's samples as float: F32LE as it is, other formats unpacked by
- * GStreamer's own format table, integers as fractions of full scale. */
+ * GStreamer's own format table, integers as fractions of full scale (and
+ * clipped ones reported once: the ADC saturated, the echoes are
+ * distorted). */
 static const float *
-ping_samples (GstDopplerBank * self, const guint8 * data)
+ping_samples (GstDopplerBank * self, const guint8 * data, guint64 index)
 {
   const GstAudioFormatInfo *format = self->info.finfo;
   const gsize n = (gsize) self->channels * self->ping_length;
@@ -289,8 +295,18 @@ ping_samples (GstDopplerBank * self, const guint8 * data)
   } else {
     /* Unpacked integers fill the 32 bits, whatever their width. */
     const gint32 *unpacked = self->unpacked;
-    for (gsize i = 0; i < n; i++)
+    gsize clipped = 0;
+    for (gsize i = 0; i < n; i++) {
       self->converted[i] = unpacked[i] * (1.0f / 2147483648.0f);
+      clipped += ABS ((gint64) unpacked[i]) >= CLIPPED_SAMPLE;
+    }
+    if (clipped > 0 && !self->warned_clipped) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The recording is "
+              "clipped: %" G_GSIZE_FORMAT " samples of ping %" G_GUINT64_FORMAT
+              " at full scale; their echoes are distorted (lower the "
+              "recording's gain)", clipped, index), (NULL));
+      self->warned_clipped = TRUE;
+    }
   }
   return self->converted;
 }
@@ -343,7 +359,7 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
   if (!out)
     return NULL;
 
-  samples = tame_overflow (self, ping_samples (self, data), index);
+  samples = tame_overflow (self, ping_samples (self, data, index), index);
   gst_buffer_map (out, &map, GST_MAP_WRITE);
   for (guint j = 0; j < self->channels; j++)
     sonar_spectrum_process (self->analyzer, samples + j, self->ping_length,
@@ -540,6 +556,7 @@ gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
   self->position_known = FALSE;
   if (!drain) {
     self->warned_non_finite = self->warned_overflow = FALSE;
+    self->warned_clipped = FALSE;
     self->stream_start_pts = GST_CLOCK_TIME_NONE;
   }
 }

@@ -1025,6 +1025,19 @@ test_recording_formats (void)
   gst_buffer_unmap (as_pcm, &b);
   gst_buffer_unref (as_float);
   gst_buffer_unref (as_pcm);
+  g_assert_null (pop_warning (bus));
+  /* Three samples at full scale: clipped, said once. */
+  pcm[5] = pcm[900] = 32767;
+  pcm[1000] = -32768;
+  g_assert_cmpint (gst_harness_push (h, gst_buffer_new_memdup (pcm,
+              samples * sizeof (gint16))), ==, GST_FLOW_OK);
+  gst_buffer_unref (gst_harness_pull (h));
+  {
+    g_autofree char *clipped = pop_warning (bus);
+    g_assert_cmpstr (clipped, ==, "The recording is clipped: 3 samples of "
+        "ping 2 at full scale; their echoes are distorted (lower the "
+        "recording's gain)");
+  }
   gst_harness_teardown (h);
   gst_object_unref (bus);
 

@@ -92,8 +92,8 @@ typedef struct
    * (sonar_cluster_floor_gain ()). 1e-10: the default image has about
    * 3e5 pixels (181 directions x 1754 ranges), so noise passes about once
    * in 30,000 pings. At 1e-8 (0.85 dB more sensitive) 1000 noise-only
-   * pings gave 3 such peaks and 2 false objects: noise that high looks
-   * like an object to velocityest's tests. The column floor uses the
+   * pings gave 2 false objects: noise that high looks like an object to
+   * velocityest's tests. The column floor uses the
    * same factor less 2 dB (COLUMN_MARGIN, sonar-cluster.c). */
   double pfa;
   /* The Doppler hypotheses each pixel is the maximum of (the energyscape

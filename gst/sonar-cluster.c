@@ -76,7 +76,7 @@ sonar_cluster_params_init_default (SonarClusterParams * p)
   p->range_compensation = TRUE;
   p->threshold_db = -200.0;
   p->sidelobe_db = -16.0;
-  p->pfa = 1e-8;
+  p->pfa = 1e-10;
   p->hypotheses = 1;
   p->absolute_threshold = 0.0;
   p->linkage = SONAR_LINKAGE_WARD;

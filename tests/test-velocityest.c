@@ -198,14 +198,15 @@ score_sample (GstSample * sample, const char *what)
  * behind it: the centroids wardcluster gives them velocityest must all
  * reject; both objects must be reported with their velocities. */
 static void
-check_near_far (const char *scene_json, double v_strong, double v_normal)
+check_near_far_with (const char *scene_json, double v_strong,
+    double v_normal, const char *wardcluster_props)
 {
   g_autofree char *scene = sonar_test_write_temp ("near-far.json",
       scene_json);
   g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
       "num-buffers=1 ! dopplerbank " NARROW_BANK " ! mimobeamform "
-      "azimuth-count=91 ! wardcluster ! velocityest keep-rejected=true ! "
-      "appsink name=sink sync=false", scene);
+      "azimuth-count=91 ! wardcluster %s ! velocityest keep-rejected=true ! "
+      "appsink name=sink sync=false", scene, wardcluster_props);
   GstSample *sample;
   SonarTruthMeta *truth;
   SonarDetectionsMeta *dets;
@@ -253,8 +254,11 @@ check_near_far (const char *scene_json, double v_strong, double v_normal)
   g_test_message ("%u centroids: %u reported, %u rejected (cross-talk "
       "ridges and sidelobes)", centroids->n_centroids, valid, rejected);
   g_assert_true (strong);
-  /* The ridges are there, and were all rejected. */
-  g_assert_cmpuint (rejected, >, 0);
+  /* The ridges are there, and were all rejected: at the defaults
+   * wardcluster's column floor keeps most of their peaks out, so this is
+   * checked where more of them pass (pfa 1e-6). */
+  if (*wardcluster_props)
+    g_assert_cmpuint (rejected, >, 0);
   /* The object at 2.5 m is 40 dB below the strong one in the
    * range-compensated image, the ridges 3-25 dB above it: wardcluster's
    * column floor (along each direction) keeps the ridges' peaks out, its
@@ -262,6 +266,14 @@ check_near_far (const char *scene_json, double v_strong, double v_normal)
    * and the imager refines what stands above the noise, so it arrives. */
   g_assert_true (normal);
   gst_sample_unref (sample);
+}
+
+/* At the defaults, and with the ridges' peaks let through to velocityest. */
+static void
+check_near_far (const char *scene_json, double v_strong, double v_normal)
+{
+  check_near_far_with (scene_json, v_strong, v_normal, "");
+  check_near_far_with (scene_json, v_strong, v_normal, "pfa=1e-6");
 }
 
 static void
@@ -310,7 +322,7 @@ test_near_far_normal_alone_in_image (void)
 /* 1b. Sensitivity at the defaults -------------------------------------------
  *
  * Every element at its defaults (the -7..7 m/s bank, 47 detection
- * hypotheses, wardcluster's pfa 1e-6). Per-channel SNR as the README
+ * hypotheses, wardcluster's pfa 1e-10). Per-channel SNR as the README
  * defines it: (strength / (2 r)^2)^2 x the emissions' summed mean square
  * (0.5593 for sonarsrc's default noise waveforms) over noise-amplitude^2. */
 #define EMISSION_POWER 0.5593
@@ -378,9 +390,9 @@ test_faint_far_object (void)
 
 #define NOISE_PINGS 100
 
-/* Noise alone (sonarsrc scene=empty), 100 pings at the defaults: pfa 1e-6
- * leaves about one noise peak in three pings to velocityest, whose tests
- * must reject every one (sonar-bench --sweep noise: 1000 pings). */
+/* Noise alone (sonarsrc scene=empty), 100 pings at the defaults: no
+ * object (sonar-bench --sweep noise: 1000 pings). keep-rejected shows
+ * the centroids velocityest rejected, if any. */
 static void
 test_noise_only_no_false_objects (void)
 {

@@ -21,31 +21,22 @@ Run as SONAR_BUILD_DIR=build SONAR_SOURCE_DIR=. /usr/bin/python3
 tests/test_foreign.py; prints TAP and exits non-zero when a test fails.
 """
 
-import atexit
 import json
 import math
 import os
 import pathlib
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
-import traceback
 
 import numpy as np
 
-SOURCE_DIR = pathlib.Path(os.environ.get(
-    "SONAR_SOURCE_DIR", pathlib.Path(__file__).resolve().parent.parent))
-BUILD_DIR = pathlib.Path(os.environ.get("SONAR_BUILD_DIR",
-                                        SOURCE_DIR / "build"))
-
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from taptest import BUILD_DIR, Skip, run_all, scratch, test  # noqa: E402
+
 import foreign_sim  # noqa: E402
 
-TESTS = []
-TMP = pathlib.Path(tempfile.mkdtemp(prefix="sonar-test-foreign-"))
-atexit.register(shutil.rmtree, TMP, ignore_errors=True)
+TMP = scratch("sonar-test-foreign-")
 GST_ENV = dict(os.environ, GST_PLUGIN_PATH_1_0=str(BUILD_DIR / "elements"),
                GST_REGISTRY_1_0=str(TMP / "registry.bin"))
 
@@ -56,14 +47,6 @@ TIME_TOLERANCE = 1e-6         # s, the ping's trigger
 INSTANT_TOLERANCE = 10e-6     # s, the instant a detection refers to
 
 
-class Skip(Exception):
-    """The case cannot run here; its message says why."""
-
-
-def test(function):
-    """Register a test case; its docstring's first line is its TAP name."""
-    TESTS.append(function)
-    return function
 
 
 def polar(range_, azimuth, elevation=0.0, radial=0.0, tangential=0.0):
@@ -387,26 +370,5 @@ def chain_int16():
     check_case("int16")
 
 
-def main():
-    """Run every test, print TAP, exit 1 on failure."""
-    print(f"1..{len(TESTS)}")
-    failed = 0
-    for number, function in enumerate(TESTS, 1):
-        name = " ".join(function.__doc__.split())
-        try:
-            function()
-        except Skip as reason:
-            print(f"ok {number} - {name} # SKIP {reason}")
-        except Exception:  # a crash fails the case, not the run
-            failed += 1
-            print(f"not ok {number} - {name}")
-            for line in traceback.format_exc().splitlines():
-                print(f"# {line}")
-        else:
-            print(f"ok {number} - {name}")
-        sys.stdout.flush()
-    return 1 if failed else 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_all())

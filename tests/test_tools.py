@@ -8,25 +8,19 @@ Run as SONAR_BUILD_DIR=build SONAR_SOURCE_DIR=. /usr/bin/python3
 tests/test_tools.py; prints TAP and exits non-zero when a test fails.
 """
 
-import atexit
 import csv
 import importlib.util
 import json
 import math
 import os
 import pathlib
-import shutil
 import subprocess
 import sys
-import tempfile
-import traceback
 
 import numpy as np
 
-SOURCE_DIR = pathlib.Path(os.environ.get(
-    "SONAR_SOURCE_DIR", pathlib.Path(__file__).resolve().parent.parent))
-BUILD_DIR = pathlib.Path(os.environ.get("SONAR_BUILD_DIR",
-                                        SOURCE_DIR / "build"))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from taptest import BUILD_DIR, SOURCE_DIR, run_all, scratch, test  # noqa: E402
 TOOLS = SOURCE_DIR / "tools"
 PROGRAM = BUILD_DIR / "tools" / "sonar-waveforms"
 BENCH = BUILD_DIR / "tools" / "sonar-bench"
@@ -49,15 +43,8 @@ def load_script(name):
 
 plot_energyscape = load_script("plot-energyscape")
 
-TESTS = []
-TMP = pathlib.Path(tempfile.mkdtemp(prefix="sonar-test-tools-"))
-atexit.register(shutil.rmtree, TMP, ignore_errors=True)
+TMP = scratch("sonar-test-tools-")
 
-
-def test(function):
-    """Register a test case; its docstring's first line is its TAP name."""
-    TESTS.append(function)
-    return function
 
 
 def run(*args, check=True):
@@ -442,24 +429,5 @@ def bench_refuses_other_csv():
     assert path.read_text() == "sweep,value,scene\nlinkage,ward,fig10\n"
 
 
-def main():
-    """Run every test, print TAP, exit 1 on failure."""
-    print(f"1..{len(TESTS)}")
-    failed = 0
-    for number, function in enumerate(TESTS, 1):
-        name = " ".join(function.__doc__.split())
-        try:
-            function()
-        except Exception:  # a crash fails the case, not the run
-            failed += 1
-            print(f"not ok {number} - {name}")
-            for line in traceback.format_exc().splitlines():
-                print(f"# {line}")
-        else:
-            print(f"ok {number} - {name}")
-        sys.stdout.flush()
-    return 1 if failed else 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_all())

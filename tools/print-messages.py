@@ -28,17 +28,32 @@ def position(item):
             r * math.cos(el) * math.cos(az))
 
 
+def moved(item, ping_time, instant, speed_of_sound):
+    """A true object moved along its line of sight to a detection's
+    instant: the truth is the state when the ping's start reaches the
+    object, a detection's when the emissions' centre does (CONTRACTS)."""
+    since = instant - (ping_time + float(item["range"]) / speed_of_sound)
+    return dict(item, range=float(item["range"]) +
+                float(item["radial-velocity"]) * since)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--truth", help="write the ground truth as JSON lines")
+    parser.add_argument("--speed-of-sound", type=float, default=343.0,
+                        help="m/s, to place the truth at each detection's "
+                        "instant (default 343)")
     args = parser.parse_args()
+    ping_times = {}
     truth_file = open(args.truth, "w") if args.truth else None
     truth = {}
 
     for raw in sys.stdin:
         line = raw.replace("\\", "")
         if "sonar-truth" in line:
-            ping = int(fields(line.split("reflectors=")[0])["ping"])
+            header = fields(line.split("reflectors=")[0])
+            ping = int(header["ping"])
+            ping_times[ping] = int(header["timestamp"]) / 1e9
             items = [fields(i) for i in line.split("reflector, ")[1:]]
             truth[ping] = items
             if truth_file:
@@ -60,7 +75,10 @@ def main():
             print(f"  {'range m':>8} {'azim deg':>9} {'elev deg':>9} "
                   f"{'v_r m/s':>8} {'conf':>5}   nearest true object, error")
             for f in items:
-                best = min(truth.get(ping, []), default=None,
+                then = [moved(t, ping_times[ping], float(f["instant"]),
+                              args.speed_of_sound)
+                        for t in truth.get(ping, [])]
+                best = min(then, default=None,
                            key=lambda t: math.dist(position(t), position(f)))
                 note = ""
                 if best is not None:

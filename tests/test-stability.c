@@ -149,7 +149,7 @@ proc_entries (const char *folder)
  * a high-water mark). A leak grows the heap in every interval: at most
  * half the intervals may grow by more than 1 kB, and the whole run by
  * less than 1 MB. A leak of 100 bytes a ping fails it. Threads and open
- * files are the same at the end as after 125 pings. */
+ * files are no more at the end than after 125 pings. */
 static void
 test_long_run (void)
 {
@@ -221,8 +221,9 @@ test_long_run (void)
       growing, intervals);
   g_test_message ("open files %u after 125 pings, %u at the last reading; "
       "threads %u, %u", fds_warm, fds_last, threads_warm, threads_last);
-  g_assert_cmpuint (fds_last, ==, fds_warm);
-  g_assert_cmpuint (threads_last, ==, threads_warm);
+  /* A leak grows them; a transient thread may have ended meanwhile. */
+  g_assert_cmpuint (fds_last, <=, fds_warm);
+  g_assert_cmpuint (threads_last, <=, threads_warm);
   g_assert_cmpuint (count, ==, pings);
   /* sonar-truth, sonar-centroids and sonar-detections every ping. */
   g_assert_cmpuint (messages, ==, 3 * pings);

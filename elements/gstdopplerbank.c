@@ -426,11 +426,19 @@ drop_pings (GstDopplerBank * self, guint64 first, guint64 end,
 }
 
 /* Where @buffer's first sample lies in the stream: its OFFSET (the sample
- * offset of raw audio), else its PTS, else right after what came before. */
+ * offset of raw audio, trusted when OFFSET_END - OFFSET is the buffer's
+ * sample count: some sources put byte offsets there), else its PTS, else
+ * right after what came before. */
 static guint64
 buffer_position (GstDopplerBank * self, GstBuffer * buffer, guint64 expected)
 {
-  if (GST_BUFFER_OFFSET_IS_VALID (buffer))
+  const guint64 frames = gst_buffer_get_size (buffer) /
+      GST_AUDIO_INFO_BPF (&self->info);
+
+  if (GST_BUFFER_OFFSET_IS_VALID (buffer)
+      && GST_BUFFER_OFFSET_END_IS_VALID (buffer)
+      && GST_BUFFER_OFFSET_END (buffer) - GST_BUFFER_OFFSET (buffer) ==
+      frames)
     return GST_BUFFER_OFFSET (buffer);
   if (GST_BUFFER_PTS_IS_VALID (buffer)
       && GST_CLOCK_TIME_IS_VALID (self->stream_start_pts)

@@ -846,6 +846,7 @@ push_stream (GstHarness * h, const guint8 * stream, gsize total,
       continue;
     }
     GST_BUFFER_OFFSET (b) = offset / frame;
+    GST_BUFFER_OFFSET_END (b) = (offset + gst_buffer_get_size (b)) / frame;
     GST_BUFFER_PTS (b) = gst_util_uint64_scale_round (offset / frame,
         GST_SECOND, (guint64) rate);
     g_assert_cmpint (gst_harness_push (h, b), ==, GST_FLOW_OK);

@@ -333,17 +333,24 @@ node_to_double (JsonNode * node, double *value)
   }
 }
 
+/* An absent member: fine when optional, else an error that names it. */
+static gboolean
+absent_member_ok (const char *member, gboolean required, const char *origin,
+    GError ** error)
+{
+  if (required)
+    SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
+  return !required;
+}
+
 gboolean
 sonar_json_get_double (JsonObject * object, const char *member,
     gboolean required, const char *origin, double *value, GError ** error)
 {
   JsonNode *node = json_object_get_member (object, member);
 
-  if (!node) {
-    if (required)
-      SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
-    return !required;
-  }
+  if (!node)
+    return absent_member_ok (member, required, origin, error);
   if (!node_to_double (node, value)) {
     SET_ERROR (error, "%s: \"%s\" must be a finite number", origin, member);
     return FALSE;
@@ -400,11 +407,8 @@ sonar_json_get_vec3 (JsonObject * object, const char *member,
 {
   JsonNode *node = json_object_get_member (object, member);
 
-  if (!node) {
-    if (required)
-      SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
-    return !required;
-  }
+  if (!node)
+    return absent_member_ok (member, required, origin, error);
   if (!node_to_vec3 (node, value)) {
     SET_ERROR (error, "%s: \"%s\" must be an array of 3 finite numbers "
         "[x, y, z]", origin, member);
@@ -420,11 +424,8 @@ sonar_json_get_string (JsonObject * object, const char *member,
 {
   JsonNode *node = json_object_get_member (object, member);
 
-  if (!node) {
-    if (required)
-      SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
-    return !required;
-  }
+  if (!node)
+    return absent_member_ok (member, required, origin, error);
   if (!JSON_NODE_HOLDS_VALUE (node)
       || json_node_get_value_type (node) != G_TYPE_STRING) {
     SET_ERROR (error, "%s: \"%s\" must be a string", origin, member);
@@ -443,11 +444,8 @@ sonar_json_get_vec3_list (JsonObject * object, const char *member,
   JsonArray *array;
   guint n;
 
-  if (!node) {
-    if (required)
-      SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
-    return !required;
-  }
+  if (!node)
+    return absent_member_ok (member, required, origin, error);
   if (!JSON_NODE_HOLDS_ARRAY (node)) {
     SET_ERROR (error, "%s: \"%s\" must be an array of [x, y, z] positions",
         origin, member);
@@ -482,11 +480,8 @@ sonar_json_get_double_list (JsonObject * object, const char *member,
   JsonArray *array;
   guint n;
 
-  if (!node) {
-    if (required)
-      SET_ERROR (error, "%s: missing member \"%s\"", origin, member);
-    return !required;
-  }
+  if (!node)
+    return absent_member_ok (member, required, origin, error);
   n = JSON_NODE_HOLDS_ARRAY (node) ?
       json_array_get_length (json_node_get_array (node)) : 0;
   if (!JSON_NODE_HOLDS_ARRAY (node) || n == 0 || n > max_count

@@ -33,7 +33,10 @@ typedef struct
 {
   float *receive_re, *receive_im;       /* K: sum over microphones */
   float *transmit_re, *transmit_im;     /* K: sum over emitters */
-  SonarComplex *baseband;       /* M */
+  SonarComplex *baseband;       /* M: the product, zero-padded */
+  SonarComplex *lags;           /* M: its inverse transform (out of place:
+                                 * FFTW's in-place transforms allocate on
+                                 * every call) */
   float *envelope;              /* one hypothesis's, over the grid's ranges */
   guint passes;                 /* unit x hypothesis passes of this call */
 } Scratch;
@@ -313,13 +316,18 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     im->scratch[w].transmit_re = fftwf_alloc_real (band->n_bins);
     im->scratch[w].transmit_im = fftwf_alloc_real (band->n_bins);
     im->scratch[w].baseband = fftwf_alloc_complex (im->ifft_size);
+    im->scratch[w].lags = fftwf_alloc_complex (im->ifft_size);
+    /* The padding stays zero: products fill the band's bins only, and an
+     * out-of-place complex transform preserves its input. */
+    memset (im->scratch[w].baseband, 0, sizeof (SonarComplex) *
+        im->ifft_size);
     im->scratch[w].envelope = g_new (float, grid->n_range);
   }
   sonar_fftw_lock ();
   /* FFTW's allocator aligns every array alike: the plan runs on each
-   * worker's baseband with fftwf_execute_dft. */
+   * worker's arrays with fftwf_execute_dft. */
   im->inverse = fftwf_plan_dft_1d (im->ifft_size, im->scratch[0].baseband,
-      im->scratch[0].baseband, FFTW_BACKWARD, SONAR_FFTW_PLANNING);
+      im->scratch[0].lags, FFTW_BACKWARD, SONAR_FFTW_PLANNING);
   sonar_fftw_unlock ();
   return im;
 }
@@ -350,6 +358,7 @@ sonar_imager_free (SonarImager * im)
     fftwf_free (im->scratch[w].transmit_re);
     fftwf_free (im->scratch[w].transmit_im);
     fftwf_free (im->scratch[w].baseband);
+    fftwf_free (im->scratch[w].lags);
     g_free (im->scratch[w].envelope);
   }
   sonar_workers_free (im->workers);
@@ -465,10 +474,8 @@ image_units (gpointer data, guint w, guint n_workers)
       sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
           scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
           n_bins);
-      memset (scratch->baseband + n_bins, 0, sizeof (SonarComplex) *
-          (im->ifft_size - n_bins));
-      fftwf_execute_dft (im->inverse, scratch->baseband, scratch->baseband);
-      lags = scratch->baseband + im->first_lag + first;
+      fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
+      lags = scratch->lags + im->first_lag + first;
       if (job->zone_peaks) {
         /* Coarse unit (the whole range): each zone's peak of this
          * hypothesis, then the maximum over the hypotheses. */

@@ -23,8 +23,9 @@ unit_phasor (double phase)
 
 /* References -------------------------------------------------------------*/
 
+/* acc[k] += x[k] * exp(i (phase0 + k * dphase)), one channel. */
 static void
-steer_accumulate_split_generic (float *acc_re, float *acc_im,
+steer_accumulate_generic (float *acc_re, float *acc_im,
     const float *x_re, const float *x_im, guint n, double phase0,
     double dphase, gboolean conj_x)
 {
@@ -41,6 +42,18 @@ steer_accumulate_split_generic (float *acc_re, float *acc_im,
       p *= rotation;
     }
   }
+}
+
+static void
+steer_sum_split_generic (float *out_re, float *out_im, const float *x_re,
+    const float *x_im, gsize stride, guint n_channels, guint n,
+    const double *phase0, const double *dphase, gboolean conj_x)
+{
+  memset (out_re, 0, sizeof (float) * n);
+  memset (out_im, 0, sizeof (float) * n);
+  for (guint c = 0; c < n_channels; c++)
+    steer_accumulate_generic (out_re, out_im, x_re + c * stride,
+        x_im + c * stride, n, phase0[c], dphase[c], conj_x);
 }
 
 void
@@ -212,38 +225,86 @@ lanes_seed (Lanes * p)
 } G_STMT_END
 
 
-AVX2_TARGET static void
-steer_accumulate_split_avx2 (float *acc_re, float *acc_im, const float *x_re,
-    const float *x_im, guint n, double phase0, double dphase,
-    gboolean conj_x)
+/* out (= when @first, else +=) the @group (1 to 4, a constant where it is
+ * inlined) channels' ramps: the sums are loaded and stored once per
+ * vector for the group, the phasors of its channels held in registers. */
+static inline __attribute__ ((always_inline)) AVX2_TARGET void
+steer_group_avx2 (float *out_re, float *out_im, const float *x_re,
+    const float *x_im, gsize stride, const guint group, guint n,
+    const double *phase0, const double *dphase, float sign, gboolean first)
 {
   const guint whole = n - n % LANES;
-  const float sign = conj_x ? -1.0f : 1.0f;
-  Lanes p;
+  Lanes p[4];
 
-  lanes_init (&p, phase0, dphase);
+  for (guint g = 0; g < group; g++)
+    lanes_init (&p[g], phase0[g], dphase[g]);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p);
+    for (guint g = 0; g < group; g++)
+      lanes_seed (&p[g]);
     for (guint k = k0; k < k1; k += LANES) {
-      Vec xr, xi, ar, ai;
-      memcpy (&xr, x_re + k, sizeof xr);
-      memcpy (&xi, x_im + k, sizeof xi);
-      memcpy (&ar, acc_re + k, sizeof ar);
-      memcpy (&ai, acc_im + k, sizeof ai);
-      xi *= sign;
-      ar += xr * p.re - xi * p.im;
-      ai += xr * p.im + xi * p.re;
-      memcpy (acc_re + k, &ar, sizeof ar);
-      memcpy (acc_im + k, &ai, sizeof ai);
-      LANES_ADVANCE (p);
+      Vec ar = { 0 }, ai = { 0 };
+      if (!first) {
+        memcpy (&ar, out_re + k, sizeof ar);
+        memcpy (&ai, out_im + k, sizeof ai);
+      }
+      for (guint g = 0; g < group; g++) {
+        Vec xr, xi;
+        memcpy (&xr, x_re + g * stride + k, sizeof xr);
+        memcpy (&xi, x_im + g * stride + k, sizeof xi);
+        xi *= sign;
+        ar += xr * p[g].re - xi * p[g].im;
+        ai += xr * p[g].im + xi * p[g].re;
+        LANES_ADVANCE (p[g]);
+      }
+      memcpy (out_re + k, &ar, sizeof ar);
+      memcpy (out_im + k, &ai, sizeof ai);
     }
   }
   for (guint k = whole; k < n; k++) {
-    const SonarComplex y = (x_re[k] + I * sign * x_im[k]) *
-        LANES_TAIL_PHASOR (p, k, whole);
-    acc_re[k] += crealf (y);
-    acc_im[k] += cimagf (y);
+    if (first)
+      out_re[k] = out_im[k] = 0.0f;
+  }
+  for (guint g = 0; g < group; g++)
+    for (guint k = whole; k < n; k++) {
+      const SonarComplex y = (x_re[g * stride + k] + I * sign *
+          x_im[g * stride + k]) * LANES_TAIL_PHASOR (p[g], k, whole);
+      out_re[k] += crealf (y);
+      out_im[k] += cimagf (y);
+    }
+}
+
+AVX2_TARGET static void
+steer_sum_split_avx2 (float *out_re, float *out_im, const float *x_re,
+    const float *x_im, gsize stride, guint n_channels, guint n,
+    const double *phase0, const double *dphase, gboolean conj_x)
+{
+  const float sign = conj_x ? -1.0f : 1.0f;
+
+  if (n_channels == 0) {
+    memset (out_re, 0, sizeof (float) * n);
+    memset (out_im, 0, sizeof (float) * n);
+  }
+  for (guint c = 0; c < n_channels; c += 4) {
+    const float *re = x_re + c * stride, *im = x_im + c * stride;
+    switch (MIN (4, n_channels - c)) {
+      case 4:
+        steer_group_avx2 (out_re, out_im, re, im, stride, 4, n, phase0 + c,
+            dphase + c, sign, c == 0);
+        break;
+      case 3:
+        steer_group_avx2 (out_re, out_im, re, im, stride, 3, n, phase0 + c,
+            dphase + c, sign, c == 0);
+        break;
+      case 2:
+        steer_group_avx2 (out_re, out_im, re, im, stride, 2, n, phase0 + c,
+            dphase + c, sign, c == 0);
+        break;
+      default:
+        steer_group_avx2 (out_re, out_im, re, im, stride, 1, n, phase0 + c,
+            dphase + c, sign, c == 0);
+        break;
+    }
   }
 }
 
@@ -389,11 +450,10 @@ cpu_has_avx2_fma (void)
 }
 #endif
 
-const SonarSteerAccumulateSplitImpl
-    sonar_kernel_steer_accumulate_split_impls[] = {
-  {"generic", steer_accumulate_split_generic, always_available},
+const SonarSteerSumSplitImpl sonar_kernel_steer_sum_split_impls[] = {
+  {"generic", steer_sum_split_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
-  {"avx2", steer_accumulate_split_avx2, cpu_has_avx2_fma},
+  {"avx2", steer_sum_split_avx2, cpu_has_avx2_fma},
 #endif
   {NULL, NULL, NULL}
 };
@@ -432,7 +492,7 @@ const SonarEnvelopeImpl sonar_kernel_envelope_impls[] = {
 /* The implementation each entry point calls, chosen once per process. */
 static struct
 {
-  SonarSteerAccumulateSplitFn steer_accumulate_split;
+  SonarSteerSumSplitFn steer_sum_split;
   SonarSteerBlockSumsConjFn steer_block_sums_conj;
   SonarSteerSumFn steer_sum;
   SonarMultiplySplitFn multiply_split;
@@ -452,8 +512,8 @@ choose (void)
   static gsize done = 0;
 
   if (g_once_init_enter (&done)) {
-    LAST_AVAILABLE (sonar_kernel_steer_accumulate_split_impls,
-        chosen.steer_accumulate_split);
+    LAST_AVAILABLE (sonar_kernel_steer_sum_split_impls,
+        chosen.steer_sum_split);
     LAST_AVAILABLE (sonar_kernel_steer_block_sums_conj_impls,
         chosen.steer_block_sums_conj);
     LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
@@ -465,13 +525,13 @@ choose (void)
 }
 
 void
-sonar_kernel_steer_accumulate_split (float *acc_re, float *acc_im,
-    const float *x_re, const float *x_im, guint n, double phase0,
-    double dphase, gboolean conj_x)
+sonar_kernel_steer_sum_split (float *out_re, float *out_im,
+    const float *x_re, const float *x_im, gsize stride, guint n_channels,
+    guint n, const double *phase0, const double *dphase, gboolean conj_x)
 {
   choose ();
-  chosen.steer_accumulate_split (acc_re, acc_im, x_re, x_im, n, phase0,
-      dphase, conj_x);
+  chosen.steer_sum_split (out_re, out_im, x_re, x_im, stride, n_channels, n,
+      phase0, dphase, conj_x);
 }
 
 void

@@ -46,16 +46,15 @@ sonar_steering_receive_sum (const SonarSteering * s,
     const SonarSplitSpectra * mic_spectra, const double *mic_legs,
     float *receive_re, float *receive_im)
 {
-  const guint n_bins = s->n_bins;
+  const guint n_mics = s->geometry->n_microphones;
+  double phase0[SONAR_MAX_MICROPHONES], dphase[SONAR_MAX_MICROPHONES];
 
-  memset (receive_re, 0, sizeof (float) * n_bins);
-  memset (receive_im, 0, sizeof (float) * n_bins);
-  for (guint j = 0; j < s->geometry->n_microphones; j++) {
-    const gsize at = (gsize) j * n_bins;
-    sonar_kernel_steer_accumulate_split (receive_re, receive_im,
-        mic_spectra->re + at, mic_spectra->im + at, n_bins,
-        s->k0 * mic_legs[j], s->dk * mic_legs[j], FALSE);
+  for (guint j = 0; j < n_mics; j++) {
+    phase0[j] = s->k0 * mic_legs[j];
+    dphase[j] = s->dk * mic_legs[j];
   }
+  sonar_kernel_steer_sum_split (receive_re, receive_im, mic_spectra->re,
+      mic_spectra->im, s->n_bins, n_mics, s->n_bins, phase0, dphase, FALSE);
 }
 
 void
@@ -64,17 +63,17 @@ sonar_steering_transmit_sum (const SonarSteering * s,
     double stretch, guint first, guint end, float *transmit_re,
     float *transmit_im)
 {
-  const guint n_bins = s->n_bins;
+  const gsize at = (gsize) first * s->n_bins;
+  double phase0[SONAR_MAX_EMITTERS], dphase[SONAR_MAX_EMITTERS];
 
-  memset (transmit_re, 0, sizeof (float) * n_bins);
-  memset (transmit_im, 0, sizeof (float) * n_bins);
   for (guint n = first; n < end; n++) {
     const double path = emitter_legs[n] * stretch;
-    const gsize at = (gsize) n * n_bins;
-    sonar_kernel_steer_accumulate_split (transmit_re, transmit_im,
-        templates->re + at, templates->im + at, n_bins, s->k0 * path,
-        s->dk * path, TRUE);
+    phase0[n - first] = s->k0 * path;
+    dphase[n - first] = s->dk * path;
   }
+  sonar_kernel_steer_sum_split (transmit_re, transmit_im, templates->re + at,
+      templates->im + at, s->n_bins, end - first, s->n_bins, phase0, dphase,
+      TRUE);
 }
 
 void

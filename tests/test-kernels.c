@@ -56,42 +56,61 @@ exact_dot_conj (const SonarComplex * a, const SonarComplex * b, guint n,
   }                                                                     \
 } G_STMT_END
 
-/* The split kernel against the reference and the sum in double
- * precision. */
+/* The steering sum over channels against the reference and the sum in
+ * double precision: every group size of the fast versions (1 to 9
+ * channels: whole groups of four and each remainder), plain and
+ * conjugated, at every length. */
 static void
-test_steer_accumulate_split (gconstpointer data)
+test_steer_sum_split (gconstpointer data)
 {
-  const SonarSteerAccumulateSplitImpl *impl = data;
-  const SonarSteerAccumulateSplitFn reference =
-      sonar_kernel_steer_accumulate_split_impls[0].fn;
+  enum { MAX_CH = 9, N = 2882 };
+  const SonarSteerSumSplitImpl *impl = data;
+  const SonarSteerSumSplitFn reference =
+      sonar_kernel_steer_sum_split_impls[0].fn;
   SonarRng rng;
-  SonarComplex x[2882], acc[2882];
-  float x_re[2882], x_im[2882], fast_re[2882], fast_im[2882];
-  double complex exact[2882];
-  float ref_re[2882], ref_im[2882];
+  g_autofree SonarComplex *x = g_new (SonarComplex, MAX_CH * N);
+  g_autofree float *x_re = g_new (float, MAX_CH * N);
+  g_autofree float *x_im = g_new (float, MAX_CH * N);
+  g_autofree double complex *exact = g_new (double complex, N);
+  g_autofree double *magnitude = g_new (double, N);
+  float fast_re[N], fast_im[N], ref_re[N], ref_im[N];
+  double phase0[MAX_CH], dphase[MAX_CH];
 
   SKIP_UNLESS_AVAILABLE (impl);
   sonar_rng_init (&rng, 18, 0);
   for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
     const guint n = lengths[t];
-    for (int conj_x = 0; conj_x < 2; conj_x++) {
-      const double phase0 = -321.5 * (t + 1), dphase = 0.053 * (t + 1);
-      random_spectrum (&rng, x, n);
-      random_spectrum (&rng, acc, n);
-      sonar_kernel_split (x_re, x_im, x, n);
-      sonar_kernel_split (fast_re, fast_im, acc, n);
-      sonar_kernel_split (ref_re, ref_im, acc, n);
-      impl->fn (fast_re, fast_im, x_re, x_im, n, phase0, dphase, conj_x);
-      reference (ref_re, ref_im, x_re, x_im, n, phase0, dphase, conj_x);
-      for (guint k = 0; k < n; k++)
-        exact[k] = acc[k] + (conj_x ? conj (x[k]) : x[k]) * cexp (I *
-            (phase0 + k * dphase));
-      for (guint k = 0; k < n; k++) {
-        const double scale = MAX (cabsf (x[k]), 1e-6f);
-        g_assert_cmpfloat (cabsf (fast_re[k] + I * fast_im[k] - (ref_re[k] +
-                    I * ref_im[k])) / scale, <, 2e-5);
-        g_assert_cmpfloat (cabs (fast_re[k] + I * fast_im[k] - exact[k]) /
-            scale, <, 2e-5);
+    for (guint channels = 0; channels <= MAX_CH; channels++) {
+      for (int conj_x = 0; conj_x < 2; conj_x++) {
+        for (guint c = 0; c < channels; c++) {
+          phase0[c] = -321.5 * (t + 1) + 17.1 * c;
+          dphase[c] = 0.053 * (t + 1) - 0.011 * c;
+          random_spectrum (&rng, x + c * N, n);
+          sonar_kernel_split (x_re + c * N, x_im + c * N, x + c * N, n);
+        }
+        /* What was in the output before does not count. */
+        for (guint k = 0; k < n; k++)
+          fast_re[k] = fast_im[k] = ref_re[k] = ref_im[k] = 1e3f;
+        impl->fn (fast_re, fast_im, x_re, x_im, N, channels, n, phase0,
+            dphase, conj_x);
+        reference (ref_re, ref_im, x_re, x_im, N, channels, n, phase0,
+            dphase, conj_x);
+        for (guint k = 0; k < n; k++) {
+          exact[k] = 0.0;
+          magnitude[k] = 1e-6;
+          for (guint c = 0; c < channels; c++) {
+            const double complex xk = x[c * N + k];
+            exact[k] += (conj_x ? conj (xk) : xk) * cexp (I * (phase0[c] +
+                    k * dphase[c]));
+            magnitude[k] += cabs (xk);
+          }
+        }
+        for (guint k = 0; k < n; k++) {
+          g_assert_cmpfloat (cabsf (fast_re[k] + I * fast_im[k] -
+                  (ref_re[k] + I * ref_im[k])) / magnitude[k], <, 2e-5);
+          g_assert_cmpfloat (cabs (fast_re[k] + I * fast_im[k] - exact[k]) /
+              magnitude[k], <, 2e-5);
+        }
       }
     }
   }
@@ -286,13 +305,14 @@ test_envelope (gconstpointer data)
 static void
 test_phase_ramp_exact (gconstpointer data)
 {
-  const SonarSteerAccumulateSplitImpl *impl = data;
-  float one[70], zero[70] = { 0 }, acc_re[70] = { 0 }, acc_im[70] = { 0 };
+  const SonarSteerSumSplitImpl *impl = data;
+  const double phase0 = 0.25, dphase = 0.01;
+  float one[70], zero[70] = { 0 }, acc_re[70], acc_im[70];
 
   SKIP_UNLESS_AVAILABLE (impl);
   for (guint k = 0; k < 70; k++)
     one[k] = 1.0f;
-  impl->fn (acc_re, acc_im, one, zero, 70, 0.25, 0.01, FALSE);
+  impl->fn (acc_re, acc_im, one, zero, 70, 1, 70, &phase0, &dphase, FALSE);
   for (guint k = 0; k < 70; k++)
     g_assert_cmpfloat (cabs (acc_re[k] + I * acc_im[k] - cexp (I * (0.25 +
                     0.01 * k))), <, 1e-6);
@@ -378,10 +398,10 @@ int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
-  ADD_IMPL_TESTS ("steer-accumulate-split",
-      sonar_kernel_steer_accumulate_split_impls, test_steer_accumulate_split);
-  ADD_IMPL_TESTS ("phase-ramp-exact",
-      sonar_kernel_steer_accumulate_split_impls, test_phase_ramp_exact);
+  ADD_IMPL_TESTS ("steer-sum-split", sonar_kernel_steer_sum_split_impls,
+      test_steer_sum_split);
+  ADD_IMPL_TESTS ("phase-ramp-exact", sonar_kernel_steer_sum_split_impls,
+      test_phase_ramp_exact);
   ADD_IMPL_TESTS ("steer-block-sums",
       sonar_kernel_steer_block_sums_conj_impls, test_steer_block_sums);
   ADD_IMPL_TESTS ("long-sums-against-double",

@@ -51,11 +51,14 @@ struct _SonarClusterer
   float *sidelobe;              /* per range bin: the sidelobe threshold */
   float *columns;               /* FLOOR_BLOCK range bins' values over the
                                  * directions, one column per bin */
-  /* Per direction and block of column_bins range bins: the threshold over
-   * the noise floor along the direction, of the image before range
-   * compensation (its noise is flat over range). */
+  /* Per direction and block of column_bins range bins: the lower
+   * quartile of the block along the direction, of the image before range
+   * compensation (its noise is flat over range); NaN until a pixel there
+   * needs it (column_floor ()). */
   guint column_bins, n_column_blocks;
-  float *column_floor;
+  float *column_quartile;
+  float column_gain;
+  const float *raw;             /* the call's image before compensation */
   float *column_values;         /* one block's values */
 };
 
@@ -162,7 +165,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->sidelobe = g_new (float, grid->n_range);
   c->column_bins = column_block_length (grid);
   c->n_column_blocks = (grid->n_range + c->column_bins - 1) / c->column_bins;
-  c->column_floor = g_new (float, (gsize) grid->n_azimuth *
+  c->column_quartile = g_new (float, (gsize) grid->n_azimuth *
       grid->n_elevation * c->n_column_blocks);
   c->column_values = g_new (float, c->column_bins);
   c->columns = g_new (float, (gsize) FLOOR_BLOCK * grid->n_azimuth *
@@ -188,7 +191,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->row_max);
   g_free (c->sidelobe);
   g_free (c->columns);
-  g_free (c->column_floor);
+  g_free (c->column_quartile);
   g_free (c->column_values);
   g_free (c);
 }
@@ -356,53 +359,50 @@ noise_floors (SonarClusterer * c, const float *image)
   }
 }
 
-/* Per block of @block_bins of @column (@n values): @gain times the
- * largest lower quartile of the block and its two neighbours. */
-static void
-column_block_floors (const float *column, guint n, guint block_bins,
-    float gain, float *scratch, float *floors)
+/* The lower quartile of block @b of direction @d's column, computed
+ * once per call. */
+static float
+column_quartile (SonarClusterer * c, gsize d, guint b)
 {
-  const guint n_blocks = (n + block_bins - 1) / block_bins;
-  float previous = 0.0f;
+  float *q = &c->column_quartile[d * c->n_column_blocks + b];
 
-  for (guint i0 = 0, b = 0; i0 < n; i0 += block_bins, b++) {
-    const guint i1 = MIN (i0 + block_bins, n);
+  if (isnan (*q)) {
+    const guint n_range = c->grid.n_range;
+    const float *column = c->raw + d * n_range;
+    const guint i1 = MIN ((b + 1) * c->column_bins, n_range);
     gsize count = 0;
-    for (guint i = i0; i < i1; i++)
+    for (guint i = b * c->column_bins; i < i1; i++)
       if (isfinite (column[i]))
-        scratch[count++] = column[i];
-    floors[b] = gain * lower_quartile (scratch, count);
+        c->column_values[count++] = column[i];
+    *q = lower_quartile (c->column_values, count);
   }
-  /* The largest of a block's and its neighbours': where a ridge ends
-   * within a block its quartile is the lower part's, and the rest of the
-   * ridge would pass. */
-  for (guint b = 0; b < n_blocks; b++) {
-    const float own = floors[b];
-    floors[b] = MAX (own, previous);
-    if (b + 1 < n_blocks)
-      floors[b] = MAX (floors[b], floors[b + 1]);
-    previous = own;
-  }
+  return *q;
 }
 
-/* Per direction and block of column_bins range bins: the floor gain
- * times the lower quartile of the block (and its neighbours), on the
- * image before range compensation (@raw, whose noise is flat over range).
- * The range bin's floor over the directions misses what fills one
- * direction over a long range: a strong echo's cross-talk ridge,
- * noise-like, about 20 dB below it and 1.5 m long at its direction. Along
- * the direction the ridge is the floor, and its peaks pass about as
- * rarely as noise's. An object fills 1-3 bins of a block: the quartile
- * ignores it, and a second object within the block. */
-static void
-column_floors (SonarClusterer * c, const float *raw, float gain)
+/* The floor along direction @d at range bin @i: the floor gain times the
+ * largest lower quartile of the block of column_bins range bins holding
+ * it and of its two neighbours, on the image before range compensation
+ * (whose noise is flat over range). The range bin's floor over the
+ * directions misses what fills one direction over a long range: a strong
+ * echo's cross-talk ridge, noise-like, about 20 dB below it and 1.5 m
+ * long at its direction. Along the direction the ridge is the floor, and
+ * its peaks pass about as rarely as noise's. An object fills 1-3 bins of
+ * a block: the quartile ignores it, and a second object within the
+ * block. The neighbours count because where a ridge ends within a block
+ * its quartile is the lower part's, and the rest of the ridge would pass.
+ * Computed only for pixels that pass every other test: work grows with
+ * what the image holds. */
+static float
+column_floor (SonarClusterer * c, gsize d, guint i)
 {
-  const SonarImageGrid *g = &c->grid;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  const guint b = i / c->column_bins;
+  float q = column_quartile (c, d, b);
 
-  for (gsize d = 0; d < n_dirs; d++)
-    column_block_floors (raw + d * g->n_range, g->n_range, c->column_bins,
-        gain, c->column_values, c->column_floor + d * c->n_column_blocks);
+  if (b > 0)
+    q = MAX (q, column_quartile (c, d, b - 1));
+  if (b + 1 < c->n_column_blocks)
+    q = MAX (q, column_quartile (c, d, b + 1));
+  return c->column_gain * q;
 }
 
 /* Per range bin: sidelobe_db below the strongest pixel within
@@ -450,12 +450,11 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
         const gsize p = ((gsize) e * g->n_azimuth + a) * g->n_range + i;
         const float v = image[p];
         const float r = (float) (g->range_first + i * g->range_step);
-        const float column = c->column_floor[((gsize) e * g->n_azimuth +
-                a) * c->n_column_blocks + i / c->column_bins] *
-            (c->compensated ? r * r : 1.0f);
         gboolean peak = TRUE;
-        if (!(v >= threshold) || !(v >= c->floor[i]) || !(v >= column)
-            || !(v >= c->sidelobe[i]) || !isfinite (v))
+        if (!(v >= threshold) || !(v >= c->floor[i])
+            || !(v >= c->sidelobe[i]) || !isfinite (v)
+            || !(v >= column_floor (c, (gsize) e * g->n_azimuth + a, i) *
+                (c->compensated ? r * r : 1.0f)))
           continue;
         for (int de = -1; de <= 1 && peak; de++) {
           if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
@@ -601,9 +600,12 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
       c->params.absolute_threshold);
   noise_floors (c, image);
   sidelobe_thresholds (c, image);
-  column_floors (c, raw, (float) (COLUMN_MARGIN * sonar_cluster_floor_gain
-          (c->params.pfa, sonar_cluster_effective_hypotheses
-              (c->params.hypotheses))));
+  c->raw = raw;
+  c->column_gain = (float) (COLUMN_MARGIN * sonar_cluster_floor_gain
+      (c->params.pfa, sonar_cluster_effective_hypotheses
+          (c->params.hypotheses)));
+  for (gsize k = 0; k < n_pixels / g->n_range * c->n_column_blocks; k++)
+    c->column_quartile[k] = NAN;
   find_peaks (c, image, threshold);
   n = c->n_peaks;
   if (n == 0)

@@ -388,7 +388,7 @@ def bench_emitters_sweep():
     with memory, and plot-bench.py draws them"""
     path = TMP / "bench.csv"
     result = run(BENCH, "--sweep", "emitters", "--fig10-pings", "1",
-                 "--csv", path)
+                 "--timed-pings", "3", "--csv", path)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     assert [r["sweep"] for r in rows] == ["emitters"] * 5, rows
@@ -405,6 +405,10 @@ def bench_emitters_sweep():
             assert 0 < bank < chain < rss, r
         assert float(r["template_error_db"]) < -100, r
         assert int(r["bank_velocities"]) == 41, r
+        # One rendered ping timed three times, scored once.
+        assert r["pings"] == "1" and r["timed_pings"] == "3", r
+        assert (float(r["ms_total_p10"]) <= float(r["ms_total"])
+                <= float(r["ms_total_p90"])), r
     # All eight emitters: every Fig. 10 object, no false positive.
     assert rows[0]["found"] == "6" and rows[0]["false_positives"] == "0", \
         rows[0]

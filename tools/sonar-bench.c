@@ -20,8 +20,8 @@
  * range-resolution (the image's range step, asked 0.001-0.04 m; the
  * band's bins bound it too, at 2.8 mm), bank-size (bank -v..v at 0.05
  * m/s for v = 0.4, 1, 3, 7: cost against bank size), reflectors (seeded
- * random scenes of 1, 5, 20 and 50 point reflectors, 2 pings each: cost
- * against reflectors) and datacube (the full datacube, an image per bank
+ * random scenes of 0 (noise only), 1, 5, 20 and 50 point reflectors, 2
+ * pings each: cost against reflectors) and datacube (the full datacube, an image per bank
  * velocity with the velocity read at each centroid's pixel, against the
  * proposed chain on the first fig10 ping with a -1..1 m/s bank; the
  * paper's Fig. 11 measured on the Doppler-ACF curves at the true
@@ -36,8 +36,10 @@
  * logic; the velocity stage shares the centroids between worker threads as
  * velocityest does (--threads). Every ping is rendered before anything is
  * timed: the simulator's cost is not counted. Times are wall-clock medians
- * over the pings (after an untimed warm-up on the first), ms per ping,
- * plus the chain's CPU time. Set-up work (the
+ * over at least --timed-pings pings (20; a scene with fewer goes round
+ * them again, each scored once) after an untimed warm-up on the first, ms
+ * per ping, with the 10th-90th percentile spread, plus the chain's CPU
+ * time (median). Set-up work (the
  * Doppler bank, FFT plans, the imager's tables) is not timed, as the
  * elements do it once per stream. A configuration two sweeps share
  * (linkage=ward is refine=on) runs once.
@@ -123,12 +125,13 @@ enum
   SCENE_FIG10,
   SCENE_FIG9,
   SCENE_RANDOM_FIRST,
-  N_SCENES = SCENE_RANDOM_FIRST + 4,
+  N_SCENES = SCENE_RANDOM_FIRST + 5,
 };
 
 static BenchScene scenes[N_SCENES] = {
-  {"fig10", SONAR_SCENE_PRESET_FIG10, 0, -0.4, 0.4, 0.02, 3},
-  {"fig9", SONAR_SCENE_PRESET_FIG9, 0, -7.0, 7.0, 0.05, 1},
+  {"fig10", SONAR_SCENE_PRESET_FIG10, 0, -0.4, 0.4, 0.02, 9},
+  {"fig9", SONAR_SCENE_PRESET_FIG9, 0, -7.0, 7.0, 0.05, 5},
+  {"empty", SONAR_SCENE_PRESET_EMPTY, 0, -0.4, 0.4, 0.02, 2},
   {"rand1", SONAR_SCENE_PRESET_EMPTY, 1, -0.4, 0.4, 0.02, 2},
   {"rand5", SONAR_SCENE_PRESET_EMPTY, 5, -0.4, 0.4, 0.02, 2},
   {"rand20", SONAR_SCENE_PRESET_EMPTY, 20, -0.4, 0.4, 0.02, 2},
@@ -174,6 +177,7 @@ typedef struct
 {
   char *label;                  /* sweep=value of the run that made it */
   guint pings, found, total, false_positives;
+  guint timed_pings;
   guint near_found;
   double sum_error, near_sum_error, max_error;
   double centroids;             /* per ping */
@@ -182,6 +186,7 @@ typedef struct
    * image's, mean over the pings (coarse to fine). */
   double work_fraction;
   double ms_total;
+  double ms_total_low, ms_total_high;   /* 10th and 90th percentiles */
   /* CPU time of the whole chain: other processes on the machine inflate
    * the wall-clock times, not this. */
   double cpu_ms_total;
@@ -228,6 +233,9 @@ typedef struct _Bench
 {
   SonarSetup *setup;
   guint n_threads;              /* velocity workers */
+  /* Each configuration times at least this many pings, going round its
+   * rendered ones again when it has fewer (each scored once). */
+  guint timed_pings;
   GHashTable *banks;            /* "min/max/step/interp" -> BankEntry */
   GHashTable *results;          /* configuration key -> Result */
   FILE *csv;
@@ -340,6 +348,14 @@ median (double *v, guint n)
 {
   qsort (v, n, sizeof (double), compare_doubles);
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* The @fraction quantile of @v (nearest rank), sorted in place. */
+static double
+percentile (double *v, guint n, double fraction)
+{
+  qsort (v, n, sizeof (double), compare_doubles);
+  return v[MIN (n - 1, (guint) floor (fraction * n))];
 }
 
 static double
@@ -986,6 +1002,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
 {
   const BenchScene *s = c->scene;
   const guint n_pings = c->n_pings;
+  const guint n_timed = MAX (n_pings, b->timed_pings);
   const guint n_mics = b->setup->geometry.n_microphones;
   const gsize length = b->setup->ping_length;
   g_autofree Chain *ch = g_new0 (Chain, 1);
@@ -996,12 +1013,12 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   reset_peak_rss ();
   ok = chain_init (ch, b, c, r, error);
   /* Per ping: the stages, the total, its CPU time. */
-  times = g_new (double, (N_STAGES + 2) * n_pings);
+  times = g_new (double, (N_STAGES + 2) * n_timed);
   /* Ping -1 is a warm-up on the first ping, neither timed nor scored: it
    * takes the page faults of fresh buffers and ORC's first compilations,
    * and its heap growth is the stages' working memory. */
-  for (int q = -1; ok && q < (int) n_pings; q++) {
-    const guint p = MAX (q, 0);
+  for (int q = -1; ok && q < (int) n_timed; q++) {
+    const guint p = MAX (q, 0) % n_pings;
     const float *samples = s->pings + p * length * n_mics;
     const SonarTruth *truths = s->truths + p * s->n_reflectors;
     const double cpu_start = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
@@ -1019,7 +1036,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
       guint units, dense_units, passes, dense_passes;
       sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
           &dense_passes);
-      r->work_fraction += (double) passes / dense_passes / n_pings;
+      r->work_fraction += (double) passes / dense_passes / n_timed;
     }
     stage_start (&clock);
     n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,
@@ -1031,13 +1048,16 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     if (q < 0)
       continue;
 
-    times[(N_STAGES + 1) * n_pings + p] =
+    times[(N_STAGES + 1) * n_timed + q] =
         clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
     for (guint k = 0; k < N_STAGES; k++) {
-      times[k * n_pings + p] = t[k];
+      times[k * n_timed + q] = t[k];
       total += t[k];
     }
-    times[N_STAGES * n_pings + p] = total;
+    times[N_STAGES * n_timed + q] = total;
+    /* A ping timed again is not scored again. */
+    if ((guint) q >= n_pings)
+      continue;
     total_centroids += n_centroids;
     r->evaluated_velocities += (double) ch->evaluated_velocities / n_pings;
     score_ping (r, truths, s->n_reflectors, ch->positions, ch->velocities,
@@ -1053,10 +1073,13 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
 
   r->pings = n_pings;
   r->centroids = (double) total_centroids / n_pings;
+  r->timed_pings = n_timed;
   for (guint k = 0; k < N_STAGES; k++)
-    r->ms[k] = median (times + k * n_pings, n_pings);
-  r->ms_total = median (times + N_STAGES * n_pings, n_pings);
-  r->cpu_ms_total = median (times + (N_STAGES + 1) * n_pings, n_pings);
+    r->ms[k] = median (times + k * n_timed, n_timed);
+  r->ms_total = median (times + N_STAGES * n_timed, n_timed);
+  r->ms_total_low = percentile (times + N_STAGES * n_timed, n_timed, 0.1);
+  r->ms_total_high = percentile (times + N_STAGES * n_timed, n_timed, 0.9);
+  r->cpu_ms_total = median (times + (N_STAGES + 1) * n_timed, n_timed);
   return TRUE;
 }
 
@@ -1706,16 +1729,16 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   "mb_clustering,mb_velocity,mb_chain,peak_rss_mb,centroids," \
   "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
   "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
-  "us_velocity_per_evaluation"
+  "us_velocity_per_evaluation,timed_pings,ms_total_p10,ms_total_p90"
 
 static void
 print_header (const Sweep * sweep)
 {
   g_print ("\n%s\n", sweep->name);
   g_print ("  %-9s %-6s %5s %7s %3s %9s %9s %5s %8s %8s %5s %8s %9s %9s "
-      "%8s %9s\n", "value", "scene", "pings", "found", "FP", "mean m/s",
-      "max m/s", "cent", "spectra", "imaging", "work", "cluster", "velocity",
-      "total ms", "pings/s", "cpu ms");
+      "%11s %8s %9s %5s\n", "value", "scene", "pings", "found", "FP",
+      "mean m/s", "max m/s", "cent", "spectra", "imaging", "work", "cluster",
+      "velocity", "total ms", "p10-p90", "pings/s", "cpu ms", "timed");
 }
 
 static void
@@ -1724,12 +1747,16 @@ print_row (const char *value, const Config * c, const Result * r,
 {
   g_autofree char *found = g_strdup_printf ("%u/%u", r->found, r->total);
 
+  g_autofree char *spread = g_strdup_printf ("%.1f-%.1f", r->ms_total_low,
+      r->ms_total_high);
+
   g_print ("  %-9s %-6s %5u %7s %3u %9.4f %9.4f %5.1f %8.1f %8.1f %5.2f "
-      "%8.1f %9.1f %9.1f %8.3f %9.1f", value, c->scene->name, r->pings,
-      found, r->false_positives, mean_error (r), r->max_error, r->centroids,
-      r->ms[STAGE_SPECTRA], r->ms[STAGE_IMAGING], r->work_fraction,
-      r->ms[STAGE_CLUSTERING], r->ms[STAGE_VELOCITY], r->ms_total,
-      1e3 / r->ms_total, r->cpu_ms_total);
+      "%8.1f %9.1f %9.1f %11s %8.3f %9.1f %5u", value, c->scene->name,
+      r->pings, found, r->false_positives, mean_error (r), r->max_error,
+      r->centroids, r->ms[STAGE_SPECTRA], r->ms[STAGE_IMAGING],
+      r->work_fraction, r->ms[STAGE_CLUSTERING], r->ms[STAGE_VELOCITY],
+      r->ms_total, spread, 1e3 / r->ms_total, r->cpu_ms_total,
+      r->timed_pings);
   if (same_as)
     g_print ("  (the %s run)", same_as);
   g_print ("\n");
@@ -1787,12 +1814,13 @@ write_csv_row (FILE * csv, const char *sweep, const char *value,
   for (guint k = 0; k < N_STAGES; k++)
     fprintf (csv, ",%.6g", r->mb[k]);
   fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.4g,%.6g,"
-      "%.6g\n", chain_mb (r), r->peak_rss_mb, r->centroids,
+      "%.6g,%u,%.6g,%.6g\n", chain_mb (r), r->peak_rss_mb, r->centroids,
       r->bank_velocities, ms_per_centroid (r), r->template_error_db,
       r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN,
       r->n_curves ? mean_of (r->width, r->n_curves) : NAN, r->n_range,
       r->range_step, r->work_fraction, r->evaluated_velocities,
-      us_per_evaluation (r));
+      us_per_evaluation (r), r->timed_pings, r->ms_total_low,
+      r->ms_total_high);
   fflush (csv);
 }
 
@@ -2012,7 +2040,7 @@ main (int argc, char **argv)
       "(repeatable):");
   gboolean all = FALSE, quick = FALSE, needed[N_SCENES] = { FALSE };
   gboolean ok = TRUE;
-  int threads = 0;
+  int threads = 0, timed_pings = 20;
   Bench b = { 0 };
   double start = now_ms ();
   GOptionEntry entries[] = {
@@ -2025,9 +2053,12 @@ main (int argc, char **argv)
     {"csv", 'c', 0, G_OPTION_ARG_FILENAME, &csv_path,
         "Append one row per configuration to this CSV file", "FILE"},
     {"fig10-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_fig10_pings,
-        "Pings of the fig10 drive (default 3)", "N"},
+        "Pings of the fig10 drive (default 9)", "N"},
     {"fig9-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_fig9_pings,
-        "Pings of the fig9 world (default 1)", "N"},
+        "Pings of the fig9 world (default 5)", "N"},
+    {"timed-pings", 0, 0, G_OPTION_ARG_INT, &timed_pings,
+        "Pings timed per configuration, at least (default 20): a scene "
+          "with fewer goes round them again, each scored once", "N"},
     {"noise-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_noise_pings,
         "Pings of the noise sweep (default 1000)", "N"},
     {"detection-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_detection_pings,
@@ -2066,7 +2097,7 @@ main (int argc, char **argv)
       "linearly or by\n"
       "                            nearest sample; error against exact "
       "templates in dB\n"
-      "  reflectors                random scenes of 1, 5, 20, 50 reflectors, "
+      "  reflectors                random scenes of 0, 1, 5, 20, 50 reflectors, "
       "2 pings each\n"
       "  datacube                  the full datacube against the proposed "
       "chain, first fig10\n"
@@ -2099,6 +2130,11 @@ main (int argc, char **argv)
         SONAR_VELOCITY_MAX_THREADS);
     return 2;
   }
+  if (timed_pings < 1 || timed_pings > 100000) {
+    g_printerr ("sonar-bench: --timed-pings must be 1 to 100000\n");
+    return 2;
+  }
+  b.timed_pings = (guint) timed_pings;
   b.n_threads = CLAMP (threads ? (guint) threads : g_get_num_processors (),
       1, SONAR_VELOCITY_MAX_THREADS);
 

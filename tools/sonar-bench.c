@@ -147,6 +147,10 @@ enum
   N_STAGES,
 };
 
+static const char *const stage_names[N_STAGES] = {
+  "spectra", "imaging", "cluster", "velocity"
+};
+
 typedef enum
 {
   /* Detection image over a few hypotheses, Doppler-ACF product in a
@@ -187,6 +191,9 @@ typedef struct
   double work_fraction;
   double ms_total;
   double ms_total_low, ms_total_high;   /* 10th and 90th percentiles */
+  /* Per stage, the least time its arithmetic (clustering: its reads of
+   * the image) takes at the CPU's measured peak on the cores it uses. */
+  double floor_ms[N_STAGES];
   /* CPU time of the whole chain: other processes on the machine inflate
    * the wall-clock times, not this. */
   double cpu_ms_total;
@@ -236,6 +243,9 @@ typedef struct _Bench
   /* Each configuration times at least this many pings, going round its
    * rendered ones again when it has fewer (each scored once). */
   guint timed_pings;
+  /* This CPU, measured at start: fused multiply-adds per core (GFLOP/s)
+   * and the rate one core reads memory at (GB/s). */
+  double peak_gflops, read_gbs;
   GHashTable *banks;            /* "min/max/step/interp" -> BankEntry */
   GHashTable *results;          /* configuration key -> Result */
   FILE *csv;
@@ -655,6 +665,146 @@ score_ping (Result * r, const SonarTruth * truths, guint n_truths,
   }
 }
 
+/* The arithmetic floor ---------------------------------------------------*/
+
+/* Independent chains of fused multiply-adds, enough of them to fill the
+ * pipelines: the core's peak. Where AVX2 and FMA are missing, the same
+ * loop as the compiler makes it for the baseline. */
+#define PEAK_CHAINS 12
+typedef float PeakVec __attribute__ ((vector_size (32)));
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__ ((target ("avx2,fma")))
+#endif
+static float
+peak_loop (guint iterations)
+{
+  PeakVec acc[PEAK_CHAINS], a = { 0 }, b = { 0 };
+  float sum = 0.0f;
+
+  for (int l = 0; l < 8; l++) {
+    a[l] = 0.999f + 1e-5f * l;
+    b[l] = 1e-6f * l;
+  }
+  for (int c = 0; c < PEAK_CHAINS; c++)
+    acc[c] = a * (float) c;
+  for (guint i = 0; i < iterations; i++) {
+    for (int c = 0; c < PEAK_CHAINS; c++)
+      acc[c] = acc[c] * a + b;
+    /* Keeps the compiler from folding the loop. */
+    __asm__ volatile ("" : "+x" (a));
+  }
+  for (int c = 0; c < PEAK_CHAINS; c++)
+    for (int l = 0; l < 8; l++)
+      sum += acc[c][l];
+  return sum;
+}
+
+/* GFLOP/s of one core (2 flops per lane of a fused multiply-add): the
+ * best of a few runs of about 20 ms (others share the machine). */
+static double
+measure_peak_gflops (void)
+{
+  const guint iterations = 1000000;
+  double best = 0.0;
+  volatile float sink;
+
+  for (int run = 0; run < 5; run++) {
+    const double start = clock_ms (CLOCK_THREAD_CPUTIME_ID);
+    double ms;
+    sink = peak_loop (iterations);
+    ms = clock_ms (CLOCK_THREAD_CPUTIME_ID) - start;
+    best = MAX (best, 2.0 * 8 * PEAK_CHAINS * (double) iterations /
+        (ms * 1e6));
+  }
+  (void) sink;
+  return best;
+}
+
+/* GB/s one core reads a 64 MB array at (far beyond the caches). */
+static double
+measure_read_gbs (void)
+{
+  const gsize n = 16 * 1024 * 1024;
+  g_autofree float *v = g_new (float, n);
+  double best = 0.0;
+  volatile float sink;
+
+  for (gsize i = 0; i < n; i++)
+    v[i] = (float) (i & 7);
+  for (int run = 0; run < 3; run++) {
+    const double start = clock_ms (CLOCK_THREAD_CPUTIME_ID);
+    float sum[8] = { 0 };
+    double ms;
+    for (gsize i = 0; i < n; i += 8)
+      for (int l = 0; l < 8; l++)
+        sum[l] += v[i + l];
+    sink = sum[0] + sum[7];
+    ms = clock_ms (CLOCK_THREAD_CPUTIME_ID) - start;
+    best = MAX (best, n * sizeof (float) / (ms * 1e6));
+  }
+  (void) sink;
+  return best;
+}
+
+/* Flops of a complex transform of @n points, as FFTW counts them. */
+static double
+fft_flops (double n)
+{
+  return 5.0 * n * log2 (n);
+}
+
+/* The floors of one ping, from what it did: @units and @passes the
+ * imager's (sonar_imager_last_work ()), @centroids and @evaluations (bank
+ * velocities evaluated, over the centroids) the velocity stage's. Each
+ * stage on the cores it uses. The counts are the arithmetic of the
+ * method as implemented, not of a cleverer one:
+ *   spectra     a real transform per microphone (2.5 N log2 N);
+ *   imaging     per unit the receive sum (8 flops per microphone and bin:
+ *               a complex multiply-add, the phasor's rotation shared),
+ *               per pass the transmit sum (8 per emitter and bin), the
+ *               product (6 per bin), the inverse transform and the
+ *               envelope (3 per range bin);
+ *   clustering  two reads of the image at the measured read rate;
+ *   velocity    per centroid the receive sums of its window's directions
+ *               (three calls: direction search, bank pass, around the
+ *               peak), per evaluated velocity and window direction and
+ *               emitter the block sums (14 per bin) and the window's lags
+ *               (8 per block and lag). */
+static void
+arithmetic_floors (const Bench * b, const Chain * ch, guint units,
+    guint passes, guint centroids, double evaluations, double *floor_ms)
+{
+  const SonarSetup *setup = b->setup;
+  const double J = setup->geometry.n_microphones;
+  const double N = ch->n_emitters;
+  const double K = ch->band->n_bins;
+  const double F = ch->band->fft_size;
+  const double R = ch->grid->n_range;
+  const double M = round (0.5 * setup->speed_of_sound * F /
+      setup->sample_rate / ch->grid->range_step);
+  const SonarVelocityParams *vp = &ch->config->velocity;
+  const double window = (2.0 * vp->window_directions + 1) *
+      (ch->grid->n_elevation > 1 ? 2.0 * vp->window_directions + 1 : 1.0);
+  const double lags = 2.0 * vp->window_ranges + 1;
+  const double cores = g_get_num_processors ();
+  const double per_core_ms = 1.0 / (b->peak_gflops * 1e6);
+  double flops[N_STAGES];
+
+  flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
+  flops[STAGE_IMAGING] = units * 8.0 * J * K + passes * (8.0 * N * K +
+      6.0 * K + fft_flops (M) + 3.0 * R);
+  flops[STAGE_CLUSTERING] = 0.0;
+  flops[STAGE_VELOCITY] = centroids * 3.0 * window * 8.0 * J * K +
+      evaluations * window * N * (14.0 * K + 8.0 * lags * K / 16.0);
+  floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
+  floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
+  floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *
+      sizeof (float) / (b->read_gbs * 1e6);
+  floor_ms[STAGE_VELOCITY] = flops[STAGE_VELOCITY] * per_core_ms /
+      MIN (cores, b->n_threads);
+}
+
 /* The chain --------------------------------------------------------------*/
 
 static void
@@ -1024,7 +1174,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     const double cpu_start = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
     StageClock clock = { q < 0 };
     double t[N_STAGES], total = 0.0;
-    guint n_centroids;
+    guint n_centroids, units, dense_units, passes, dense_passes;
 
     stage_start (&clock);
     chain_spectra (ch, samples, n_mics, length);
@@ -1032,12 +1182,8 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     stage_start (&clock);
     chain_imaging (ch);
     t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
-    if (q >= 0) {
-      guint units, dense_units, passes, dense_passes;
-      sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
-          &dense_passes);
-      r->work_fraction += (double) passes / dense_passes / n_timed;
-    }
+    sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
+        &dense_passes);
     stage_start (&clock);
     n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,
         ch->centroids, MAX_CENTROIDS);
@@ -1047,6 +1193,15 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     t[STAGE_VELOCITY] = stage_stop (&clock, r, STAGE_VELOCITY);
     if (q < 0)
       continue;
+
+    r->work_fraction += (double) passes / dense_passes / n_timed;
+    if (!ch->cube) {
+      double floor_ms[N_STAGES];
+      arithmetic_floors (b, ch, units, passes, n_centroids,
+          ch->evaluated_velocities, floor_ms);
+      for (guint k = 0; k < N_STAGES; k++)
+        r->floor_ms[k] += floor_ms[k] / n_timed;
+    }
 
     times[(N_STAGES + 1) * n_timed + q] =
         clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
@@ -1729,7 +1884,8 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   "mb_clustering,mb_velocity,mb_chain,peak_rss_mb,centroids," \
   "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
   "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
-  "us_velocity_per_evaluation,timed_pings,ms_total_p10,ms_total_p90"
+  "us_velocity_per_evaluation,timed_pings,ms_total_p10,ms_total_p90," \
+  "floor_ms_spectra,floor_ms_imaging,floor_ms_clustering,floor_ms_velocity"
 
 static void
 print_header (const Sweep * sweep)
@@ -1801,6 +1957,30 @@ print_memory_row (const char *value, const Config * c, const Result * r)
 }
 
 static void
+print_efficiency_header (const Bench * b)
+{
+  g_print ("  arithmetic floor (ms per ping at this CPU's %.1f GFLOP/s per "
+      "core and %.1f GB/s read, on the cores each stage uses) and time "
+      "over floor\n", b->peak_gflops, b->read_gbs);
+  g_print ("  %-9s %-6s", "value", "scene");
+  for (guint k = 0; k < N_STAGES; k++)
+    g_print (" %9s %6s", stage_names[k], "x");
+  g_print ("\n");
+}
+
+static void
+print_efficiency_row (const char *value, const Config * c, const Result * r)
+{
+  g_print ("  %-9s %-6s", value, c->scene->name);
+  for (guint k = 0; k < N_STAGES; k++) {
+    print_number (r->floor_ms[k] > 0.0 ? r->floor_ms[k] : NAN, 9, 2);
+    print_number (r->floor_ms[k] > 0.0 ? r->ms[k] / r->floor_ms[k] : NAN,
+        6, 1);
+  }
+  g_print ("\n");
+}
+
+static void
 write_csv_row (FILE * csv, const char *sweep, const char *value,
     const Config * c, const Result * r)
 {
@@ -1814,13 +1994,16 @@ write_csv_row (FILE * csv, const char *sweep, const char *value,
   for (guint k = 0; k < N_STAGES; k++)
     fprintf (csv, ",%.6g", r->mb[k]);
   fprintf (csv, ",%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.4g,%.6g,"
-      "%.6g,%u,%.6g,%.6g\n", chain_mb (r), r->peak_rss_mb, r->centroids,
+      "%.6g,%u,%.6g,%.6g", chain_mb (r), r->peak_rss_mb, r->centroids,
       r->bank_velocities, ms_per_centroid (r), r->template_error_db,
       r->n_curves ? mean_of (r->psr_db, r->n_curves) : NAN,
       r->n_curves ? mean_of (r->width, r->n_curves) : NAN, r->n_range,
       r->range_step, r->work_fraction, r->evaluated_velocities,
       us_per_evaluation (r), r->timed_pings, r->ms_total_low,
       r->ms_total_high);
+  for (guint k = 0; k < N_STAGES; k++)
+    fprintf (csv, ",%.6g", r->floor_ms[k]);
+  fprintf (csv, "\n");
   fflush (csv);
 }
 
@@ -1949,6 +2132,10 @@ run_sweep (Bench * b, const Sweep * sweep)
   for (guint i = 0; i < sweep->n_values; i++)
     if (rows[i])
       print_memory_row (values[i], &configs[i], rows[i]);
+  print_efficiency_header (b);
+  for (guint i = 0; i < sweep->n_values; i++)
+    if (rows[i])
+      print_efficiency_row (values[i], &configs[i], rows[i]);
   if (ward && slink)
     print_ward_vs_slink (ward, slink);
   if (proposed && cube)
@@ -2135,6 +2322,8 @@ main (int argc, char **argv)
     return 2;
   }
   b.timed_pings = (guint) timed_pings;
+  b.peak_gflops = measure_peak_gflops ();
+  b.read_gbs = measure_read_gbs ();
   b.n_threads = CLAMP (threads ? (guint) threads : g_get_num_processors (),
       1, SONAR_VELOCITY_MAX_THREADS);
 

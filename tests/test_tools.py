@@ -412,11 +412,18 @@ def bench_emitters_sweep():
     # All eight emitters: every Fig. 10 object, no false positive.
     assert rows[0]["found"] == "6" and rows[0]["false_positives"] == "0", \
         rows[0]
-    # Both tables print a row per value.
+    # The three tables (times, memory, arithmetic floors) print a row per
+    # value.
     lines = result.stdout.splitlines()
     for value in ("8", "6", "4", "2", "1"):
         assert sum(line.split()[:2] == [value, "fig10"]
-                   for line in lines) == 2, (value, result.stdout)
+                   for line in lines) == 3, (value, result.stdout)
+    for r in rows:
+        # Every stage has a floor, of the stage's order of magnitude (the
+        # flop counts are the method's, the peak this CPU's).
+        for stage in ("spectra", "imaging", "clustering", "velocity"):
+            floor = float(r["floor_ms_" + stage])
+            assert 0 < floor < 1e3 * float(r["ms_" + stage]), (stage, r)
     png = TMP / "bench.png"
     run(PYTHON, TOOLS / "plot-bench.py", path, "-o", png)
     assert_png(png)

@@ -41,24 +41,25 @@ GST_DEBUG_CATEGORY_STATIC (sonar_src_debug);
 #define GST_TYPE_SONAR_SCENE_PRESET (gst_sonar_scene_preset_get_type ())
 #define GST_TYPE_SONAR_WAVEFORM (gst_sonar_waveform_get_type ())
 
-/* Enum values mirror the core's SonarScenePreset. */
+/* From the core's table of presets (sonar-scene.c). */
 static GType
 gst_sonar_scene_preset_get_type (void)
 {
   static GType type = 0;
-  static const GEnumValue values[] = {
-    {SONAR_SCENE_PRESET_DEFAULT, "Three objects, one approaching at 1 m/s",
-        "default"},
-    {SONAR_SCENE_PRESET_FIG9, "Paper Fig. 9: still sensor, 4 still and 2 "
-          "moving objects", "fig9"},
-    {SONAR_SCENE_PRESET_FIG10, "Paper Fig. 10: sensor driving at 0.3 m/s past "
-          "6 objects", "fig10"},
-    {SONAR_SCENE_PRESET_EMPTY, "No reflector (noise only)", "empty"},
-    {0, NULL, NULL}
-  };
-  if (g_once_init_enter (&type))
+
+  if (g_once_init_enter (&type)) {
+    guint n;
+    const SonarScenePresetInfo *presets = sonar_scene_presets (&n);
+    /* Registered for the process's lifetime, as a static table would be. */
+    GEnumValue *values = g_new0 (GEnumValue, n + 1);
+    for (guint i = 0; i < n; i++) {
+      values[i].value = presets[i].preset;
+      values[i].value_name = presets[i].description;
+      values[i].value_nick = presets[i].nick;
+    }
     g_once_init_leave (&type, g_enum_register_static ("GstSonarScenePreset",
             values));
+  }
   return type;
 }
 

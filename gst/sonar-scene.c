@@ -15,30 +15,73 @@
 #define SET_ERROR(error, ...) \
   g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA, __VA_ARGS__)
 
-typedef struct
-{
-  SonarReflectorKind kind;
-  double range, azimuth;        /* m, degrees, from the sensor at t = 0 */
-  double radial_velocity;       /* m/s relative to the sensor, + = away */
-  double tangential_velocity;   /* m/s towards increasing azimuth */
-  double radius;                /* m, cylinders */
-  double strength;
-} PlanarObject;
+/* Default: something to look at in every stage, one object approaching. */
+static const SonarPresetObject default_objects[] = {
+  {SONAR_REFLECTOR_POINT, 1.5, -30.0, 0.0, 0.0, 0.0, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 2.2, 10.0, -1.0, 0.4, 0.05, 1.0},
+  {SONAR_REFLECTOR_POINT, 3.0, 40.0, 0.5, 0.0, 0.0, 1.0},
+};
 
-/* Objects of the horizontal plane placed around a sensor, by range and
- * azimuth, with velocities relative to the sensor: presets read like the
- * paper's figures. */
-static void
-scene_init_planar (SonarScene * scene, SonarVec3 sensor_velocity,
-    const PlanarObject * objects, guint n)
+/* Paper Fig. 9: a still sensor, four still cylinders of different sizes
+ * and two movers of several m/s, one approaching, one receding. */
+static const SonarPresetObject fig9_objects[] = {
+  {SONAR_REFLECTOR_CYLINDER, 1.2, -65.0, 0.0, 0.0, 0.04, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 3.8, -10.0, 0.0, 0.0, 0.10, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 1.6, 15.0, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 2.6, 60.0, 0.0, 0.0, 0.06, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 2.0, -40.0, -3.0, 1.0, 0.05, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 3.0, 35.0, 1.8, -0.8, 0.05, 1.0},
+};
+
+/* Paper Fig. 10: the robot drives forward at 0.3 m/s past still objects
+ * at 0.5-5 m and -80..80 degrees; radial speeds are -0.3 cos(azimuth). */
+static const SonarPresetObject fig10_objects[] = {
+  {SONAR_REFLECTOR_CYLINDER, 0.6, -70.0, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 1.0, 40.0, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 1.8, -25.0, 0.0, 0.0, 0.05, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 2.5, 75.0, 0.0, 0.0, 0.05, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 3.3, 10.0, 0.0, 0.0, 0.08, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.5, -50.0, 0.0, 0.0, 0.10, 1.0},
+};
+
+#define OBJECTS(a) a, G_N_ELEMENTS (a)
+
+static const SonarScenePresetInfo presets[] = {
+  {SONAR_SCENE_PRESET_DEFAULT, "default",
+      "Three objects, one approaching at 1 m/s", {0, 0, 0},
+      OBJECTS (default_objects)},
+  {SONAR_SCENE_PRESET_FIG9, "fig9",
+      "Paper Fig. 9: still sensor, 4 still and 2 moving objects", {0, 0, 0},
+      OBJECTS (fig9_objects)},
+  {SONAR_SCENE_PRESET_FIG10, "fig10",
+      "Paper Fig. 10: sensor driving at 0.3 m/s past 6 objects", {0, 0, 0.3},
+      OBJECTS (fig10_objects)},
+  {SONAR_SCENE_PRESET_EMPTY, "empty", "No reflector (noise only)", {0, 0, 0},
+      NULL, 0},
+};
+
+const SonarScenePresetInfo *
+sonar_scene_presets (guint * n_presets)
 {
+  *n_presets = G_N_ELEMENTS (presets);
+  return presets;
+}
+
+void
+sonar_scene_init_preset (SonarScene * scene, SonarScenePreset preset)
+{
+  const SonarScenePresetInfo *info;
+
+  g_return_if_fail ((guint) preset < G_N_ELEMENTS (presets));
+  info = &presets[preset];
+  memset (scene, 0, sizeof (*scene));
   scene->dimensions = 2;
   scene->sensor_position = sonar_vec3 (0, 0, 0);
-  scene->sensor_velocity = sensor_velocity;
-  scene->n_reflectors = n;
-  scene->reflectors = g_new0 (SonarReflector, n);
-  for (guint k = 0; k < n; k++) {
-    const PlanarObject *o = &objects[k];
+  scene->sensor_velocity = info->sensor_velocity;
+  scene->n_reflectors = info->n_objects;
+  scene->reflectors = g_new0 (SonarReflector, info->n_objects);
+  for (guint k = 0; k < info->n_objects; k++) {
+    const SonarPresetObject *o = &info->objects[k];
     const SonarVec3 radial = sonar_vec3_from_direction (o->azimuth, 0.0);
     const SonarVec3 tangential = sonar_vec3_from_direction (o->azimuth + 90.0,
         0.0);
@@ -49,66 +92,9 @@ scene_init_planar (SonarScene * scene, SonarVec3 sensor_velocity,
     r->strength = o->strength;
     /* A cylinder's surface, not its axis, is at the given range. */
     r->position = sonar_vec3_scale (radial, o->range + o->radius);
-    r->velocity = sonar_vec3_add (sensor_velocity,
-        sonar_vec3_add (sonar_vec3_scale (radial, o->radial_velocity),
-            sonar_vec3_scale (tangential, o->tangential_velocity)));
-  }
-}
-
-void
-sonar_scene_init_preset (SonarScene * scene, SonarScenePreset preset)
-{
-  /* Default: something to look at in every stage, one object approaching. */
-  static const PlanarObject default_objects[] = {
-    {SONAR_REFLECTOR_POINT, 1.5, -30.0, 0.0, 0.0, 0.0, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 2.2, 10.0, -1.0, 0.4, 0.05, 1.0},
-    {SONAR_REFLECTOR_POINT, 3.0, 40.0, 0.5, 0.0, 0.0, 1.0},
-  };
-  /* Paper Fig. 9: a still sensor, four still cylinders of different sizes
-   * and two movers of several m/s, one approaching, one receding. */
-  static const PlanarObject fig9_objects[] = {
-    {SONAR_REFLECTOR_CYLINDER, 1.2, -65.0, 0.0, 0.0, 0.04, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 3.8, -10.0, 0.0, 0.0, 0.10, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 1.6, 15.0, 0.0, 0.0, 0.03, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 2.6, 60.0, 0.0, 0.0, 0.06, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 2.0, -40.0, -3.0, 1.0, 0.05, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 3.0, 35.0, 1.8, -0.8, 0.05, 1.0},
-  };
-  /* Paper Fig. 10: the robot drives forward at 0.3 m/s past still objects
-   * at 0.5-5 m and -80..80 degrees; radial speeds are -0.3 cos(azimuth). */
-  static const PlanarObject fig10_objects[] = {
-    {SONAR_REFLECTOR_CYLINDER, 0.6, -70.0, 0.0, 0.0, 0.03, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 1.0, 40.0, 0.0, 0.0, 0.03, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 1.8, -25.0, 0.0, 0.0, 0.05, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 2.5, 75.0, 0.0, 0.0, 0.05, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 3.3, 10.0, 0.0, 0.0, 0.08, 1.0},
-    {SONAR_REFLECTOR_CYLINDER, 4.5, -50.0, 0.0, 0.0, 0.10, 1.0},
-  };
-  const SonarVec3 still = sonar_vec3 (0, 0, 0);
-
-  memset (scene, 0, sizeof (*scene));
-  switch (preset) {
-    case SONAR_SCENE_PRESET_DEFAULT:
-      scene_init_planar (scene, still, default_objects,
-          G_N_ELEMENTS (default_objects));
-      break;
-    case SONAR_SCENE_PRESET_FIG9:
-      scene_init_planar (scene, still, fig9_objects,
-          G_N_ELEMENTS (fig9_objects));
-      break;
-    case SONAR_SCENE_PRESET_FIG10:{
-      const SonarVec3 forward = sonar_vec3 (0, 0, 0.3);
-      scene_init_planar (scene, forward, fig10_objects,
-          G_N_ELEMENTS (fig10_objects));
-      /* The objects stand still in the world: their velocity relative to
-       * the sensor is minus the sensor's. */
-      for (guint k = 0; k < scene->n_reflectors; k++)
-        scene->reflectors[k].velocity = still;
-      break;
-    }
-    case SONAR_SCENE_PRESET_EMPTY:
-      scene_init_planar (scene, still, NULL, 0);
-      break;
+    r->velocity = sonar_vec3_add (sonar_vec3_scale (radial,
+            o->radial_velocity), sonar_vec3_scale (tangential,
+            o->tangential_velocity));
   }
 }
 
@@ -383,26 +369,19 @@ sonar_scene_load_data (SonarScene * scene, const char *json,
   return load_scene (scene, NULL, json, origin, error);
 }
 
-static const char *const preset_names[] = {
-  [SONAR_SCENE_PRESET_DEFAULT] = "default",
-  [SONAR_SCENE_PRESET_FIG9] = "fig9",
-  [SONAR_SCENE_PRESET_FIG10] = "fig10",
-  [SONAR_SCENE_PRESET_EMPTY] = "empty",
-};
-
 const char *
 sonar_scene_preset_to_string (SonarScenePreset preset)
 {
-  return (guint) preset < G_N_ELEMENTS (preset_names) ?
-      preset_names[preset] : NULL;
+  return (guint) preset < G_N_ELEMENTS (presets) ? presets[preset].nick :
+      NULL;
 }
 
 gboolean
 sonar_scene_preset_from_string (const char *name, SonarScenePreset * preset)
 {
-  for (guint i = 0; name && i < G_N_ELEMENTS (preset_names); i++) {
-    if (strcmp (name, preset_names[i]) == 0) {
-      *preset = (SonarScenePreset) i;
+  for (guint i = 0; name && i < G_N_ELEMENTS (presets); i++) {
+    if (strcmp (name, presets[i].nick) == 0) {
+      *preset = presets[i].preset;
       return TRUE;
     }
   }

@@ -40,6 +40,7 @@ typedef struct
   SonarReflector *reflectors;
 } SonarScene;
 
+/* The built-in scenes, in the order of sonar_scene_presets ()'s table. */
 typedef enum
 {
   SONAR_SCENE_PRESET_DEFAULT,   /* three reflectors, one approaching */
@@ -47,6 +48,37 @@ typedef enum
   SONAR_SCENE_PRESET_FIG10,     /* paper Fig. 10: drive at 0.3 m/s past objects */
   SONAR_SCENE_PRESET_EMPTY,     /* no reflector: noise only */
 } SonarScenePreset;
+
+/* An object of a preset, in the horizontal plane, placed around the
+ * sensor's position at t = 0 by range and azimuth, moving in the world
+ * frame: radially (away from that position) and tangentially (towards
+ * increasing azimuth). Presets read like the paper's figures. */
+typedef struct
+{
+  SonarReflectorKind kind;
+  double range;                 /* m, to a cylinder's surface */
+  double azimuth;               /* degrees */
+  double radial_velocity;       /* m/s, + = away */
+  double tangential_velocity;   /* m/s */
+  double radius;                /* m, cylinders; 0 for points */
+  double strength;
+} SonarPresetObject;
+
+/* One entry of the table of presets: sonarsrc's "scene" enum (its nick
+ * and description), the benchmark and the tests read it; a new preset is
+ * one entry (and its enum value). */
+typedef struct
+{
+  SonarScenePreset preset;
+  const char *nick;
+  const char *description;
+  SonarVec3 sensor_velocity;    /* world frame, m/s */
+  const SonarPresetObject *objects;
+  guint n_objects;
+} SonarScenePresetInfo;
+
+/* The table, in enum order; *@n_presets receives its length. */
+const SonarScenePresetInfo *sonar_scene_presets (guint * n_presets);
 
 void sonar_scene_init_preset (SonarScene * scene, SonarScenePreset preset);
 void sonar_scene_clear (SonarScene * scene);

@@ -16,13 +16,21 @@ azimuth_of (SonarVec3 p)
 static void
 test_presets_valid (void)
 {
-  for (SonarScenePreset p = SONAR_SCENE_PRESET_DEFAULT;
-      p <= SONAR_SCENE_PRESET_EMPTY; p++) {
+  guint n;
+  const SonarScenePresetInfo *presets = sonar_scene_presets (&n);
+
+  g_assert_cmpuint (n, ==, SONAR_SCENE_PRESET_EMPTY + 1);
+  for (guint i = 0; i < n; i++) {
+    const SonarScenePreset p = presets[i].preset;
     SonarScene scene;
     GError *error = NULL;
     SonarScenePreset round_trip;
 
+    /* The table is in enum order, each entry described. */
+    g_assert_cmpint (p, ==, i);
+    g_assert_true (presets[i].nick && presets[i].description);
     sonar_scene_init_preset (&scene, p);
+    g_assert_cmpuint (scene.n_reflectors, ==, presets[i].n_objects);
     g_assert_true (sonar_scene_validate (&scene, &error));
     g_assert_no_error (error);
     g_assert_true (sonar_scene_preset_from_string

@@ -31,6 +31,7 @@
  */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
+#include "sonar-error.h"
 #endif
 
 #include "gstdopplerbank.h"
@@ -129,7 +130,7 @@ gst_doppler_bank_make_setup (GstSonarFilter * filter, GstCaps * in_caps,
 
   if (sensor) {
     if (geometry || waveforms || ping_length) {
-      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+      g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
           "dopplerbank: sensor-file describes the whole sensor: leave "
           "geometry-file, waveforms-file and ping-length unset");
       return NULL;
@@ -138,13 +139,13 @@ gst_doppler_bank_make_setup (GstSonarFilter * filter, GstCaps * in_caps,
   }
   if (!waveforms) {
     if (geometry || ping_length)
-      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+      g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
           "dopplerbank: geometry-file and ping-length need waveforms-file "
           "too");
     return NULL;
   }
   if (ping_length == 0) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "dopplerbank: waveforms-file needs ping-length, the samples per "
         "channel of one ping of the recording");
     return NULL;

@@ -18,6 +18,7 @@
  */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
+#include "sonar-error.h"
 #endif
 
 #include "gstsonarsrc.h"
@@ -424,7 +425,7 @@ make_setup (const SonarSrcSettings * s, guint dimensions, GError ** error)
     if (!waveforms)
       goto done;
     if (n_rows != geometry.n_emitters || file_rate != wp.sample_rate) {
-      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+      g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
           "%s: holds %u waveforms at %g Hz, but the sensor has %u emitters "
           "at %g Hz (sample-rate property)", s->waveforms_file, n_rows,
           file_rate, geometry.n_emitters, wp.sample_rate);
@@ -439,13 +440,13 @@ make_setup (const SonarSrcSettings * s, guint dimensions, GError ** error)
   ping_length = sonar_ping_length_for_range (&geometry, s->speed_of_sound,
       wp.sample_rate, wp.length, s->max_range);
   if (ping_length > SONAR_MAX_PING_LENGTH) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "max-range %g m needs a recording window longer than the %u "
         "samples supported", s->max_range, SONAR_MAX_PING_LENGTH);
     goto done;
   }
   if (ping_length / wp.sample_rate > 1.0 / s->ping_rate) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "ping-rate %g Hz is too fast for max-range %g m: the %.1f ms "
         "recording window is longer than the %.1f ms between pings",
         s->ping_rate, s->max_range, 1e3 * ping_length / wp.sample_rate,

@@ -1,6 +1,7 @@
 /* sonar-cluster.c: see sonar-cluster.h. The linkage itself is
  * sonar-linkage.c's. */
 #include "sonar-cluster.h"
+#include "sonar-error.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -123,13 +124,13 @@ validate (const SonarImageGrid * g, const SonarClusterParams * p,
   else if (p->max_peaks < 1 || p->max_peaks > MAX_PEAKS)
     problem = "max-peaks must be 1 to 4096";
   if (problem) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "cluster: %s", problem);
     return FALSE;
   }
   if ((guint) p->linkage > SONAR_LINKAGE_CENTROID) {
     g_autofree char *nicks = sonar_linkage_nicks (", ");
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "cluster: linkage is %d; it must be one of %s", (int) p->linkage,
         nicks);
     return FALSE;

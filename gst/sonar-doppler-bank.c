@@ -1,5 +1,6 @@
 /* sonar-doppler-bank.c: see sonar-doppler-bank.h. */
 #include "sonar-doppler-bank.h"
+#include "sonar-error.h"
 #include "sonar-memory.h"
 #include "sonar-kernels.h"
 #include "sonar-interp.h"
@@ -71,14 +72,14 @@ bank_size (double c, double v_min, double v_max, double v_step,
 
   if (!(isfinite (v_min) && isfinite (v_max) && v_min <= v_max
           && fabs (v_min) < c / 4.0 && fabs (v_max) < c / 4.0)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "Doppler bank: velocities %g to %g m/s must satisfy min <= max and "
         "|v| < c / 4 (%.1f m/s)", v_min, v_max, c / 4.0);
     return 0;
   }
   count = v_max > v_min ? floor ((v_max - v_min) / v_step + 1e-9) + 1.0 : 1.0;
   if (!(v_step > 0.0) || count > SONAR_MAX_BANK_VELOCITIES) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "Doppler bank: step %g m/s must be positive and give at most %u "
         "velocities between %g and %g m/s", v_step, SONAR_MAX_BANK_VELOCITIES,
         v_min, v_max);

@@ -1,5 +1,6 @@
 /* sonar-imager.c: see sonar-imager.h. */
 #include "sonar-imager.h"
+#include "sonar-error.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
 #include "sonar-steering.h"
@@ -171,12 +172,12 @@ validate_params (const SonarImagerParams * p, double range_max,
   else if (!(p->refine_db > 0.0 && p->refine_db <= 200.0))
     problem = "refine-db must be in (0, 200] dB";
   if (problem) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "imager: %s", problem);
     return FALSE;
   }
   if (!(p->range_min > 0.0 && p->range_min < range_max)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "imager: range-min %g m must be above 0 and below the image's "
         "farthest range, %.3f m", p->range_min, range_max);
     return FALSE;

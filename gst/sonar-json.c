@@ -1,5 +1,6 @@
 /* sonar-json.c: see sonar-json.h. */
 #include "sonar-json.h"
+#include "sonar-error.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -11,7 +12,7 @@
 #include <unistd.h>
 
 #define SET_ERROR(error, ...) \
-  g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA, __VA_ARGS__)
+  g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT, __VA_ARGS__)
 
 /* Reads the whole of @path, refusing what is not a regular file (a FIFO
  * with no writer would block, /dev/zero never ends) or is larger than
@@ -28,7 +29,7 @@ read_json_file (const char *path, gsize * length, GError ** error)
   fd = open (path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
     int saved_errno = errno;
-    g_set_error (error, G_IO_ERROR, g_io_error_from_errno (saved_errno),
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FILE,
         "%s: cannot open: %s", path, g_strerror (saved_errno));
     return NULL;
   }
@@ -53,7 +54,7 @@ read_json_file (const char *path, gsize * length, GError ** error)
       continue;
     if (n < 0) {
       int saved_errno = errno;
-      g_set_error (error, G_IO_ERROR, g_io_error_from_errno (saved_errno),
+      g_set_error (error, SONAR_ERROR, SONAR_ERROR_FILE,
           "%s: cannot read: %s", path, g_strerror (saved_errno));
       g_free (contents);
       close (fd);

@@ -1,5 +1,6 @@
 /* sonar-memory.c: see sonar-memory.h. */
 #include "sonar-memory.h"
+#include "sonar-error.h"
 
 #include <gio/gio.h>
 #include <stdarg.h>
@@ -77,7 +78,7 @@ check_memory (guint64 bytes, guint64 max_memory, GError ** error,
   what = g_strdup_vprintf (format, args);
   needed = format_bytes (bytes);
   allowed = format_size (max_memory);
-  g_set_error (error, G_IO_ERROR, G_IO_ERROR_NO_SPACE, "%s needs %s, more "
+  g_set_error (error, SONAR_ERROR, SONAR_ERROR_MEMORY, "%s needs %s, more "
       "than max-memory (%s)", what, needed, allowed);
   return FALSE;
 }
@@ -107,7 +108,7 @@ sonar_memory_check_buffers (guint64 held_bytes, guint64 buffer_size,
   if (buffer_size > G_MAXUINT) {
     g_autofree char *what = g_strdup_vprintf (format, args);
     g_autofree char *size = format_bytes (buffer_size);
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_NO_SPACE, "%s: an output "
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_MEMORY, "%s: an output "
         "buffer of %s is more than a GStreamer buffer pool holds (%u bytes)",
         what, size, G_MAXUINT);
     ok = FALSE;

@@ -1,5 +1,6 @@
 /* sonar-scene.c: presets, scene files and their validation. */
 #include "sonar-scene.h"
+#include "sonar-error.h"
 #include "sonar-json.h"
 
 #include <gio/gio.h>
@@ -13,7 +14,7 @@
 #define MAX_STRENGTH 1e6
 
 #define SET_ERROR(error, ...) \
-  g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA, __VA_ARGS__)
+  g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT, __VA_ARGS__)
 
 /* Default: something to look at in every stage, one object approaching. */
 static const SonarPresetObject default_objects[] = {

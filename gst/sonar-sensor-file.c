@@ -1,5 +1,6 @@
 /* sonar-sensor-file.c: see sonar-sensor-file.h and docs/FORMATS.md. */
 #include "sonar-sensor-file.h"
+#include "sonar-error.h"
 #include "sonar-json.h"
 
 #include <gio/gio.h>
@@ -7,7 +8,7 @@
 #include <sndfile.h>
 
 #define SET_ERROR(error, ...) \
-  g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA, __VA_ARGS__)
+  g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT, __VA_ARGS__)
 
 /* Times given in seconds that land within this many samples of a whole
  * sample are that sample: a file's decimal seconds must not turn an
@@ -33,7 +34,7 @@ load_emissions_wav (const char *path, const char *origin, double sample_rate,
   float *rows;
 
   if (!file) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_NOT_FOUND,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FILE,
         "%s: \"waveforms\": cannot read %s as a sound file (%s)", origin,
         path, sf_strerror (NULL));
     return NULL;
@@ -330,7 +331,7 @@ sonar_sensor_file_save (const SonarSetup * setup, const char *path,
   root = json_builder_get_root (builder);
   json_generator_set_root (generator, root);
   if (!json_generator_to_file (generator, path, &write_error)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_FAILED,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FILE,
         "cannot write the sensor description %s: %s", path,
         write_error->message);
     g_error_free (write_error);

@@ -1,5 +1,6 @@
 /* sonar-setup.c: see sonar-setup.h. */
 #include "sonar-setup.h"
+#include "sonar-error.h"
 #include "sonar-fftw.h"
 #include "sonar-interp.h"
 #include "sonar-json.h"
@@ -11,7 +12,7 @@
 #include <string.h>
 
 #define SET_ERROR(error, ...) \
-  g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT, __VA_ARGS__)
+  g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, __VA_ARGS__)
 
 /* Two elements closer than this are one element entered twice. */
 #define MIN_ELEMENT_SPACING 1e-4
@@ -156,7 +157,7 @@ sonar_geometry_load_file (SonarGeometry * geometry, const char *path,
     sonar_geometry_clear (&defaults);
   }
   if (!sonar_geometry_validate (&loaded, &local_error)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA, "%s: %s", path,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT, "%s: %s", path,
         local_error->message);
     g_error_free (local_error);
     sonar_geometry_clear (&loaded);
@@ -225,7 +226,7 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
           error))
     return NULL;
   if (*sample_rate <= 0.0) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "%s: \"sample-rate\" must be positive (Hz), not %g", path,
         *sample_rate);
     return NULL;
@@ -244,7 +245,7 @@ sonar_waveforms_load_file (const char *path, guint * n_emitters,
         || !sonar_json_node_get_number (json_array_get_element (edges, 1),
             0.0, *sample_rate / 2.0, band_high, NULL, "band")
         || !(*band_low > 0.0 && *band_high > *band_low)) {
-      g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+      g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
           "%s: \"band\" must be [low, high] in Hz with 0 < low < high <= "
           "sample-rate / 2", path);
       g_free (waveforms);
@@ -339,7 +340,7 @@ sonar_setup_new_from_files (const char *geometry_file,
   if (!waveforms)
     goto done;
   if (n_rows != geometry.n_emitters) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "%s: holds %u waveforms, but the array has %u emitters",
         waveforms_file, n_rows, geometry.n_emitters);
     goto done;

@@ -48,6 +48,7 @@
  * reflector and ping with the plans and buffers made in _new().
  */
 #include "sonar-simulator.h"
+#include "sonar-error.h"
 #include "sonar-memory.h"
 #include "sonar-interp.h"
 #include "sonar-rng.h"
@@ -122,7 +123,7 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
   g_return_val_if_fail (setup != NULL && params != NULL, NULL);
 
   if (!(params->noise_amplitude >= 0.0 && params->noise_amplitude < 1e6)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "simulator: noise amplitude %g must be between 0 and 1e6",
         params->noise_amplitude);
     return NULL;

@@ -1,5 +1,6 @@
 /* sonar-velocity.c: see sonar-velocity.h. */
 #include "sonar-velocity.h"
+#include "sonar-error.h"
 #include "sonar-kernels.h"
 #include "sonar-steering.h"
 #include "sonar-workers.h"
@@ -80,7 +81,7 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   SonarSetup *setup;
 
   if (!band) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "velocity: the Doppler bank has no band spectra");
     return NULL;
   }
@@ -88,7 +89,7 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
       || params->window_ranges > MAX_WINDOW_RANGES
       || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)
       || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "velocity: window half-widths must be at most 32 directions and 256 "
         "range steps, second-peak-db positive, min-variance >= 0 and "
         "min-coherence in [0, 1]");
@@ -96,7 +97,7 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
   }
   setup = sonar_doppler_bank_get_setup (bank);
   if (params->emitters > setup->geometry.n_emitters) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "velocity: emitters is %u, the set-up has only %u", params->emitters,
         setup->geometry.n_emitters);
     return NULL;

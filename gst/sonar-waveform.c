@@ -14,6 +14,7 @@
  * wide (6.8 with the brick wall).
  */
 #include "sonar-waveform.h"
+#include "sonar-error.h"
 #include "sonar-rng.h"
 #include "sonar-setup.h"
 
@@ -23,7 +24,7 @@
 #include <string.h>
 
 #define SET_ERROR(error, ...) \
-  g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT, __VA_ARGS__)
+  g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, __VA_ARGS__)
 
 #define MIN_LENGTH 16
 /* Fewer FFT bins in the band is a tone, not a wideband emission. */

@@ -52,7 +52,7 @@ void sonar_waveform_params_init_default (SonarWaveformParams * params);
 
 /* Fills out[n_emitters * length] (row n is emitter n). Each row has unit
  * peak amplitude and is tapered at both ends. Returns FALSE and sets
- * @error (G_IO_ERROR_INVALID_ARGUMENT) when a parameter is out of range. */
+ * @error (SONAR_ERROR_SETTINGS) when a parameter is out of range. */
 gboolean sonar_waveform_generate (const SonarWaveformParams * params,
     float *out, GError ** error);
 

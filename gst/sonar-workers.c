@@ -5,6 +5,7 @@
  * freed could still have them running (and valgrind would see their
  * memory as lost). */
 #include "sonar-workers.h"
+#include "sonar-error.h"
 
 struct _SonarWorkers
 {
@@ -62,11 +63,16 @@ sonar_workers_new (guint n, GError ** error)
   w->n = CLAMP (n ? n : g_get_num_processors (), 1, SONAR_MAX_WORKERS);
   for (guint i = 1; i < w->n; i++) {
     WorkerArgs *args = g_new (WorkerArgs, 1);
+    GError *thread_error = NULL;
     args->set = w;
     args->index = i;
     w->threads[i] = g_thread_try_new ("sonar-worker", worker_main, args,
-        error);
+        &thread_error);
     if (!w->threads[i]) {
+      g_set_error (error, SONAR_ERROR, SONAR_ERROR_RESOURCE,
+          "cannot start worker thread %u of %u: %s", i + 1, w->n,
+          thread_error->message);
+      g_error_free (thread_error);
       g_free (args);
       w->n = i;                 /* the threads made so far are joined */
       sonar_workers_free (w);

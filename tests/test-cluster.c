@@ -14,6 +14,7 @@
 #include "sonar-cluster.h"
 #include "sonar-rng.h"
 #include "sonar-test-util.h"
+#include "sonar-error.h"
 
 /* The synthetic images are not sonar echoes: no spreading loss to undo. */
 static void
@@ -662,7 +663,7 @@ test_bad_params (void)
     if (!spoil (i, &g, &p))
       break;
     g_assert_null (sonar_clusterer_new (&g, &p, &error));
-    g_assert_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT);
+    g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
     g_test_message ("%s", error->message);
   }
 }

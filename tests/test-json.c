@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "sonar-error.h"
 #include "sonar-json.h"
 #include "sonar-scene.h"
 #include "sonar-setup.h"
@@ -70,7 +71,7 @@ test_missing_file (void)
 
   g_assert_false (sonar_scene_load_file (&scene, "/nonexistent/s.json",
           &error));
-  g_assert_error (error, G_IO_ERROR, G_IO_ERROR_NOT_FOUND);
+  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FILE);
   g_assert_cmpstr (error->message, ==,
       "/nonexistent/s.json: cannot open: No such file or directory");
   g_error_free (error);

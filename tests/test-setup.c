@@ -11,6 +11,7 @@
 #include "sonar-sensor-file.h"
 #include "sonar-setup.h"
 #include "sonar-test-util.h"
+#include "sonar-error.h"
 
 /* The built-in microphone table is the published eRTIS layout. */
 static void
@@ -121,7 +122,7 @@ test_geometry_file_errors (void)
     GError *error = NULL;
     g_assert_false (sonar_geometry_load_file (&g, "/nonexistent/a.json",
             &error));
-    g_assert_error (error, G_IO_ERROR, G_IO_ERROR_NOT_FOUND);
+    g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FILE);
     g_assert_nonnull (strstr (error->message, "/nonexistent/a.json"));
     g_error_free (error);
   }

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "sonar-test-util.h"
+#include "sonar-error.h"
 #include "sonar-waveform.h"
 
 #define N_EMITTERS 8
@@ -470,7 +471,7 @@ test_invalid_params (void)
 
     memset (out, 0, (gsize) N_EMITTERS * LENGTH * sizeof (float));
     g_assert_false (sonar_waveform_generate (&cases[c].params, out, &error));
-    g_assert_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT);
+    g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
     g_test_message ("%s", error->message);
     g_assert_nonnull (strstr (error->message, cases[c].parameter));
     /* Nothing written on failure. */

@@ -1,5 +1,6 @@
 /* sonar-contracts.c: see sonar-contracts.h and docs/CONTRACTS.md. */
 #include "sonar-contracts.h"
+#include "sonar-error.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -67,13 +68,13 @@ get_vec3_bytes (const GstStructure * s, const char *field, guint n,
 
   if (!value || !G_VALUE_HOLDS (value, G_TYPE_BYTES)
       || !(bytes = g_value_get_boxed (value))) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: missing field \"%s\"", field);
     return FALSE;
   }
   xyz = g_bytes_get_data (bytes, &size);
   if (size != sizeof (double) * 3 * n) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: \"%s\" holds %" G_GSIZE_FORMAT " bytes, "
         "expected %u positions", field, size, n);
     return FALSE;
@@ -109,7 +110,7 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
           "n-emitters", G_TYPE_UINT, &geometry.n_emitters, NULL)
       || !(view = gst_structure_get_string (s, "field-of-view"))
       || !sonar_field_of_view_from_string (view, &p.field_of_view)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: missing or mistyped field (see "
         "docs/CONTRACTS.md)");
     return NULL;
@@ -117,7 +118,7 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
   if (geometry.n_microphones > SONAR_MAX_MICROPHONES
       || geometry.n_emitters > SONAR_MAX_EMITTERS
       || p.waveform_length > SONAR_MAX_WAVEFORM_LENGTH) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: sizes out of range");
     return NULL;
   }
@@ -126,7 +127,7 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
       || !(waveforms = g_value_get_boxed (value))
       || g_bytes_get_size (waveforms) !=
       sizeof (float) * geometry.n_emitters * p.waveform_length) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_DATA,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: \"waveforms\" must hold n-emitters x "
         "waveform-length floats");
     return NULL;

@@ -312,7 +312,7 @@ add_truths (GstSonarViz * self, GstBuffer * buffer)
   for (guint k = 0; k < meta->n_truths; k++) {
     const SonarTruth *t = &meta->truths[k];
     SonarRenderPoint p = { t->range, t->azimuth, t->elevation,
-      t->radial_velocity
+      t->radial_velocity, FALSE
     };
     g_array_append_val (self->truths, p);
   }
@@ -325,7 +325,7 @@ add_detections (GstSonarViz * self, const SonarDetectionsMeta * meta,
   for (guint k = 0; meta && k < meta->n_detections; k++) {
     const SonarDetection *d = &meta->detections[k];
     SonarRenderPoint p = { d->range, d->azimuth, d->elevation,
-      d->radial_velocity
+      d->radial_velocity, !d->valid
     };
     if (d->valid || show_rejected)
       g_array_append_val (self->detections, p);
@@ -733,8 +733,8 @@ gst_sonar_viz_class_init (GstSonarVizClass * klass)
           "(sonarsrc's SonarTruthMeta)", DEFAULT_SHOW_TRUTH, flags));
   g_object_class_install_property (gobject_class, PROP_SHOW_REJECTED,
       g_param_spec_boolean ("show-rejected", "Show rejected", "Draw the "
-          "detections velocityest rejected as false positives too (with its "
-          "keep-rejected=true)", DEFAULT_SHOW_REJECTED, flags));
+          "detections velocityest rejected as false positives too, in grey "
+          "(with its keep-rejected=true)", DEFAULT_SHOW_REJECTED, flags));
 
   gst_element_class_add_static_pad_template_with_gtype (element_class,
       &sink_template, GST_TYPE_AGGREGATOR_PAD);

@@ -303,6 +303,12 @@ sonar_render_truth_colour (void)
 }
 
 SonarRgb
+sonar_render_rejected_colour (void)
+{
+  return unknown_colour;
+}
+
+SonarRgb
 sonar_render_background_colour (void)
 {
   return background_colour;
@@ -907,6 +913,8 @@ draw_label (SonarRenderer * r, const SonarRenderPoint * d, guint8 * pixels,
     return;
   colour = sonar_render_velocity_label (d->radial_velocity, label,
       sizeof label);
+  if (d->rejected)
+    colour = unknown_colour;
   if (!r->fan) {
     /* The map hides the range: say it. */
     g_snprintf (range_text, sizeof range_text, ", %.2f m", d->range);
@@ -961,6 +969,8 @@ draw_marker (SonarRenderer * r, const SonarRenderPoint * d, guint8 * pixels,
     return;
   colour = sonar_render_velocity_label (d->radial_velocity, label,
       sizeof label);
+  if (d->rejected)
+    colour = unknown_colour;
   draw_circle (pixels, stride, r->width, r->height, px, py,
       SONAR_RENDER_MARKER_RADIUS * s, 2.0 * s + 2.0, label_box_colour);
   draw_circle (pixels, stride, r->width, r->height, px, py,

@@ -45,11 +45,14 @@ typedef struct
 } SonarRgb;
 
 /* A point to mark: position (m, degrees) and, for a detection, its radial
- * velocity (m/s, positive moving away; NaN when unknown: a grey dot). */
+ * velocity (m/s, positive moving away; NaN when unknown) and whether it
+ * failed the false-positive tests (drawn grey, as is an unknown
+ * velocity). */
 typedef struct
 {
   double range, azimuth, elevation;
   double radial_velocity;
+  gboolean rejected;
 } SonarRenderPoint;
 
 /* Everything one frame shows. */
@@ -111,6 +114,7 @@ SonarRgb sonar_render_velocity_label (double radial_velocity, char *text,
 SonarRgb sonar_render_approaching_colour (void);
 SonarRgb sonar_render_receding_colour (void);
 SonarRgb sonar_render_truth_colour (void);
+SonarRgb sonar_render_rejected_colour (void);
 SonarRgb sonar_render_background_colour (void);
 
 /* The colour map: level 0 (the bottom of the dynamic range) to 1 (the

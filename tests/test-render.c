@@ -126,6 +126,7 @@ test_mark_colours (void)
   const SonarRgb marks[] = {
     sonar_render_approaching_colour (), sonar_render_receding_colour (),
     sonar_render_truth_colour (), sonar_render_background_colour (),
+    sonar_render_rejected_colour (),
   };
 
   for (guint k = 0; k < G_N_ELEMENTS (marks); k++) {
@@ -285,6 +286,17 @@ test_marks (void)
   /* Away from every mark: the image. */
   g_assert_true (sonar_renderer_project (r, 4.0, 0.0, 0, &px, &py));
   g_assert_true (in_colour_map (pixel_at (pixels, W * 3, px, py)));
+
+  /* A rejected detection is grey, whatever its velocity. */
+  {
+    const SonarRenderPoint rejected = { 4.0, 0.0, 0, -2.0, TRUE };
+    f.detections = &rejected;
+    f.n_detections = 1;
+    sonar_renderer_draw (r, &f, pixels, (gsize) W * 3);
+    g_assert_true (near_colour (pixels, W * 3, px - marker, py,
+            sonar_render_rejected_colour ()));
+    g_assert_false (in_colour_map (sonar_render_rejected_colour ()));
+  }
   g_free (pixels);
   g_free (image);
   sonar_renderer_free (r);

@@ -482,6 +482,46 @@ test_errors (void)
   g_free (error);
 }
 
+/* A new size set while playing is negotiated before a later frame. */
+static void
+test_resize_while_playing (void)
+{
+  GstElement *pipeline = gst_parse_launch ("sonarsrc num-buffers=6 "
+      "! dopplerbank velocity-min=-1 velocity-max=1 ! mimobeamform "
+      "! sonarviz name=viz width=640 height=360 "
+      "! appsink name=sink sync=false max-buffers=1", NULL);
+  GstElement *viz = gst_bin_get_by_name (GST_BIN (pipeline), "viz");
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstSample *sample;
+  guint frames = 0;
+  int width = 0, height = 0;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    GstStructure *s = gst_caps_get_structure (gst_sample_get_caps (sample),
+        0);
+    GstMapInfo map;
+
+    gst_structure_get_int (s, "width", &width);
+    gst_structure_get_int (s, "height", &height);
+    gst_buffer_map (gst_sample_get_buffer (sample), &map, GST_MAP_READ);
+    g_assert_cmpuint (map.size, ==, GST_ROUND_UP_4 (width * 3) * height);
+    gst_buffer_unmap (gst_sample_get_buffer (sample), &map);
+    if (frames++ == 0) {
+      g_assert_cmpint (width, ==, 640);
+      g_object_set (viz, "width", 800, "height", 450, NULL);
+    }
+    gst_sample_unref (sample);
+  }
+  g_assert_cmpuint (frames, ==, 6);
+  g_assert_cmpint (width, ==, 800);
+  g_assert_cmpint (height, ==, 450);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (viz);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
 /* Display settings change while playing (GST_PARAM_MUTABLE_PLAYING). */
 static void
 test_properties (void)
@@ -513,6 +553,8 @@ main (int argc, char **argv)
   g_test_add_func ("/sonarviz/mp4", test_mp4);
   g_test_add_func ("/sonarviz/autovideosink", test_autovideosink);
   g_test_add_func ("/sonarviz/errors", test_errors);
+  g_test_add_func ("/sonarviz/resize-while-playing",
+      test_resize_while_playing);
   g_test_add_func ("/sonarviz/properties", test_properties);
   return g_test_run ();
 }

@@ -7,6 +7,7 @@
 #include "gstdopplerbank.h"
 #include "gstmimobeamform.h"
 #include "gstsonarsrc.h"
+#include "gstsonarviz.h"
 #include "gstvelocityest.h"
 #include "gstwardcluster.h"
 
@@ -20,10 +21,11 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (mimobeamform, plugin);
   ok |= GST_ELEMENT_REGISTER (wardcluster, plugin);
   ok |= GST_ELEMENT_REGISTER (velocityest, plugin);
+  ok |= GST_ELEMENT_REGISTER (sonarviz, plugin);
   return ok;
 }
 
 GST_PLUGIN_DEFINE (GST_VERSION_MAJOR, GST_VERSION_MINOR, sonar,
     "MIMO in-air sonar: simulation, Doppler matched-filter bank, imaging, "
-    "clustering and radial velocity estimation", plugin_init, VERSION,
+    "clustering, radial velocity estimation and display", plugin_init, VERSION,
     "LGPL", PACKAGE, PACKAGE_ORIGIN)

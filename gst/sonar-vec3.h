@@ -9,6 +9,12 @@
 
 #include <math.h>
 
+/* M_PI is POSIX, not C11: an application compiled with -std=c11 (this
+ * header is installed) has none unless it asks for it. */
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 typedef struct
 {
   double x, y, z;

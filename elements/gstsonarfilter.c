@@ -226,6 +226,9 @@ gst_sonar_filter_sink_event (GstPad * pad, GstObject * parent,
   GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
   GstSonarFilterPrivate *priv = PRIV (filter);
 
+  /* A set-up that crossed a network (gdppay) comes with its type cut. */
+  if (sonar_event_is_setup (event))
+    event = sonar_setup_event_restore (event);
   switch (GST_EVENT_TYPE (event)) {
     case GST_EVENT_CAPS:{
       GstCaps *caps;

@@ -8,27 +8,58 @@
 
 /* The set-up event ------------------------------------------------------*/
 
-static GBytes *
-vec3_bytes (const SonarVec3 * v, guint n)
+/* Arrays of numbers travel as base64 text of their little-endian IEEE
+ * 754 values: a structure of strings survives serialisation
+ * (gst_structure_to_string (), GStreamer's data protocol, gdppay) bit for
+ * bit, which GBytes fields do not. */
+static char *
+doubles_to_base64 (const double *v, gsize n)
 {
-  double *xyz = g_new (double, 3 * n);
+  g_autofree guint64 *le = g_new (guint64, MAX (n, 1));
+
+  for (gsize i = 0; i < n; i++) {
+    guint64 bits;
+    memcpy (&bits, &v[i], sizeof bits);
+    le[i] = GUINT64_TO_LE (bits);
+  }
+  return g_base64_encode ((const guchar *) le, n * sizeof (guint64));
+}
+
+static char *
+floats_to_base64 (const float *v, gsize n)
+{
+  g_autofree guint32 *le = g_new (guint32, MAX (n, 1));
+
+  for (gsize i = 0; i < n; i++) {
+    guint32 bits;
+    memcpy (&bits, &v[i], sizeof bits);
+    le[i] = GUINT32_TO_LE (bits);
+  }
+  return g_base64_encode ((const guchar *) le, n * sizeof (guint32));
+}
+
+static char *
+vec3_to_base64 (const SonarVec3 * v, guint n)
+{
+  g_autofree double *xyz = g_new (double, 3 * (gsize) MAX (n, 1));
+
   for (guint i = 0; i < n; i++) {
     xyz[3 * i] = v[i].x;
     xyz[3 * i + 1] = v[i].y;
     xyz[3 * i + 2] = v[i].z;
   }
-  return g_bytes_new_take (xyz, sizeof (double) * 3 * n);
+  return doubles_to_base64 (xyz, 3 * (gsize) n);
 }
 
 GstEvent *
 sonar_setup_event_new (const SonarSetup * setup)
 {
   const SonarGeometry *g = &setup->geometry;
-  g_autoptr (GBytes) microphones = vec3_bytes (g->microphones,
+  g_autofree char *microphones = vec3_to_base64 (g->microphones,
       g->n_microphones);
-  g_autoptr (GBytes) emitters = vec3_bytes (g->emitters, g->n_emitters);
-  g_autoptr (GBytes) waveforms = g_bytes_new (setup->waveforms,
-      sizeof (float) * g->n_emitters * setup->waveform_length);
+  g_autofree char *emitters = vec3_to_base64 (g->emitters, g->n_emitters);
+  g_autofree char *waveforms = floats_to_base64 (setup->waveforms,
+      (gsize) g->n_emitters * setup->waveform_length);
   GstStructure *s = gst_structure_new (SONAR_SETUP_EVENT_NAME,
       "sample-rate", G_TYPE_DOUBLE, setup->sample_rate,
       "speed-of-sound", G_TYPE_DOUBLE, setup->speed_of_sound,
@@ -43,42 +74,85 @@ sonar_setup_event_new (const SonarSetup * setup)
       "waveform-length", G_TYPE_UINT, setup->waveform_length,
       "n-microphones", G_TYPE_UINT, g->n_microphones,
       "n-emitters", G_TYPE_UINT, g->n_emitters,
-      "microphones", G_TYPE_BYTES, microphones,
-      "emitters", G_TYPE_BYTES, emitters,
-      "waveforms", G_TYPE_BYTES, waveforms, NULL);
+      "microphones", G_TYPE_STRING, microphones,
+      "emitters", G_TYPE_STRING, emitters,
+      "waveforms", G_TYPE_STRING, waveforms, NULL);
 
   return gst_event_new_custom (GST_EVENT_CUSTOM_DOWNSTREAM_STICKY, s);
 }
 
+/* The bits of an event's type that GStreamer's data protocol carries. */
+#define DATA_PROTOCOL_TYPE_MASK 0xffff
+
 gboolean
 sonar_event_is_setup (GstEvent * event)
 {
-  return GST_EVENT_TYPE (event) == GST_EVENT_CUSTOM_DOWNSTREAM_STICKY
+  const guint type = GST_EVENT_TYPE (event);
+
+  return (type == GST_EVENT_CUSTOM_DOWNSTREAM_STICKY
+      || type == (GST_EVENT_CUSTOM_DOWNSTREAM_STICKY &
+          DATA_PROTOCOL_TYPE_MASK))
       && gst_event_has_name (event, SONAR_SETUP_EVENT_NAME);
 }
 
-static gboolean
-get_vec3_bytes (const GstStructure * s, const char *field, guint n,
-    SonarVec3 ** out, GError ** error)
+GstEvent *
+sonar_setup_event_restore (GstEvent * event)
 {
-  const GValue *value = gst_structure_get_value (s, field);
-  GBytes *bytes;
-  gsize size;
-  const double *xyz;
+  GstEvent *restored;
 
-  if (!value || !G_VALUE_HOLDS (value, G_TYPE_BYTES)
-      || !(bytes = g_value_get_boxed (value))) {
+  if (GST_EVENT_TYPE (event) == GST_EVENT_CUSTOM_DOWNSTREAM_STICKY)
+    return event;
+  restored = gst_event_new_custom (GST_EVENT_CUSTOM_DOWNSTREAM_STICKY,
+      gst_structure_copy (gst_event_get_structure (event)));
+  gst_event_unref (event);
+  return restored;
+}
+
+/* The @n values of @width bytes each that field @field of @s encodes
+ * (see doubles_to_base64 ()), in host order: g_free them. */
+static gpointer
+get_base64_array (const GstStructure * s, const char *field, gsize n,
+    gsize width, GError ** error)
+{
+  const char *text = gst_structure_get_string (s, field);
+  guchar *data;
+  gsize size;
+
+  if (!text) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
-        "sonar-setup event: missing field \"%s\"", field);
-    return FALSE;
+        "sonar-setup event: missing string field \"%s\"", field);
+    return NULL;
   }
-  xyz = g_bytes_get_data (bytes, &size);
-  if (size != sizeof (double) * 3 * n) {
+  data = g_base64_decode (text, &size);
+  if (size != n * width) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: \"%s\" holds %" G_GSIZE_FORMAT " bytes, "
-        "expected %u positions", field, size, n);
-    return FALSE;
+        "expected %" G_GSIZE_FORMAT " values of %" G_GSIZE_FORMAT " bytes",
+        field, size, n, width);
+    g_free (data);
+    return NULL;
   }
+  for (gsize i = 0; i < n; i++) {
+    if (width == sizeof (guint64)) {
+      guint64 *v = (guint64 *) (gpointer) data + i;
+      *v = GUINT64_FROM_LE (*v);
+    } else {
+      guint32 *v = (guint32 *) (gpointer) data + i;
+      *v = GUINT32_FROM_LE (*v);
+    }
+  }
+  return data;
+}
+
+static gboolean
+get_vec3_array (const GstStructure * s, const char *field, guint n,
+    SonarVec3 ** out, GError ** error)
+{
+  g_autofree double *xyz = get_base64_array (s, field, 3 * (gsize) n,
+      sizeof (double), error);
+
+  if (!xyz)
+    return FALSE;
   *out = g_new (SonarVec3, n);
   for (guint i = 0; i < n; i++)
     (*out)[i] = sonar_vec3 (xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
@@ -91,8 +165,7 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
   SonarSetupParams p;
   SonarGeometry geometry = { 0 };
   const char *view = NULL;
-  const GValue *value;
-  GBytes *waveforms;
+  g_autofree float *waveforms = NULL;
   SonarSetup *setup = NULL;
 
   sonar_setup_params_init (&p);
@@ -122,22 +195,15 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
         "sonar-setup event: sizes out of range");
     return NULL;
   }
-  value = gst_structure_get_value (s, "waveforms");
-  if (!value || !G_VALUE_HOLDS (value, G_TYPE_BYTES)
-      || !(waveforms = g_value_get_boxed (value))
-      || g_bytes_get_size (waveforms) !=
-      sizeof (float) * geometry.n_emitters * p.waveform_length) {
-    g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
-        "sonar-setup event: \"waveforms\" must hold n-emitters x "
-        "waveform-length floats");
-    return NULL;
-  }
-  if (get_vec3_bytes (s, "microphones", geometry.n_microphones,
+  waveforms = get_base64_array (s, "waveforms", (gsize) geometry.n_emitters *
+      p.waveform_length, sizeof (float), error);
+  if (waveforms
+      && get_vec3_array (s, "microphones", geometry.n_microphones,
           &geometry.microphones, error)
-      && get_vec3_bytes (s, "emitters", geometry.n_emitters,
+      && get_vec3_array (s, "emitters", geometry.n_emitters,
           &geometry.emitters, error)) {
     p.geometry = &geometry;
-    p.waveforms = g_bytes_get_data (waveforms, NULL);
+    p.waveforms = waveforms;
     setup = sonar_setup_new (&p, error);
   }
   sonar_geometry_clear (&geometry);

@@ -39,7 +39,15 @@ G_BEGIN_DECLS
 #define SONAR_SETUP_EVENT_NAME "sonar-setup"
 
 GstEvent *sonar_setup_event_new (const SonarSetup * setup);
+/* Whether @event is a set-up event: a custom downstream sticky event named
+ * SONAR_SETUP_EVENT_NAME, or one that GStreamer's data protocol (gdppay,
+ * gdpdepay) brought over with its type cut to 16 bits, which is how every
+ * custom event arrives through it in GStreamer 1.22. */
 gboolean sonar_event_is_setup (GstEvent * event);
+/* @event (a set-up event, consumed) as a custom downstream sticky event:
+ * the same, or, when it came through the data protocol, a new one with
+ * its structure. */
+GstEvent *sonar_setup_event_restore (GstEvent * event);
 /* NULL with @error when the event's structure is malformed. */
 SonarSetup *sonar_setup_from_event (GstEvent * event, GError ** error);
 /* Same from a bare structure (e.g. a saved one). */

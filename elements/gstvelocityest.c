@@ -169,6 +169,16 @@ add_detection (GstVelocityEst * self, guint centroid,
   g_array_append_val (self->detections, d);
 }
 
+/* Removes @buffer's spectra meta, if any. */
+static void
+release_spectra (GstBuffer * buffer)
+{
+  SonarSpectraMeta *meta = sonar_buffer_get_spectra_meta (buffer);
+
+  if (meta)
+    gst_buffer_remove_meta (buffer, (GstMeta *) meta);
+}
+
 static GstFlowReturn
 gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
 {
@@ -212,6 +222,10 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   out = gst_buffer_new_wrapped (json, strlen (json));
   gst_buffer_copy_into (out, buffer, GST_BUFFER_COPY_TIMESTAMPS |
       GST_BUFFER_COPY_META, 0, -1);
+  /* The results let go of the ping's spectra (a reference to its largest
+   * buffer, 0.7 MB at the defaults), which only this stage reads: a
+   * queue of JSON lines holds kilobytes, not pings. */
+  release_spectra (out);
   sonar_buffer_add_detections_meta (out, ping,
       (SonarDetection *) self->detections->data, self->detections->len);
   if (self->post_messages)

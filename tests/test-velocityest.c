@@ -665,6 +665,28 @@ test_linkages_default_scene (void)
   }
 }
 
+/* velocityest's results do not hold the ping's spectra (the largest
+ * buffer of the chain) while they wait downstream; the truth and the
+ * detections stay with them. */
+static void
+test_results_release_spectra (void)
+{
+  GstSample *sample;
+  GstBuffer *buffer;
+
+  run_one_ping ("sonarsrc num-buffers=1 ! dopplerbank " NARROW_BANK
+      " ! mimobeamform ! wardcluster ! velocityest ! appsink name=sink "
+      "sync=false", 1, &sample);
+  buffer = gst_sample_get_buffer (sample);
+  g_assert_null (sonar_buffer_get_spectra_meta (buffer));
+  g_assert_nonnull (sonar_buffer_get_detections_meta (buffer));
+  g_assert_cmpuint (sample_truth (sample)->n_truths, ==, 3);
+  g_assert_cmpuint (sample_detections (sample)->n_detections, ==, 3);
+  /* Small: the JSON line, not the spectra. */
+  g_assert_cmpuint (gst_buffer_get_size (buffer), <, 4096);
+  gst_sample_unref (sample);
+}
+
 /* 6. Errors -------------------------------------------------------------------*/
 
 static void
@@ -1048,6 +1070,8 @@ main (int argc, char **argv)
   g_test_add_func ("/velocityest/error/min-coherence-range",
       test_error_min_coherence_range);
   g_test_add_func ("/velocityest/messages", test_messages);
+  g_test_add_func ("/velocityest/results-release-spectra",
+      test_results_release_spectra);
   g_test_add_func ("/velocityest/state/rerun-identical",
       test_rerun_identical);
   g_test_add_func ("/velocityest/state/stop-mid-run", test_stop_mid_run);

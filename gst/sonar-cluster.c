@@ -407,23 +407,16 @@ column_floor (SonarClusterer * c, gsize d, guint i)
 }
 
 /* Per range bin: sidelobe_db below the strongest pixel within
- * SONAR_CLUSTER_SIDELOBE_RANGE, over every direction. */
+ * SONAR_CLUSTER_SIDELOBE_RANGE, over every direction (c->row_max, each
+ * range's strongest, gathered by sonar_clusterer_process ()). */
 static void
-sidelobe_thresholds (SonarClusterer * c, const float *image)
+sidelobe_thresholds (SonarClusterer * c)
 {
   const SonarImageGrid *g = &c->grid;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
   const float ratio = (float) pow (10.0, c->params.sidelobe_db / 20.0);
   const int w = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
       MAX (g->range_step, 1e-9));
 
-  memset (c->row_max, 0, sizeof (float) * g->n_range);
-  for (gsize d = 0; d < n_dirs; d++)
-    for (guint i = 0; i < g->n_range; i++) {
-      const float v = image[d * g->n_range + i];
-      if (v > c->row_max[i] && isfinite (v))
-        c->row_max[i] = v;
-    }
   for (guint i = 0; i < g->n_range; i++) {
     float top = 0.0f;
     for (int j = MAX ((int) i - w, 0); j <= MIN ((int) i + w,
@@ -581,26 +574,32 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   g_return_val_if_fail (out || max_centroids == 0, 0);
   g = &c->grid;
   n_pixels = sonar_image_grid_size (g);
-  if (c->compensated) {
-    for (gsize d = 0; d < n_pixels / g->n_range; d++) {
-      for (guint i = 0; i < g->n_range; i++) {
-        const float r = (float) (g->range_first + i * g->range_step);
-        c->compensated[d * g->n_range + i] = image[d * g->n_range + i] * r * r;
-      }
+  /* One pass over the image: compensated (when so set), each range's
+   * strongest pixel over the directions (for the sidelobe thresholds),
+   * and so the image's. */
+  memset (c->row_max, 0, sizeof (float) * g->n_range);
+  for (gsize d = 0; d < n_pixels / g->n_range; d++) {
+    const float *in = image + d * g->n_range;
+    float *compensated = c->compensated ? c->compensated + d * g->n_range :
+        NULL;
+    for (guint i = 0; i < g->n_range; i++) {
+      const float r = (float) (g->range_first + i * g->range_step);
+      const float v = compensated ? (compensated[i] = in[i] * r * r) : in[i];
+      if (v > c->row_max[i] && isfinite (v))
+        c->row_max[i] = v;
     }
-    image = c->compensated;
   }
-
-  for (gsize p = 0; p < n_pixels; p++)
-    if (image[p] > max && isfinite (image[p]))
-      max = image[p];
+  if (c->compensated)
+    image = c->compensated;
+  for (guint i = 0; i < g->n_range; i++)
+    max = MAX (max, c->row_max[i]);
   c->n_found = c->n_peaks = 0;
   if (!(max > 0.0f))
     return 0;
   threshold = MAX (max * pow (10.0, c->params.threshold_db / 20.0),
       c->params.absolute_threshold);
   noise_floors (c, image);
-  sidelobe_thresholds (c, image);
+  sidelobe_thresholds (c);
   c->raw = raw;
   c->column_gain = (float) (COLUMN_MARGIN * sonar_cluster_floor_gain
       (c->params.pfa, sonar_cluster_effective_hypotheses

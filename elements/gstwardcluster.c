@@ -92,10 +92,13 @@ struct _GstWardCluster
   GstSonarFilter parent;
 
   SonarClusterParams params;    /* protected by the object lock */
+  gboolean retune;              /* params changed while playing: at the
+                                 * next ping (object lock) */
   gboolean post_messages;
 
   SonarClusterer *clusterer;
   SonarImageGrid grid;
+  guint hypotheses;             /* the energyscape caps' */
   /* One more than are kept: room for one tells when some were dropped. */
   SonarCentroid centroids[MAX_CENTROIDS + 1];
   gboolean warned_dropped;      /* the bus warning is posted once */
@@ -131,6 +134,7 @@ gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
   params = self->params;
   GST_OBJECT_UNLOCK (self);
   params.hypotheses = hypotheses;
+  self->hypotheses = hypotheses;
   self->clusterer = sonar_clusterer_new (&self->grid, &params, error);
   if (!self->clusterer)
     return NULL;
@@ -143,6 +147,31 @@ gst_ward_cluster_unconfigure (GstSonarFilter * filter)
 {
   g_clear_pointer (&GST_WARD_CLUSTER (filter)->clusterer,
       sonar_clusterer_free);
+}
+
+/* Thresholds and the stop criterion set while playing take effect at the
+ * next ping (sonar_clusterer_retune ()). */
+static void
+retune (GstWardCluster * self)
+{
+  SonarClusterParams params;
+  GError *error = NULL;
+
+  GST_OBJECT_LOCK (self);
+  params = self->params;
+  if (!self->retune) {
+    GST_OBJECT_UNLOCK (self);
+    return;
+  }
+  self->retune = FALSE;
+  GST_OBJECT_UNLOCK (self);
+  params.hypotheses = self->hypotheses;
+  if (!sonar_clusterer_retune (self->clusterer, &params, &error)) {
+    /* The properties' ranges keep the values valid: this would be a bug. */
+    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s", error->message),
+        (NULL));
+    g_error_free (error);
+  }
 }
 
 static GstFlowReturn
@@ -163,6 +192,7 @@ gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
     gst_buffer_unref (buffer);
     return GST_FLOW_ERROR;
   }
+  retune (self);
   gst_buffer_map (buffer, &map, GST_MAP_READ);
   header = (const SonarEnergyscapeHeader *) map.data;
   ping = header->ping_index;
@@ -243,6 +273,8 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
   }
+  if (pspec->flags & GST_PARAM_MUTABLE_PLAYING)
+    self->retune = TRUE;
   GST_OBJECT_UNLOCK (self);
 }
 
@@ -313,6 +345,10 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
   GstSonarFilterClass *filter_class = GST_SONAR_FILTER_CLASS (klass);
   const GParamFlags flags = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
       | GST_PARAM_MUTABLE_READY;
+  /* What sonar_clusterer_retune () takes: changed while playing, it holds
+   * from the next ping on. */
+  const GParamFlags tunable = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
+      | GST_PARAM_MUTABLE_PLAYING;
   SonarClusterParams d;
 
   sonar_cluster_params_init_default (&d);
@@ -324,19 +360,19 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           "this, in dB relative to the ping's strongest, are no peaks "
           "(-200: off; the sidelobe and noise-floor tests bound what a "
           "strong echo leaves elsewhere)",
-          -200.0, 0.0, d.threshold_db, flags));
+          -200.0, 0.0, d.threshold_db, tunable));
   g_object_class_install_property (gobject_class, PROP_SIDELOBE,
       g_param_spec_double ("sidelobe-threshold", "Sidelobe threshold",
           "Pixels weaker than this, in dB relative to the strongest pixel "
           "of their range (within 2 cm, any direction), are no "
           "peaks: a point's sidelobes lie at its range, at most 21.8 dB "
           "below it in the MIMO image (-200: off)",
-          -200.0, 0.0, d.sidelobe_db, flags));
+          -200.0, 0.0, d.sidelobe_db, tunable));
   g_object_class_install_property (gobject_class, PROP_ABSOLUTE_THRESHOLD,
       g_param_spec_double ("absolute-threshold", "Absolute threshold",
           "Pixels weaker than this envelope value (range-compensated if "
           "range-compensation is on) are no peaks (0: off)",
-          0.0, G_MAXDOUBLE, d.absolute_threshold, flags));
+          0.0, G_MAXDOUBLE, d.absolute_threshold, tunable));
   g_object_class_install_property (gobject_class, PROP_PFA,
       g_param_spec_double ("pfa", "Probability of false alarm",
           "Probability that a pixel of noise alone passes the noise-floor "
@@ -344,27 +380,27 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           "their range over the directions times the factor noise exceeds "
           "that rarely (from the image's Doppler hypotheses, caps field "
           "\"hypotheses\") are no peaks (1: off)",
-          1e-15, 1.0, d.pfa, flags));
+          1e-15, 1.0, d.pfa, tunable));
   g_object_class_install_property (gobject_class, PROP_LINKAGE,
       g_param_spec_enum ("linkage", "Linkage", "How the distance between "
           "two clusters is measured", GST_TYPE_SONAR_LINKAGE, d.linkage,
           flags));
   g_object_class_install_property (gobject_class, PROP_STOP,
       g_param_spec_enum ("stop", "Stop criterion", "When merging stops",
-          GST_TYPE_SONAR_STOP, d.stop, flags));
+          GST_TYPE_SONAR_STOP, d.stop, tunable));
   g_object_class_install_property (gobject_class, PROP_INCONSISTENCY,
       g_param_spec_double ("inconsistency", "Inconsistency", "stop="
           "inconsistency: largest inconsistency coefficient of a merge "
           "(height minus the mean of the levels below, over their standard "
-          "deviation)", 0.0, 100.0, d.inconsistency, flags));
+          "deviation)", 0.0, 100.0, d.inconsistency, tunable));
   g_object_class_install_property (gobject_class, PROP_DEPTH,
       g_param_spec_uint ("depth", "Depth", "Merge levels in the "
           "inconsistency coefficient (the paper uses 3 sub-branches)", 1, 64,
-          d.depth, flags));
+          d.depth, tunable));
   g_object_class_install_property (gobject_class, PROP_DISTANCE,
       g_param_spec_double ("distance", "Distance", "stop=distance: highest "
           "merge, in metres (the linkage's own height)", 0.0, 1000.0,
-          d.distance, flags));
+          d.distance, tunable));
   g_object_class_install_property (gobject_class, PROP_MAX_PEAKS,
       g_param_spec_uint ("max-peaks", "Maximum peaks", "Peaks clustered per "
           "ping, the strongest kept (complete and average linkage keep a "
@@ -378,7 +414,7 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-centroids\" element message per ping",
-          DEFAULT_POST_MESSAGES, flags));
+          DEFAULT_POST_MESSAGES, tunable));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

@@ -174,6 +174,36 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   return c;
 }
 
+gboolean
+sonar_clusterer_retune (SonarClusterer * c, const SonarClusterParams * p,
+    GError ** error)
+{
+  SonarClusterParams tuned = c->params;
+
+  g_return_val_if_fail (c && p, FALSE);
+  if (p->hypotheses != c->params.hypotheses
+      || p->linkage != c->params.linkage
+      || p->max_peaks != c->params.max_peaks
+      || !p->range_compensation != !c->params.range_compensation) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, "cluster: "
+        "hypotheses, linkage, max-peaks and range-compensation are set when "
+        "the clusterer is made, not between pings");
+    return FALSE;
+  }
+  tuned.threshold_db = p->threshold_db;
+  tuned.absolute_threshold = p->absolute_threshold;
+  tuned.sidelobe_db = p->sidelobe_db;
+  tuned.pfa = p->pfa;
+  tuned.stop = p->stop;
+  tuned.inconsistency = p->inconsistency;
+  tuned.depth = p->depth;
+  tuned.distance = p->distance;
+  if (!validate (&c->grid, &tuned, error))
+    return FALSE;
+  c->params = tuned;
+  return TRUE;
+}
+
 void
 sonar_clusterer_free (SonarClusterer * c)
 {

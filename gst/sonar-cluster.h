@@ -154,6 +154,15 @@ SonarClusterer *sonar_clusterer_new (const SonarImageGrid * grid,
     const SonarClusterParams * params, GError ** error);
 void sonar_clusterer_free (SonarClusterer * c);
 
+/* Takes @params' thresholds (threshold_db, absolute_threshold,
+ * sidelobe_db, pfa) and stop criterion (stop, inconsistency, depth,
+ * distance) for the next process (): what can change between pings
+ * without allocating. The other fields must be those @c was made with;
+ * FALSE with @error (SONAR_ERROR_SETTINGS) when they are not, or when a
+ * value is out of range, and @c is left as it was. */
+gboolean sonar_clusterer_retune (SonarClusterer * c,
+    const SonarClusterParams * params, GError ** error);
+
 /* Clusters the peaks of @image (laid out as the grid says) and writes at
  * most @max_centroids centroids, strongest peak first. Returns how many were
  * written. Non-finite pixels are ignored. Never allocates. */

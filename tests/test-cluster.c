@@ -668,6 +668,52 @@ test_bad_params (void)
   }
 }
 
+/* Thresholds retuned between calls act as if the clusterer had been made
+ * with them; what would need a new allocation is refused, by name, and
+ * leaves the clusterer as it was. */
+static void
+test_retune (void)
+{
+  SonarImageGrid g;
+  SonarClusterParams p, strict;
+  SonarCentroid out[32], fresh[32];
+  g_autofree float *image = NULL;
+  g_autoptr (SonarClusterer) c = NULL;
+  g_autoptr (GError) error = NULL;
+  guint n;
+
+  grid_2d (&g);
+  image = render (&g, three_blobs, 3, 0.005, 0.0, 1);
+  synthetic_params (&p);
+  c = sonar_clusterer_new (&g, &p, NULL);
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 32), ==, 3);
+
+  /* 1 dB below the strongest: the first blob alone. */
+  strict = p;
+  strict.threshold_db = -1.0;
+  g_assert_true (sonar_clusterer_retune (c, &strict, &error));
+  g_assert_no_error (error);
+  n = sonar_clusterer_process (c, image, out, 32);
+  g_assert_cmpuint (n, ==, 1);
+  g_assert_cmpuint (run (&g, &strict, image, fresh, 32, "made strict"), ==,
+      n);
+  g_assert_cmpmem (&out[0], sizeof out[0], &fresh[0], sizeof fresh[0]);
+
+  strict.max_peaks = p.max_peaks + 1;
+  g_assert_false (sonar_clusterer_retune (c, &strict, &error));
+  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
+  g_assert_cmpstr (error->message, ==, "cluster: hypotheses, linkage, "
+      "max-peaks and range-compensation are set when the clusterer is made, "
+      "not between pings");
+  g_clear_error (&error);
+  strict = p;
+  strict.pfa = 2.0;
+  g_assert_false (sonar_clusterer_retune (c, &strict, &error));
+  g_assert_cmpstr (error->message, ==, "cluster: pfa must be in [1e-15, 1]");
+  /* Refused: the last accepted thresholds hold. */
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out, 32), ==, 1);
+}
+
 /* Thread CPU time, ms: what the work costs, whatever else the machine
  * runs. */
 static double
@@ -780,6 +826,7 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/degenerate", test_degenerate);
   g_test_add_func ("/cluster/max-centroids", test_max_centroids);
   g_test_add_func ("/cluster/bad-params", test_bad_params);
+  g_test_add_func ("/cluster/retune", test_retune);
   g_test_add_func ("/cluster/floor-gain", test_floor_gain);
   g_test_add_func ("/cluster/speed", test_speed);
   return g_test_run ();

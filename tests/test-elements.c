@@ -1144,6 +1144,66 @@ test_datacube (void)
   run_free (fixed);
 }
 
+/* Centroids per ping of the default scene's 6 pings through wardcluster
+ * @props; with @tune, wardcluster's threshold is set to -1 dB once the
+ * first ping is out. */
+#define TUNE_PINGS 6
+static void
+centroid_counts (const char *props, gboolean tune, guint counts[TUNE_PINGS])
+{
+  GError *error = NULL;
+  g_autofree char *launch = g_strdup_printf ("sonarsrc num-buffers=%d ! "
+      "dopplerbank velocity-min=-1.5 velocity-max=1.5 ! mimobeamform ! "
+      "wardcluster name=w %s ! appsink name=sink sync=false max-buffers=1",
+      TUNE_PINGS, props);
+  GstElement *pipeline = gst_parse_launch (launch, &error);
+  GstElement *sink, *ward;
+  GstSample *sample;
+  guint pings = 0;
+
+  g_assert_no_error (error);
+  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  ward = gst_bin_get_by_name (GST_BIN (pipeline), "w");
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    g_assert_cmpuint (pings, <, TUNE_PINGS);
+    counts[pings++] = sonar_buffer_get_centroids_meta (gst_sample_get_buffer
+        (sample))->n_centroids;
+    gst_sample_unref (sample);
+    if (tune && pings == 1)
+      g_object_set (ward, "threshold", -1.0, NULL);
+  }
+  g_assert_cmpuint (pings, ==, TUNE_PINGS);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (ward);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
+/* wardcluster's thresholds are tunable while playing: set between pings,
+ * they hold from the next ping on, with no restart. The default scene's
+ * three objects give three centroids; 1 dB below each ping's strongest
+ * pixel, fewer: after the change (a ping or two in flight aside), every
+ * ping has the centroids of a run made at -1 dB from the start. */
+static void
+test_tune_while_playing (void)
+{
+  guint tuned[TUNE_PINGS], at_default[TUNE_PINGS], reference[TUNE_PINGS];
+  gboolean visible = FALSE;
+
+  centroid_counts ("", TRUE, tuned);
+  centroid_counts ("", FALSE, at_default);
+  centroid_counts ("threshold=-1", FALSE, reference);
+
+  g_assert_cmpuint (tuned[0], ==, at_default[0]);
+  g_assert_cmpuint (at_default[0], ==, 3);
+  for (guint p = 3; p < TUNE_PINGS; p++) {
+    g_assert_cmpuint (tuned[p], ==, reference[p]);
+    visible |= reference[p] < at_default[p];
+  }
+  g_assert_true (visible);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -1158,5 +1218,6 @@ main (int argc, char **argv)
   g_test_add_func ("/elements/ping-framing", test_ping_framing);
   g_test_add_func ("/elements/recording-formats", test_recording_formats);
   g_test_add_func ("/elements/datacube", test_datacube);
+  g_test_add_func ("/elements/tune-while-playing", test_tune_while_playing);
   return g_test_run ();
 }

@@ -526,8 +526,8 @@ gst_sonar_src_start (GstBaseSrc * bsrc)
   return TRUE;
 
 failed:
-  GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS, ("%s", error->message),
-      ("sonarsrc could not set up the sensor or the scene"));
+  SONAR_ELEMENT_POST_ERROR (self, error,
+      "sonarsrc could not set up the sensor or the scene");
   g_error_free (error);
   settings_clear (&s);
   return FALSE;

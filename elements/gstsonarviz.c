@@ -387,8 +387,7 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
         GST_VIDEO_INFO_WIDTH (&self->info),
         GST_VIDEO_INFO_HEIGHT (&self->info), &error);
     if (!self->renderer) {
-      GST_ELEMENT_ERROR (self, CORE, NEGOTIATION, ("sonarviz: %s",
-              error->message), (NULL));
+      SONAR_ELEMENT_POST_ERROR (self, error, NULL);
       g_error_free (error);
       return GST_FLOW_NOT_NEGOTIATED;
     }

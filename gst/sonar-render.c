@@ -4,6 +4,7 @@
 #endif
 
 #include "sonar-render.h"
+#include "sonar-error.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -564,13 +565,13 @@ sonar_renderer_new (const SonarImageGrid * grid, guint width, guint height,
 
   if (width < SONAR_RENDER_MIN_SIZE || height < SONAR_RENDER_MIN_SIZE
       || width > SONAR_RENDER_MAX_SIZE || height > SONAR_RENDER_MAX_SIZE) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "a frame of %u x %u pixels: width and height must be %u to %u",
         width, height, SONAR_RENDER_MIN_SIZE, SONAR_RENDER_MAX_SIZE);
     return NULL;
   }
   if (!grid_is_valid (grid)) {
-    g_set_error (error, G_IO_ERROR, G_IO_ERROR_INVALID_ARGUMENT,
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "the image grid (%u azimuths, %u elevations, %u ranges from %g m "
         "every %g m) has no cell to draw", grid->n_azimuth,
         grid->n_elevation, grid->n_range, grid->range_first,

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
+#include "sonar-error.h"
 #include "sonar-test-gst.h"
 
 /* Pulls events until the set-up event; returns its set-up. */
@@ -286,6 +287,54 @@ test_errors_are_clear (void)
   }
 }
 
+/* The first error @launch posts, as its GError (domain and code). */
+static GError *
+first_error (const char *launch)
+{
+  GstElement *pipeline = gst_parse_launch (launch, NULL);
+  GstBus *bus = gst_element_get_bus (pipeline);
+  GstMessage *msg;
+  GError *error = NULL;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  msg = gst_bus_timed_pop_filtered (bus, 60 * GST_SECOND,
+      GST_MESSAGE_ERROR | GST_MESSAGE_EOS);
+  g_assert_nonnull (msg);
+  g_assert_cmpint (GST_MESSAGE_TYPE (msg), ==, GST_MESSAGE_ERROR);
+  gst_message_parse_error (msg, &error, NULL);
+  gst_message_unref (msg);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (pipeline);
+  return error;
+}
+
+/* The core's errors reach the bus with their own domain and code
+ * (SONAR_ERROR, sonar-error.h): an application tells a bad setting from
+ * a bad file or a missing one without reading the message. */
+static void
+test_error_codes (void)
+{
+  g_autofree char *bad_scene = sonar_test_write_temp ("bad.json",
+      "{\"reflectors\": [{\"range\": 1, \"azimut\": 3}]}");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s ! "
+      "fakesink", bad_scene);
+  GError *error;
+
+  error = first_error ("sonarsrc ping-rate=100 ! fakesink");
+  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
+  g_assert_nonnull (strstr (error->message, "ping-rate 100 Hz is too fast"));
+  g_clear_error (&error);
+  error = first_error (launch);
+  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT);
+  g_assert_nonnull (strstr (error->message, "unknown member \"azimut\""));
+  g_clear_error (&error);
+  error = first_error ("sonarsrc scene-file=/nonexistent/scene.json ! "
+      "fakesink");
+  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FILE);
+  g_clear_error (&error);
+}
+
 static void
 test_truth_messages (void)
 {
@@ -390,6 +439,7 @@ main (int argc, char **argv)
       test_setup_through_tee_queue);
   g_test_add_func ("/sonarsrc/wav-round-trip", test_wav_round_trip);
   g_test_add_func ("/sonarsrc/errors-are-clear", test_errors_are_clear);
+  g_test_add_func ("/sonarsrc/error-codes", test_error_codes);
   g_test_add_func ("/sonarsrc/truth-messages", test_truth_messages);
   g_test_add_func ("/sonarsrc/live-pacing", test_live_pacing);
   g_test_add_func ("/sonarsrc/extreme-scene", test_extreme_scene);

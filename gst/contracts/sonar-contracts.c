@@ -829,3 +829,14 @@ sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
   g_string_append (s, "]}\n");
   return g_string_free (s, FALSE);
 }
+
+/* Errors -----------------------------------------------------------------*/
+
+void
+sonar_element_post_error (GstElement * element, const GError * error,
+    const char *debug, const char *file, const char *function, int line)
+{
+  gst_element_message_full (element, GST_MESSAGE_ERROR, error->domain,
+      error->code, g_strdup (error->message), g_strdup (debug), file,
+      function, line);
+}

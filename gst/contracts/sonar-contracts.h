@@ -247,6 +247,18 @@ char *sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
 /* velocityest's output: UTF-8 text, one JSON line per ping. */
 #define SONAR_DETECTIONS_CAPS "text/x-raw, format=(string)utf8"
 
+/* Errors -----------------------------------------------------------------*/
+
+/* Posts @error on the bus as an error of @element with its own domain and
+ * code: the core's SONAR_ERROR codes (sonar-error.h) reach applications
+ * as they are, which GST_ELEMENT_ERROR's fixed GStreamer domains would
+ * hide. @debug (may be NULL) is the message's debug text. */
+#define SONAR_ELEMENT_POST_ERROR(element, error, debug)                   \
+  sonar_element_post_error (GST_ELEMENT (element), (error), (debug),     \
+      __FILE__, GST_FUNCTION, __LINE__)
+void sonar_element_post_error (GstElement * element, const GError * error,
+    const char *debug, const char *file, const char *function, int line);
+
 G_END_DECLS
 
 #endif /* SONAR_CONTRACTS_H */

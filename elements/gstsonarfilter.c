@@ -378,6 +378,9 @@ gst_sonar_filter_chain (GstPad * pad, GstObject * parent, GstBuffer * buffer)
   GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
   GstSonarFilterPrivate *priv = PRIV (filter);
 
+  /* From the ping's arrival (a set-up's time falls on the first ping
+   * after it, which is not counted). */
+  priv->processing_start = gst_util_get_timestamp ();
   if (!priv->configured && !configure (filter)) {
     gst_buffer_unref (buffer);
     return GST_FLOW_NOT_NEGOTIATED;
@@ -388,7 +391,6 @@ gst_sonar_filter_chain (GstPad * pad, GstObject * parent, GstBuffer * buffer)
     gst_buffer_unref (buffer);
     return GST_FLOW_OK;
   }
-  priv->processing_start = gst_util_get_timestamp ();
   return klass->process (filter, buffer);
 }
 

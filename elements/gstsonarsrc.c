@@ -728,11 +728,11 @@ gst_sonar_src_create (GstPushSrc * psrc, GstBuffer ** outbuf)
     self->setup_event_pending = FALSE;
   }
   if (gst_base_src_is_live (GST_BASE_SRC (psrc))) {
-    GstFlowReturn ret;
-    skip_lost_pings (self, duration);
-    ret = wait_for_ping (self, ping_pts (self, self->ping_index) + duration);
+    GstFlowReturn ret = wait_for_ping (self, ping_pts (self,
+            self->ping_index) + duration);
     if (ret != GST_FLOW_OK)
       return ret;
+    skip_lost_pings (self, duration);
   }
   ping_time = self->ping_index / self->ping_rate;
   pts = ping_pts (self, self->ping_index);

@@ -364,6 +364,8 @@ typedef struct
   GHashTable *left;             /* ping -> GstClockTime */
   GstClockTime longest_processing;
   guint64 warned_dropped;       /* pings in sonar-dropped warnings */
+  /* The pings of the centroids and detections messages. */
+  GArray *centroid_pings, *detection_pings;
   guint64 source_lost;          /* sonarsrc's QoS messages */
   guint latency_messages;
 } LiveRun;
@@ -447,8 +449,8 @@ ping_arrived (GstPad * pad, GstPadProbeInfo * info, gpointer data)
   gpointer left;
 
   g_mutex_lock (&run->lock);
-  /* Pings 0 and 1 pay the set-up and warm-up: no element counts them. */
-  if (ping > 1 && g_hash_table_lookup_extended (run->left,
+  /* Ping 0 pays the set-up: no element counts it. */
+  if (ping > 0 && g_hash_table_lookup_extended (run->left,
           GUINT_TO_POINTER (ping), NULL, &left))
     run->longest_processing = MAX (run->longest_processing, now -
         *(GstClockTime *) left);
@@ -467,6 +469,8 @@ live_run_new (const char *launch, double ping_rate)
 
   g_mutex_init (&run->lock);
   run->pings = g_array_new (FALSE, FALSE, sizeof (LivePing));
+  run->centroid_pings = g_array_new (FALSE, FALSE, sizeof (guint64));
+  run->detection_pings = g_array_new (FALSE, FALSE, sizeof (guint64));
   run->ping_rate = ping_rate;
   run->pipeline = gst_parse_launch (launch, &error);
   g_assert_no_error (error);
@@ -513,7 +517,7 @@ live_run_play (LiveRun * run, guint64 last)
   for (;;) {
     GstMessage *msg = gst_bus_timed_pop_filtered (bus, 20 * GST_MSECOND,
         GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING |
-        GST_MESSAGE_LATENCY | GST_MESSAGE_QOS);
+        GST_MESSAGE_LATENCY | GST_MESSAGE_QOS | GST_MESSAGE_ELEMENT);
     guint64 newest = 0;
 
     g_assert_cmpint (g_get_monotonic_time (), <, deadline);
@@ -550,6 +554,17 @@ live_run_play (LiveRun * run, guint64 last)
           run->warned_dropped += pings;
         break;
       }
+      case GST_MESSAGE_ELEMENT:{
+        const GstStructure *st = gst_message_get_structure (msg);
+        guint64 ping;
+        if (gst_structure_get_uint64 (st, "ping", &ping)) {
+          if (gst_structure_has_name (st, SONAR_CENTROIDS_MESSAGE_NAME))
+            g_array_append_val (run->centroid_pings, ping);
+          if (gst_structure_has_name (st, SONAR_DETECTIONS_MESSAGE_NAME))
+            g_array_append_val (run->detection_pings, ping);
+        }
+        break;
+      }
       case GST_MESSAGE_QOS:
         if (GST_MESSAGE_SRC (msg) == GST_OBJECT (src)) {
           GstFormat format;
@@ -573,10 +588,27 @@ live_run_free (LiveRun * run)
   gst_element_set_state (run->pipeline, GST_STATE_NULL);
   gst_object_unref (run->pipeline);
   g_array_unref (run->pings);
+  g_array_unref (run->centroid_pings);
+  g_array_unref (run->detection_pings);
   if (run->left)
     g_hash_table_unref (run->left);
   g_mutex_clear (&run->lock);
   g_free (run);
+}
+
+/* The bus messages of each ping out carry its number (the messages of a
+ * ping still on its way at the end may be there without its output). */
+static void
+assert_messages_numbered (LiveRun * run)
+{
+  GArray *messages[] = { run->centroid_pings, run->detection_pings };
+
+  for (guint m = 0; m < G_N_ELEMENTS (messages); m++) {
+    g_assert_cmpuint (messages[m]->len, >=, run->pings->len);
+    for (guint i = 0; i < run->pings->len; i++)
+      g_assert_cmpuint (g_array_index (messages[m], guint64, i), ==,
+          g_array_index (run->pings, LivePing, i).ping);
+  }
 }
 
 static guint64
@@ -656,6 +688,8 @@ test_slow_chain_stays_bounded (void)
   g_assert_cmpuint (dropped_by (run->pipeline, "bank"), ==, missing);
   g_assert_cmpuint (run->warned_dropped, ==, missing);
 
+  assert_messages_numbered (run);
+
   /* Every ping out is whole and right. */
   g_test_message ("%u of %u objects, %u false positives, worst error %.4f "
       "m/s", run->score.matched, run->score.n_truth,
@@ -734,6 +768,8 @@ test_leaky_queues (void)
   for (guint i = 0; i < run->pings->len; i++)
     g_assert_true (g_hash_table_contains (reached, GUINT_TO_POINTER
             (g_array_index (run->pings, LivePing, i).ping)));
+
+  assert_messages_numbered (run);
 
   /* Bounded: a ping waits at most for the ping before it in each queue. */
   g_assert_cmpint (worst, <=, (GstClockTimeDiff) (2 * min));

@@ -244,6 +244,16 @@ run_with_qos (const char *launch, GstBuffer ** pings,
   return json;
 }
 
+/* The messages the teardown posts would keep the elements (and they the
+ * bus) alive: flushed. */
+static void
+finish (GstHarness * h, GstBus * bus)
+{
+  gst_harness_teardown (h);
+  gst_bus_set_flushing (bus, TRUE);
+  gst_object_unref (bus);
+}
+
 /* A QoS event from a synchronised sink (a ping arrived 1/12 s late) makes
  * the first element to see the next pings drop those that would be late
  * too: whole (the pings come in pieces; what comes out is exactly what
@@ -271,8 +281,7 @@ test_qos_drops_whole_pings (void)
   g_assert_cmpuint (reference->len, ==, QOS_PINGS);
   g_assert_null (gst_bus_pop_filtered (bus, GST_MESSAGE_QOS |
           GST_MESSAGE_WARNING));
-  gst_harness_teardown (h);
-  gst_object_unref (bus);
+  finish (h, bus);
 
   for (guint l = 0; l < G_N_ELEMENTS (launches); l++) {
     g_autoptr (GPtrArray) json = run_with_qos (launches[l], pings, setup,
@@ -336,8 +345,7 @@ test_qos_drops_whole_pings (void)
     g_assert_cmpuint (value, ==, 0);
     gst_object_unref (first);
     gst_object_unref (second);
-    gst_harness_teardown (h);
-    gst_object_unref (bus);
+    finish (h, bus);
   }
   for (guint k = 0; k < QOS_PINGS; k++)
     gst_buffer_unref (pings[k]);

@@ -11,6 +11,11 @@
  * emits (docs/FORMATS.md): a WAV of its pings replays through dopplerbank
  * sensor-file= exactly as the live pings.
  *
+ * With is-live it pings at its rate whatever downstream does, as the
+ * sensor: its latency is the recording window plus the rendering, and the
+ * pings recorded while downstream still held the previous one are lost
+ * (docs/CONTRACTS.md, section 12).
+ *
  * Example:
  *   gst-launch-1.0 -m sonarsrc scene=fig9 num-buffers=3 ! fakesink
  *   gst-launch-1.0 sonarsrc num-buffers=12 write-sensor-file=pings.json \
@@ -856,7 +861,9 @@ gst_sonar_src_class_init (GstSonarSrcClass * klass)
           "relative humidity) along each echo's path", FALSE, flags));
   g_object_class_install_property (gobject_class, PROP_IS_LIVE,
       g_param_spec_boolean ("is-live", "Is live", "Pace the pings in real "
-          "time like the real sensor (one every 1/ping-rate seconds)",
+          "time like the real sensor (one every 1/ping-rate seconds); pings "
+          "recorded while downstream still holds the previous one are lost "
+          "whole, as the sensor's (a QoS message says how many)",
           DEFAULT_IS_LIVE, flags));
   g_object_class_install_property (gobject_class, PROP_WRITE_SENSOR_FILE,
       g_param_spec_string ("write-sensor-file", "Write sensor file", "At "

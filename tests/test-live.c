@@ -351,6 +351,42 @@ test_qos_drops_whole_pings (void)
     gst_buffer_unref (pings[k]);
 }
 
+/* A stream joined after its start (a leaky queue dropped the first pings,
+ * or a live source's first ones were lost): the pings keep their numbers
+ * and their own instants, although sonarsrc's pings lie back to back in
+ * samples and 1/12 s apart in time. */
+static void
+test_joined_late (void)
+{
+  GstBuffer *pings[QOS_PINGS];
+  g_autoptr (SonarSetup) setup = NULL;
+  GstHarness *h;
+  GstBus *bus;
+
+  render_pings (pings, &setup);
+  h = gst_harness_new_parse ("dopplerbank " FIG10_BANK);
+  bus = gst_bus_new ();
+  gst_element_set_bus (h->element, bus);
+  gst_harness_play (h);
+  gst_harness_set_src_caps_str (h, RECORDING_CAPS);
+  g_assert_true (gst_harness_push_event (h, sonar_setup_event_new (setup)));
+  for (guint k = 3; k < QOS_PINGS; k++) {
+    GstBuffer *out;
+    g_assert_cmpint (gst_harness_push (h, gst_buffer_ref (pings[k])), ==,
+        GST_FLOW_OK);
+    out = gst_harness_pull (h);
+    g_assert_cmpuint (GST_BUFFER_OFFSET (out), ==, k);
+    g_assert_cmpuint (GST_BUFFER_PTS (out), ==, GST_BUFFER_PTS (pings[k]));
+    g_assert_cmpuint (GST_BUFFER_PTS (out), ==, gst_util_uint64_scale_round
+        (k, GST_SECOND, 12));
+    gst_buffer_unref (out);
+  }
+  g_assert_null (gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING));
+  finish (h, bus);
+  for (guint k = 0; k < QOS_PINGS; k++)
+    gst_buffer_unref (pings[k]);
+}
+
 /* ------------------------------------------------------------------------
  * Live runs. */
 
@@ -798,6 +834,7 @@ main (int argc, char **argv)
   sonar_test_init_gst (&argc, &argv);
   g_test_add_func ("/live/element-latency", test_element_latency);
   g_test_add_func ("/live/qos-drops-whole-pings", test_qos_drops_whole_pings);
+  g_test_add_func ("/live/joined-late", test_joined_late);
   g_test_add_func ("/live/slow-chain-stays-bounded",
       test_slow_chain_stays_bounded);
   g_test_add_func ("/live/leaky-queues", test_leaky_queues);

@@ -62,7 +62,6 @@ enum
   PROP_PING_LENGTH,
   PROP_SPEED_OF_SOUND,
   PROP_SENSOR_FILE,
-  PROP_DROPPED,
   PROP_MAX_MEMORY,
 };
 
@@ -76,7 +75,6 @@ struct _GstDopplerBank
   guint64 max_memory;
   guint ping_length_setting;
   double speed_of_sound;
-  guint64 dropped;              /* pings dropped since start */
 
   /* Configured state. */
   SonarSetup *setup;            /* the filter's: valid while configured */
@@ -344,12 +342,80 @@ tame_overflow (GstDopplerBank * self, const float *samples, guint64 index)
   return self->converted;
 }
 
-/* Ping @index: the spectra of its channels, time-stamped from the framing
- * (one rule for live pings and replays: the trigger instant). */
+/* The first ping whose trigger sample is at or after @position. */
+static guint64
+first_ping_from (const SonarSetup * setup, guint64 position)
+{
+  guint64 index;
+
+  if (position <= setup->trigger_offset)
+    return 0;
+  index = (guint64) ceil ((position - setup->trigger_offset) /
+      setup->ping_stride - 1e-9);
+  /* The rounding of sonar_setup_ping_start can put a start a sample
+   * either side of the exact quotient. */
+  while (index > 0 && sonar_setup_ping_start (setup, index - 1) >= position)
+    index--;
+  while (sonar_setup_ping_start (setup, index) < position)
+    index++;
+  return index;
+}
+
+/* Seconds from the stream's first sample to sample @position. A ping's
+ * samples follow its trigger instant at the sample rate, and ping k is
+ * triggered trigger-offset / rate + k x ping-period after the stream's
+ * start: a stream of pings stored back to back (sonarsrc's) is not
+ * continuous in time. */
+static double
+position_time (const SonarSetup * setup, guint64 position)
+{
+  guint64 ping;
+
+  if (position < setup->trigger_offset)
+    return position / setup->sample_rate;
+  ping = first_ping_from (setup, position + 1) - 1;
+  return (setup->trigger_offset + (double) (position -
+          sonar_setup_ping_start (setup, ping))) / setup->sample_rate +
+      ping * setup->ping_period;
+}
+
+/* The inverse: the sample at @seconds from the stream's start. */
+static guint64
+time_position (const SonarSetup * setup, double seconds)
+{
+  const double trigger = setup->trigger_offset / setup->sample_rate;
+  guint64 ping;
+
+  if (seconds < trigger)
+    return (guint64) llround (seconds * setup->sample_rate);
+  ping = (guint64) floor ((seconds - trigger) / setup->ping_period);
+  return sonar_setup_ping_start (setup, ping) + (guint64) llround ((seconds -
+          trigger - ping * setup->ping_period) * setup->sample_rate);
+}
+
+/* Ping @index's trigger instant (one rule for live pings and replays). */
+static GstClockTime
+ping_pts (GstDopplerBank * self, guint64 index)
+{
+  if (!GST_CLOCK_TIME_IS_VALID (self->stream_start_pts))
+    return GST_CLOCK_TIME_NONE;
+  return self->stream_start_pts + (GstClockTime) llround (position_time
+      (self->setup, sonar_setup_ping_start (self->setup, index)) *
+      GST_SECOND);
+}
+
+static GstClockTime
+ping_duration (GstDopplerBank * self)
+{
+  return gst_util_uint64_scale_round (self->ping_length, GST_SECOND,
+      (guint64) self->setup->sample_rate);
+}
+
+/* Ping @index: the spectra of its channels, time-stamped from the
+ * framing. */
 static GstBuffer *
 analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
 {
-  const SonarSetup *setup = self->setup;
   const gsize bins = self->band.n_bins;
   GstBuffer *out = gst_sonar_filter_new_buffer (GST_SONAR_FILTER (self),
       sizeof (SonarComplex) * bins * self->channels);
@@ -372,58 +438,34 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
             G_GUINT64_FORMAT "); they are read as 0", n_bad, index), (NULL));
     self->warned_non_finite = TRUE;
   }
-  if (GST_CLOCK_TIME_IS_VALID (self->stream_start_pts))
-    GST_BUFFER_PTS (out) = self->stream_start_pts + (GstClockTime)
-        llround ((setup->trigger_offset / setup->sample_rate +
-            index * setup->ping_period) * GST_SECOND);
-  GST_BUFFER_DURATION (out) = gst_util_uint64_scale_round (self->ping_length,
-      GST_SECOND, (guint64) setup->sample_rate);
+  GST_BUFFER_PTS (out) = ping_pts (self, index);
+  GST_BUFFER_DURATION (out) = ping_duration (self);
   GST_BUFFER_OFFSET (out) = index;
   GST_BUFFER_OFFSET_END (out) = index + 1;
   return out;
-}
-
-/* The first ping whose trigger sample is at or after @position. */
-static guint64
-first_ping_from (const SonarSetup * setup, guint64 position)
-{
-  guint64 index;
-
-  if (position <= setup->trigger_offset)
-    return 0;
-  index = (guint64) ceil ((position - setup->trigger_offset) /
-      setup->ping_stride - 1e-9);
-  /* The rounding of sonar_setup_ping_start can put a start a sample
-   * either side of the exact quotient. */
-  while (index > 0 && sonar_setup_ping_start (setup, index - 1) >= position)
-    index--;
-  while (sonar_setup_ping_start (setup, index) < position)
-    index++;
-  return index;
 }
 
 static void
 drop_pings (GstDopplerBank * self, guint64 first, guint64 end,
     const char *why)
 {
-  g_autofree char *which = NULL;
-  guint64 total;
+  g_autofree char *text = g_strdup_printf ("not held whole by the stream: "
+      "%s", why);
 
-  if (end <= first)
-    return;
-  GST_OBJECT_LOCK (self);
-  self->dropped += end - first;
-  total = self->dropped;
-  GST_OBJECT_UNLOCK (self);
-  which = end - first == 1 ? g_strdup_printf ("ping %" G_GUINT64_FORMAT,
-      first) : g_strdup_printf ("pings %" G_GUINT64_FORMAT " to %"
-      G_GUINT64_FORMAT, first, end - 1);
-  GST_ELEMENT_WARNING_WITH_DETAILS (self, STREAM, DEMUX,
-      ("Dropped %s, not held whole by the stream: %s (%" G_GUINT64_FORMAT
-          " dropped since start)", which, why, total), (NULL),
-      ("sonar-dropped", G_TYPE_UINT64, total,
-          "first-ping", G_TYPE_UINT64, first,
-          "pings", G_TYPE_UINT64, end - first, NULL));
+  gst_sonar_filter_drop_pings (GST_SONAR_FILTER (self), first, end, text);
+}
+
+/* Pings none of whose samples came: dropped upstream, whole. */
+static void
+missing_pings (GstDopplerBank * self, guint64 first, guint64 end,
+    guint64 expected, guint64 position)
+{
+  g_autofree char *text = g_strdup_printf ("missing from the stream: it "
+      "jumps from sample %" G_GUINT64_FORMAT " to %" G_GUINT64_FORMAT " (a "
+      "live source that fell behind or a leaky queue dropped them)",
+      expected, position);
+
+  gst_sonar_filter_drop_pings (GST_SONAR_FILTER (self), first, end, text);
 }
 
 /* Where @buffer's first sample lies in the stream: its OFFSET (the sample
@@ -444,9 +486,8 @@ buffer_position (GstDopplerBank * self, GstBuffer * buffer, guint64 expected)
   if (GST_BUFFER_PTS_IS_VALID (buffer)
       && GST_CLOCK_TIME_IS_VALID (self->stream_start_pts)
       && GST_BUFFER_PTS (buffer) >= self->stream_start_pts)
-    return gst_util_uint64_scale_round (GST_BUFFER_PTS (buffer) -
-        self->stream_start_pts, (guint64) self->setup->sample_rate,
-        GST_SECOND);
+    return time_position (self->setup, (double) (GST_BUFFER_PTS (buffer) -
+            self->stream_start_pts) / GST_SECOND);
   return expected;
 }
 
@@ -466,8 +507,8 @@ take_buffer (GstDopplerBank * self, GstBuffer * buffer)
     const guint64 first = first_ping_from (self->setup, position);
     if (GST_BUFFER_PTS_IS_VALID (buffer))
       self->stream_start_pts = GST_BUFFER_PTS (buffer) -
-          MIN (GST_BUFFER_PTS (buffer), gst_util_uint64_scale_round
-          (position, GST_SECOND, (guint64) self->setup->sample_rate));
+          MIN (GST_BUFFER_PTS (buffer), (GstClockTime) llround
+          (position_time (self->setup, position) * GST_SECOND));
     if (first > 0 && position < sonar_setup_ping_start (self->setup,
             first - 1) + self->ping_length)
       drop_pings (self, first - 1, first, "the stream starts inside it");
@@ -482,7 +523,11 @@ take_buffer (GstDopplerBank * self, GstBuffer * buffer)
         G_GUINT64_FORMAT " to %" G_GUINT64_FORMAT, expected, position);
 
     gst_adapter_clear (self->adapter);
-    if (position > expected)
+    if (position > expected && !partial && resume > self->next_ping
+        && sonar_setup_ping_start (self->setup, resume - 1) +
+        self->ping_length <= position)
+      missing_pings (self, self->next_ping, resume, expected, position);
+    else if (position > expected)
       drop_pings (self, self->next_ping, resume, why);
     else if (partial)
       drop_pings (self, self->next_ping, self->next_ping + 1, why);
@@ -526,6 +571,13 @@ gst_doppler_bank_process (GstSonarFilter * filter, GstBuffer * buffer)
     }
     if (available < ping_bytes)
       break;
+    if (gst_sonar_filter_drop_late (filter, self->next_ping, ping_pts (self,
+                self->next_ping), ping_duration (self))) {
+      gst_adapter_flush (self->adapter, ping_bytes);
+      self->adapter_position += self->ping_length;
+      self->next_ping++;
+      continue;
+    }
     in = gst_adapter_take_buffer_fast (self->adapter, ping_bytes);
     self->adapter_position += self->ping_length;
     gst_buffer_map (in, &map, GST_MAP_READ);
@@ -635,9 +687,6 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
     case PROP_SENSOR_FILE:
       g_value_set_string (value, self->sensor_file);
       break;
-    case PROP_DROPPED:
-      g_value_set_uint64 (value, self->dropped);
-      break;
     case PROP_GEOMETRY_FILE:
       g_value_set_string (value, self->geometry_file);
       break;
@@ -715,11 +764,6 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
           "the sensor description (docs/FORMATS.md: array, emissions, "
           "sample rate, speed of sound, ping timing, field of view). When "
           "set, the set-up comes from it instead of upstream", NULL, flags));
-  g_object_class_install_property (gobject_class, PROP_DROPPED,
-      g_param_spec_uint64 ("dropped", "Dropped pings", "Pings dropped "
-          "since start because the stream did not hold them whole (it "
-          "started or ended inside one, a gap, a seek)", 0, G_MAXUINT64, 0,
-          G_PARAM_READABLE | G_PARAM_STATIC_STRINGS));
   g_object_class_install_property (gobject_class, PROP_GEOMETRY_FILE,
       g_param_spec_string ("geometry-file", "Geometry file", "Older form "
           "of sensor-file, with waveforms-file and ping-length: JSON array "
@@ -750,6 +794,7 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
       "gst-sonar-velocity developers");
 
   filter_class->needs_bank = FALSE;
+  filter_class->frames_pings = TRUE;
   filter_class->make_setup = GST_DEBUG_FUNCPTR (gst_doppler_bank_make_setup);
   filter_class->configure = GST_DEBUG_FUNCPTR (gst_doppler_bank_configure);
   filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_doppler_bank_unconfigure);

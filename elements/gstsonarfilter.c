@@ -4,9 +4,19 @@
 #endif
 
 #include "gstsonarfilter.h"
+#include "gstsonarlatency.h"
 
 GST_DEBUG_CATEGORY_STATIC (sonar_filter_debug);
 #define GST_CAT_DEFAULT sonar_filter_debug
+
+#define DEFAULT_QOS TRUE
+
+enum
+{
+  PROP_0,
+  PROP_QOS,
+  PROP_DROPPED,
+};
 
 typedef struct
 {
@@ -21,6 +31,19 @@ typedef struct
   GstEvent *bank_event;
   gboolean configured;
   GstBufferPool *pool;          /* output buffers, when the subclass asked */
+
+  /* Live: the processing time of each ping, and QoS. */
+  GstSonarLatency latency;
+  GstClockTime processing_start;        /* monotonic ns */
+  GstSegment time_segment;      /* the input's, for running times */
+  gboolean qos;                 /* property; object lock */
+  GstClockTime earliest_time;   /* running time, from QoS; object lock */
+  double proportion;            /* object lock */
+  guint64 processed;            /* pings pushed since start */
+  guint64 dropped;              /* pings dropped since start; object lock */
+  /* A run of late pings not reported yet: late_first .. late_end - 1. */
+  guint64 late_first, late_end;
+  GstClockTimeDiff late_by;     /* the most any of them was late */
 } GstSonarFilterPrivate;
 
 G_DEFINE_ABSTRACT_TYPE_WITH_CODE (GstSonarFilter, gst_sonar_filter,
@@ -107,10 +130,138 @@ gst_sonar_filter_new_buffer (GstSonarFilter * filter, gsize size)
   return buffer;
 }
 
+/* The bus warning for pings first .. end - 1; @total: the count since
+ * start. */
+static void
+post_dropped (GstSonarFilter * filter, guint64 first, guint64 end,
+    const char *why, guint64 total)
+{
+  g_autofree char *which = end - first == 1 ? g_strdup_printf ("ping %"
+      G_GUINT64_FORMAT, first) : g_strdup_printf ("pings %" G_GUINT64_FORMAT
+      " to %" G_GUINT64_FORMAT, first, end - 1);
+
+  GST_ELEMENT_WARNING_WITH_DETAILS (filter, STREAM, DEMUX,
+      ("Dropped %s, %s (%" G_GUINT64_FORMAT " dropped since start)", which,
+          why, total), (NULL),
+      ("sonar-dropped", G_TYPE_UINT64, total,
+          "first-ping", G_TYPE_UINT64, first,
+          "pings", G_TYPE_UINT64, end - first, NULL));
+}
+
+void
+gst_sonar_filter_drop_pings (GstSonarFilter * filter, guint64 first,
+    guint64 end, const char *why)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  guint64 total;
+
+  if (end <= first)
+    return;
+  GST_OBJECT_LOCK (filter);
+  priv->dropped += end - first;
+  total = priv->dropped;
+  GST_OBJECT_UNLOCK (filter);
+  post_dropped (filter, first, end, why, total);
+}
+
+/* The run of late pings ended (or the stream did): one warning for it.
+ * They were counted as they were dropped. */
+static void
+report_late_run (GstSonarFilter * filter)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  const guint64 n = priv->late_end - priv->late_first;
+  g_autofree char *why = NULL;
+  guint64 total;
+
+  if (n == 0)
+    return;
+  why = g_strdup_printf ("too late for the sink: %s %.0f ms behind the live "
+      "stream (QoS)", n == 1 ? "it was" : "they were up to",
+      (double) priv->late_by / GST_MSECOND);
+  GST_OBJECT_LOCK (filter);
+  total = priv->dropped;
+  GST_OBJECT_UNLOCK (filter);
+  post_dropped (filter, priv->late_first, priv->late_end, why, total);
+  priv->late_first = priv->late_end = 0;
+  priv->late_by = 0;
+}
+
+gboolean
+gst_sonar_filter_drop_late (GstSonarFilter * filter, guint64 index,
+    GstClockTime pts, GstClockTime duration)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  GstClockTime running_time, earliest_time;
+  GstMessage *message;
+  double proportion;
+  gboolean qos;
+  guint64 dropped;
+
+  if (priv->time_segment.format != GST_FORMAT_TIME
+      || !GST_CLOCK_TIME_IS_VALID (pts))
+    return FALSE;
+  running_time = gst_segment_to_running_time (&priv->time_segment,
+      GST_FORMAT_TIME, pts);
+  GST_OBJECT_LOCK (filter);
+  qos = priv->qos;
+  earliest_time = priv->earliest_time;
+  proportion = priv->proportion;
+  GST_OBJECT_UNLOCK (filter);
+  if (!qos || !GST_CLOCK_TIME_IS_VALID (running_time)
+      || !GST_CLOCK_TIME_IS_VALID (earliest_time)
+      || running_time > earliest_time)
+    return FALSE;
+
+  if (priv->late_end != priv->late_first && priv->late_end != index)
+    report_late_run (filter);
+  if (priv->late_end == priv->late_first)
+    priv->late_first = index;
+  priv->late_end = index + 1;
+  priv->late_by = MAX (priv->late_by, GST_CLOCK_DIFF (running_time,
+          earliest_time));
+  GST_OBJECT_LOCK (filter);
+  dropped = ++priv->dropped;
+  GST_OBJECT_UNLOCK (filter);
+  GST_DEBUG_OBJECT (filter, "ping %" G_GUINT64_FORMAT " late: running time %"
+      GST_TIME_FORMAT " <= %" GST_TIME_FORMAT, index,
+      GST_TIME_ARGS (running_time), GST_TIME_ARGS (earliest_time));
+  message = gst_message_new_qos (GST_OBJECT (filter), FALSE, running_time,
+      gst_segment_to_stream_time (&priv->time_segment, GST_FORMAT_TIME, pts),
+      pts, duration);
+  gst_message_set_qos_values (message, GST_CLOCK_DIFF (running_time,
+          earliest_time), proportion, 1000000);
+  gst_message_set_qos_stats (message, GST_FORMAT_BUFFERS, priv->processed,
+      dropped);
+  gst_element_post_message (GST_ELEMENT (filter), message);
+  return TRUE;
+}
+
 GstFlowReturn
 gst_sonar_filter_push (GstSonarFilter * filter, GstBuffer * buffer)
 {
-  return gst_pad_push (PRIV (filter)->srcpad, buffer);
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  GstFlowReturn ret;
+
+  gst_sonar_latency_add (GST_ELEMENT (filter), &priv->latency,
+      gst_util_get_timestamp () - priv->processing_start);
+  report_late_run (filter);
+  priv->processed++;
+  ret = gst_pad_push (priv->srcpad, buffer);
+  /* A subclass may push several pings per input buffer. */
+  priv->processing_start = gst_util_get_timestamp ();
+  return ret;
+}
+
+static void
+reset_qos (GstSonarFilter * filter)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+
+  GST_OBJECT_LOCK (filter);
+  priv->earliest_time = GST_CLOCK_TIME_NONE;
+  priv->proportion = 1.0;
+  GST_OBJECT_UNLOCK (filter);
 }
 
 static void
@@ -140,6 +291,18 @@ clear_state (GstSonarFilter * filter)
   gst_clear_event (&priv->bank_event);
   g_clear_pointer (&priv->setup, sonar_setup_unref);
   g_clear_pointer (&priv->bank, sonar_doppler_bank_unref);
+}
+
+static gboolean
+upstream_is_live (GstSonarFilter * filter)
+{
+  GstQuery *query = gst_query_new_latency ();
+  gboolean live = FALSE;
+
+  if (gst_pad_peer_query (PRIV (filter)->sinkpad, query))
+    gst_query_parse_latency (query, &live, NULL, NULL);
+  gst_query_unref (query);
+  return live;
 }
 
 static gboolean
@@ -181,6 +344,8 @@ configure (GstSonarFilter * filter)
     return FALSE;
   }
   unconfigure (filter);
+  gst_sonar_latency_reset (GST_ELEMENT (filter), &priv->latency,
+      upstream_is_live (filter));
   out_caps = klass->configure (filter, priv->in_caps, &error);
   if (!out_caps) {
     GST_ELEMENT_ERROR (filter, CORE, NEGOTIATION, ("%s", error->message),
@@ -210,12 +375,72 @@ static GstFlowReturn
 gst_sonar_filter_chain (GstPad * pad, GstObject * parent, GstBuffer * buffer)
 {
   GstSonarFilter *filter = GST_SONAR_FILTER (parent);
+  GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
+  GstSonarFilterPrivate *priv = PRIV (filter);
 
-  if (!PRIV (filter)->configured && !configure (filter)) {
+  /* From the ping's arrival (a set-up's time falls on the first ping
+   * after it, which is not counted). */
+  priv->processing_start = gst_util_get_timestamp ();
+  if (!priv->configured && !configure (filter)) {
     gst_buffer_unref (buffer);
     return GST_FLOW_NOT_NEGOTIATED;
   }
-  return GST_SONAR_FILTER_GET_CLASS (filter)->process (filter, buffer);
+  if (!klass->frames_pings && gst_sonar_filter_drop_late (filter,
+          GST_BUFFER_OFFSET (buffer), GST_BUFFER_PTS (buffer),
+          GST_BUFFER_DURATION (buffer))) {
+    gst_buffer_unref (buffer);
+    return GST_FLOW_OK;
+  }
+  return klass->process (filter, buffer);
+}
+
+/* Upstream's latency plus this element's processing time. */
+static gboolean
+gst_sonar_filter_src_query (GstPad * pad, GstObject * parent,
+    GstQuery * query)
+{
+  GstSonarFilter *filter = GST_SONAR_FILTER (parent);
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  GstClockTime min, max, own;
+  gboolean live;
+
+  if (GST_QUERY_TYPE (query) != GST_QUERY_LATENCY)
+    return gst_pad_query_default (pad, parent, query);
+  if (!gst_pad_peer_query (priv->sinkpad, query))
+    return FALSE;
+  gst_query_parse_latency (query, &live, &min, &max);
+  own = gst_sonar_latency_get (GST_ELEMENT (filter), &priv->latency);
+  GST_DEBUG_OBJECT (filter, "upstream %" GST_TIME_FORMAT ", own %"
+      GST_TIME_FORMAT, GST_TIME_ARGS (min), GST_TIME_ARGS (own));
+  /* It holds each ping that long: what upstream can buffer grows too. */
+  gst_query_set_latency (query, live, min + own,
+      GST_CLOCK_TIME_IS_VALID (max) ? max + own : max);
+  return TRUE;
+}
+
+/* QoS from downstream: pings up to this running time would be late
+ * (GstBaseTransform's rule). */
+static gboolean
+gst_sonar_filter_src_event (GstPad * pad, GstObject * parent,
+    GstEvent * event)
+{
+  GstSonarFilter *filter = GST_SONAR_FILTER (parent);
+  GstSonarFilterPrivate *priv = PRIV (filter);
+
+  if (GST_EVENT_TYPE (event) == GST_EVENT_QOS) {
+    double proportion;
+    GstClockTimeDiff diff;
+    GstClockTime timestamp;
+
+    gst_event_parse_qos (event, NULL, &proportion, &diff, &timestamp);
+    GST_OBJECT_LOCK (filter);
+    priv->proportion = proportion;
+    priv->earliest_time = GST_CLOCK_TIME_IS_VALID (timestamp)
+        && (diff >= 0 || timestamp >= (GstClockTime) - diff) ?
+        timestamp + diff : GST_CLOCK_TIME_NONE;
+    GST_OBJECT_UNLOCK (filter);
+  }
+  return gst_pad_event_default (pad, parent, event);
 }
 
 static gboolean
@@ -239,6 +464,7 @@ gst_sonar_filter_sink_event (GstPad * pad, GstObject * parent,
       return TRUE;
     }
     case GST_EVENT_SEGMENT:
+      gst_event_copy_segment (event, &priv->time_segment);
       gst_event_replace (&priv->segment, event);
       if (priv->configured)
         return gst_pad_push_event (priv->srcpad, event);
@@ -293,10 +519,13 @@ gst_sonar_filter_sink_event (GstPad * pad, GstObject * parent,
     case GST_EVENT_FLUSH_STOP:
       if (klass->reset)
         klass->reset (filter, FALSE);
+      report_late_run (filter);
+      reset_qos (filter);
       break;
     case GST_EVENT_EOS:
       if (priv->configured && klass->reset)
         klass->reset (filter, TRUE);
+      report_late_run (filter);
       break;
     default:
       break;
@@ -308,12 +537,24 @@ static GstStateChangeReturn
 gst_sonar_filter_change_state (GstElement * element,
     GstStateChange transition)
 {
-  GstStateChangeReturn ret =
-      GST_ELEMENT_CLASS (gst_sonar_filter_parent_class)->change_state
-      (element, transition);
+  GstSonarFilterPrivate *priv = PRIV (element);
+  GstStateChangeReturn ret;
 
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {
+    gst_segment_init (&priv->time_segment, GST_FORMAT_UNDEFINED);
+    reset_qos (GST_SONAR_FILTER (element));
+    GST_OBJECT_LOCK (element);
+    priv->dropped = 0;
+    GST_OBJECT_UNLOCK (element);
+    priv->processed = 0;
+    priv->late_first = priv->late_end = 0;
+    priv->late_by = 0;
+  }
+  ret = GST_ELEMENT_CLASS (gst_sonar_filter_parent_class)->change_state
+      (element, transition);
   if (transition == GST_STATE_CHANGE_PAUSED_TO_READY) {
     GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (element);
+    report_late_run (GST_SONAR_FILTER (element));
     if (klass->reset)
       klass->reset (GST_SONAR_FILTER (element), FALSE);
     clear_state (GST_SONAR_FILTER (element));
@@ -329,8 +570,53 @@ gst_sonar_filter_finalize (GObject * object)
 }
 
 static void
+gst_sonar_filter_set_property (GObject * object, guint prop_id,
+    const GValue * value, GParamSpec * pspec)
+{
+  GstSonarFilterPrivate *priv = PRIV (object);
+
+  switch (prop_id) {
+    case PROP_QOS:
+      GST_OBJECT_LOCK (object);
+      priv->qos = g_value_get_boolean (value);
+      GST_OBJECT_UNLOCK (object);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+}
+
+static void
+gst_sonar_filter_get_property (GObject * object, guint prop_id,
+    GValue * value, GParamSpec * pspec)
+{
+  GstSonarFilterPrivate *priv = PRIV (object);
+
+  GST_OBJECT_LOCK (object);
+  switch (prop_id) {
+    case PROP_QOS:
+      g_value_set_boolean (value, priv->qos);
+      break;
+    case PROP_DROPPED:
+      g_value_set_uint64 (value, priv->dropped);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
+      break;
+  }
+  GST_OBJECT_UNLOCK (object);
+}
+
+static void
 gst_sonar_filter_init (GstSonarFilter * filter)
 {
+  GstSonarFilterPrivate *priv = PRIV (filter);
+
+  priv->qos = DEFAULT_QOS;
+  priv->earliest_time = GST_CLOCK_TIME_NONE;
+  priv->proportion = 1.0;
+  gst_segment_init (&priv->time_segment, GST_FORMAT_UNDEFINED);
 }
 
 /* The pads come from the subclass's templates: during instance init the
@@ -353,13 +639,33 @@ gst_sonar_filter_constructed (GObject * object)
   priv->srcpad = gst_pad_new_from_template
       (gst_element_class_get_pad_template (klass, "src"), "src");
   gst_pad_use_fixed_caps (priv->srcpad);
+  gst_pad_set_query_function (priv->srcpad, gst_sonar_filter_src_query);
+  gst_pad_set_event_function (priv->srcpad, gst_sonar_filter_src_event);
   gst_element_add_pad (GST_ELEMENT (filter), priv->srcpad);
 }
 
 static void
 gst_sonar_filter_class_init (GstSonarFilterClass * klass)
 {
-  G_OBJECT_CLASS (klass)->constructed = gst_sonar_filter_constructed;
-  G_OBJECT_CLASS (klass)->finalize = gst_sonar_filter_finalize;
+  GObjectClass *gobject_class = G_OBJECT_CLASS (klass);
+
+  gobject_class->constructed = gst_sonar_filter_constructed;
+  gobject_class->finalize = gst_sonar_filter_finalize;
+  gobject_class->set_property = gst_sonar_filter_set_property;
+  gobject_class->get_property = gst_sonar_filter_get_property;
   GST_ELEMENT_CLASS (klass)->change_state = gst_sonar_filter_change_state;
+
+  g_object_class_install_property (gobject_class, PROP_QOS,
+      g_param_spec_boolean ("qos", "QoS", "Drop whole pings that would "
+          "reach the sink too late, after the QoS events of a synchronised "
+          "sink with qos=true (GstBaseTransform's rule: running time at or "
+          "before the last late ping's plus its lateness)", DEFAULT_QOS,
+          G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS));
+  g_object_class_install_property (gobject_class, PROP_DROPPED,
+      g_param_spec_uint64 ("dropped", "Dropped pings", "Pings dropped "
+          "since start, each reported by a bus warning: too late for the "
+          "sink (qos), or, in dopplerbank, not held whole by the stream (it "
+          "started or ended inside one, a gap, a seek, pings a live source "
+          "or a leaky queue before it dropped)", 0, G_MAXUINT64, 0,
+          G_PARAM_READABLE | G_PARAM_STATIC_STRINGS));
 }

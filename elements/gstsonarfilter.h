@@ -8,6 +8,14 @@
  * subclass's output caps, the segment, the set-up event and the bank event
  * in that order, and hands buffers to the subclass from then on. A new
  * set-up, bank or input caps configures again before the next buffer.
+ *
+ * Live pipelines (docs/CONTRACTS.md, "Live pipelines"): the base answers
+ * the LATENCY query with upstream's latency plus its own processing time
+ * (gstsonarlatency.h), measured on every ping the subclass pushes. It
+ * keeps the QoS events from downstream and drops whole pings that would
+ * reach the sink too late, as GstBaseTransform does (property "qos"); it
+ * counts every ping the element drops (property "dropped") and reports it
+ * on the bus (gst_sonar_filter_drop_pings).
  */
 #ifndef GST_SONAR_FILTER_H
 #define GST_SONAR_FILTER_H
@@ -28,6 +36,11 @@ struct _GstSonarFilterClass
 
   /* Whether configure() needs the Doppler bank event (all but dopplerbank). */
   gboolean needs_bank;
+  /* Whether the input is a stream the subclass cuts into pings
+   * (dopplerbank): it then checks each ping with
+   * gst_sonar_filter_drop_late() itself. Otherwise every input buffer is
+   * one ping, its OFFSET the ping's index, and the base checks it. */
+  gboolean frames_pings;
 
   /* Optional: a set-up of the element's own (dopplerbank, from files, for
    * recordings). NULL without error: use the upstream set-up event. */
@@ -70,8 +83,23 @@ gboolean gst_sonar_filter_use_pool (GstSonarFilter * filter, GstCaps * caps,
  * pool); NULL only when the pool is flushing. */
 GstBuffer *gst_sonar_filter_new_buffer (GstSonarFilter * filter, gsize size);
 
+/* Pushes one ping's output; the time since the ping's processing began
+ * (the input's arrival, or the previous push) is its processing time. */
 GstFlowReturn gst_sonar_filter_push (GstSonarFilter * filter,
     GstBuffer * buffer);
+
+/* Pings first .. end - 1 are dropped (never part of one): counted in the
+ * "dropped" property and posted as one bus warning, "Dropped ping N, @why
+ * (M dropped since start)", whose details hold sonar-dropped (uint64, M),
+ * first-ping and pings. */
+void gst_sonar_filter_drop_pings (GstSonarFilter * filter, guint64 first,
+    guint64 end, const char *why);
+/* QoS: TRUE when ping @index, time-stamped @pts, would reach the sink too
+ * late after what downstream's QoS events said: it is then dropped and
+ * reported (a QoS message now; a run of late pings as one warning when it
+ * ends), and must not be processed. */
+gboolean gst_sonar_filter_drop_late (GstSonarFilter * filter, guint64 index,
+    GstClockTime pts, GstClockTime duration);
 GstPad *gst_sonar_filter_get_srcpad (GstSonarFilter * filter);
 
 G_END_DECLS

@@ -11,6 +11,11 @@
  * emits (docs/FORMATS.md): a WAV of its pings replays through dopplerbank
  * sensor-file= exactly as the live pings.
  *
+ * With is-live it pings at its rate whatever downstream does, as the
+ * sensor: its latency is the recording window plus the rendering, and the
+ * pings recorded while downstream still held the previous one are lost
+ * (docs/CONTRACTS.md, section 14).
+ *
  * Example:
  *   gst-launch-1.0 -m sonarsrc scene=fig9 num-buffers=3 ! fakesink
  *   gst-launch-1.0 sonarsrc num-buffers=12 write-sensor-file=pings.json \
@@ -22,6 +27,7 @@
 #endif
 
 #include "gstsonarsrc.h"
+#include "gstsonarlatency.h"
 
 #include <gio/gio.h>
 #include <gst/audio/audio.h>
@@ -158,6 +164,8 @@ struct _GstSonarSrc
   guint64 ping_index;
   GstClockID clock_id;          /* live pacing wait, protected by the object lock */
   gboolean flushing;
+  GstSonarLatency latency;      /* rendering a ping */
+  guint64 pushed, lost;         /* live pings pushed, and lost (fell behind) */
 };
 
 G_DEFINE_TYPE (GstSonarSrc, gst_sonar_src, GST_TYPE_PUSH_SRC);
@@ -519,6 +527,9 @@ gst_sonar_src_start (GstBaseSrc * bsrc)
   self->setup_event_pending = TRUE;
   self->ping_index = 0;
   self->flushing = FALSE;
+  self->pushed = self->lost = 0;
+  gst_sonar_latency_reset (GST_ELEMENT (self), &self->latency,
+      gst_base_src_is_live (GST_BASE_SRC (self)));
   GST_INFO_OBJECT (self, "%u microphones, %u emitters, %u reflectors, "
       "%u samples per ping", g->n_microphones, g->n_emitters,
       self->scene.n_reflectors, self->setup->ping_length);
@@ -589,11 +600,16 @@ gst_sonar_src_query (GstBaseSrc * bsrc, GstQuery * query)
   GstSonarSrc *self = GST_SONAR_SRC (bsrc);
 
   if (GST_QUERY_TYPE (query) == GST_QUERY_LATENCY && self->setup) {
-    /* A ping is complete only when its window has been recorded. */
-    GstClockTime window = gst_util_uint64_scale_round (self->setup->ping_length,
-        GST_SECOND, (guint64) self->setup->sample_rate);
-    gst_query_set_latency (query, gst_base_src_is_live (bsrc), window,
-        window);
+    /* A ping is complete when its window has been recorded, and out when
+     * it has been rendered; it waits at most until the next ping replaces
+     * it (live pings the source could not push in time are lost). */
+    const GstClockTime window = gst_util_uint64_scale_round
+        (self->setup->ping_length, GST_SECOND,
+        (guint64) self->setup->sample_rate);
+    const GstClockTime min = window + gst_sonar_latency_get (GST_ELEMENT
+        (self), &self->latency);
+    gst_query_set_latency (query, gst_base_src_is_live (bsrc), min, min +
+        (GstClockTime) llround (GST_SECOND / self->ping_rate));
     return TRUE;
   }
   return GST_BASE_SRC_CLASS (gst_sonar_src_parent_class)->query (bsrc, query);
@@ -652,16 +668,63 @@ gst_sonar_src_unlock_stop (GstBaseSrc * bsrc)
   return TRUE;
 }
 
+static GstClockTime
+ping_pts (GstSonarSrc * self, guint64 index)
+{
+  return (GstClockTime) llround (index / self->ping_rate * GST_SECOND);
+}
+
+/* Live: the sensor pings at its rate whether or not downstream takes the
+ * pings, as the real one does; when the source comes back later than the
+ * end of the next ping's window, the pings in between are lost whole and
+ * the newest recorded one comes next. Reported as a QoS message (as
+ * v4l2src does for lost frames); dopplerbank then counts them. */
+static void
+skip_lost_pings (GstSonarSrc * self, GstClockTime window)
+{
+  GstClock *clock = gst_element_get_clock (GST_ELEMENT (self));
+  GstClockTime now, base_time;
+  guint64 newest = self->ping_index;
+  GstMessage *message;
+
+  if (!clock)
+    return;
+  now = gst_clock_get_time (clock);
+  gst_object_unref (clock);
+  base_time = gst_element_get_base_time (GST_ELEMENT (self));
+  if (now < base_time)
+    return;
+  now -= base_time;
+  while (ping_pts (self, newest + 1) + window <= now)
+    newest++;
+  if (newest == self->ping_index)
+    return;
+  self->lost += newest - self->ping_index;
+  GST_DEBUG_OBJECT (self, "pings %" G_GUINT64_FORMAT " to %" G_GUINT64_FORMAT
+      " lost: downstream took ping %" G_GUINT64_FORMAT " too late",
+      self->ping_index, newest - 1, self->ping_index - 1);
+  message = gst_message_new_qos (GST_OBJECT (self), TRUE,
+      ping_pts (self, self->ping_index), ping_pts (self, self->ping_index),
+      ping_pts (self, self->ping_index), ping_pts (self, newest) -
+      ping_pts (self, self->ping_index));
+  gst_message_set_qos_values (message, GST_CLOCK_DIFF (ping_pts (self,
+              self->ping_index) + window, now), 1.0, 1000000);
+  gst_message_set_qos_stats (message, GST_FORMAT_BUFFERS, self->pushed,
+      self->lost);
+  gst_element_post_message (GST_ELEMENT (self), message);
+  self->ping_index = newest;
+}
+
 static GstFlowReturn
 gst_sonar_src_create (GstPushSrc * psrc, GstBuffer ** outbuf)
 {
   GstSonarSrc *self = GST_SONAR_SRC (psrc);
   const guint n_mics = self->setup->geometry.n_microphones;
   const guint length = self->setup->ping_length;
-  const double ping_time = self->ping_index / self->ping_rate;
-  const GstClockTime pts = (GstClockTime) llround (ping_time * GST_SECOND);
   const GstClockTime duration = gst_util_uint64_scale_round (length,
       GST_SECOND, (guint64) self->setup->sample_rate);
+  double ping_time;
+  GstClockTime pts, render_start;
   GstBuffer *buffer;
   GstMapInfo map;
   float *out;
@@ -672,10 +735,15 @@ gst_sonar_src_create (GstPushSrc * psrc, GstBuffer ** outbuf)
     self->setup_event_pending = FALSE;
   }
   if (gst_base_src_is_live (GST_BASE_SRC (psrc))) {
-    GstFlowReturn ret = wait_for_ping (self, pts + duration);
+    GstFlowReturn ret = wait_for_ping (self, ping_pts (self,
+            self->ping_index) + duration);
     if (ret != GST_FLOW_OK)
       return ret;
+    skip_lost_pings (self, duration);
   }
+  ping_time = self->ping_index / self->ping_rate;
+  pts = ping_pts (self, self->ping_index);
+  render_start = gst_util_get_timestamp ();
 
   sonar_simulator_render (self->simulator, &self->scene, self->ping_index,
       ping_time, self->planar, self->truths);
@@ -706,6 +774,9 @@ gst_sonar_src_create (GstPushSrc * psrc, GstBuffer ** outbuf)
                 self->scene.n_reflectors)));
   }
   self->ping_index++;
+  self->pushed++;
+  gst_sonar_latency_add (GST_ELEMENT (self), &self->latency,
+      gst_util_get_timestamp () - render_start);
   *outbuf = buffer;
   return GST_FLOW_OK;
 }
@@ -792,7 +863,9 @@ gst_sonar_src_class_init (GstSonarSrcClass * klass)
           "relative humidity) along each echo's path", FALSE, flags));
   g_object_class_install_property (gobject_class, PROP_IS_LIVE,
       g_param_spec_boolean ("is-live", "Is live", "Pace the pings in real "
-          "time like the real sensor (one every 1/ping-rate seconds)",
+          "time like the real sensor (one every 1/ping-rate seconds); pings "
+          "recorded while downstream still holds the previous one are lost "
+          "whole, as the sensor's (a QoS message says how many)",
           DEFAULT_IS_LIVE, flags));
   g_object_class_install_property (gobject_class, PROP_WRITE_SENSOR_FILE,
       g_param_spec_string ("write-sensor-file", "Write sensor file", "At "

@@ -1,6 +1,10 @@
 /* sonar-test-gst.c: see sonar-test-gst.h. */
 #include "sonar-test-gst.h"
 
+#include <math.h>
+
+#include "sonar-contracts.h"
+
 char *
 sonar_test_run_pipeline (const char *description, GstElement ** pipeline_out)
 {
@@ -49,3 +53,48 @@ sonar_test_init_gst (int *argc, char ***argv)
   gst_init (argc, argv);
 }
 
+
+void
+sonar_test_score_ping (GstBuffer * buffer, SonarTestScore * s)
+{
+  SonarTruthMeta *truth = sonar_buffer_get_truth_meta (buffer);
+  SonarDetectionsMeta *dets = sonar_buffer_get_detections_meta (buffer);
+
+  g_assert_nonnull (truth);
+  g_assert_nonnull (dets);
+  g_assert_cmpuint (truth->ping_index, ==, dets->ping_index);
+  for (guint k = 0; k < truth->n_truths; k++) {
+    const SonarTruth *t = &truth->truths[k];
+    gboolean found = FALSE;
+    for (guint d = 0; d < dets->n_detections && !found; d++) {
+      const SonarDetection *x = &dets->detections[d];
+      if (sonar_vec3_norm (sonar_vec3_sub (x->position, t->position)) < 0.05) {
+        const double err = fabs (x->radial_velocity - t->radial_velocity);
+        g_test_message ("ping %" G_GUINT64_FORMAT ": %.2f m %+.1f deg "
+            "truth %+.4f, estimate %+.4f m/s", truth->ping_index,
+            t->range, t->azimuth, t->radial_velocity, x->radial_velocity);
+        s->sum_error += err;
+        s->max_error = MAX (s->max_error, err);
+        found = TRUE;
+      }
+    }
+    s->matched += found;
+    if (!found)
+      g_test_message ("ping %" G_GUINT64_FORMAT ": missed %.2f m %+.1f deg",
+          truth->ping_index, t->range, t->azimuth);
+  }
+  for (guint d = 0; d < dets->n_detections; d++) {
+    gboolean real = FALSE;
+    for (guint k = 0; k < truth->n_truths; k++)
+      real |= sonar_vec3_norm (sonar_vec3_sub (dets->detections[d].position,
+              truth->truths[k].position)) < 0.05;
+    if (!real) {
+      g_test_message ("ping %" G_GUINT64_FORMAT ": false positive at %.2f m "
+          "%+.1f deg", truth->ping_index, dets->detections[d].range,
+          dets->detections[d].azimuth);
+      s->false_positives++;
+    }
+  }
+  s->n_truth += truth->n_truths;
+  s->n_pings++;
+}

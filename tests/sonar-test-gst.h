@@ -16,6 +16,20 @@ G_BEGIN_DECLS
 char *sonar_test_run_pipeline (const char *description,
     GstElement ** pipeline_out);
 
+/* Detections against the simulator's truth, over pings: a detection
+ * within 5 cm of a true object matches it (its radial velocity error is
+ * counted), any other is a false positive. */
+typedef struct
+{
+  guint n_truth, matched, false_positives;
+  double sum_error, max_error;
+  guint n_pings;
+} SonarTestScore;
+
+/* Scores one output buffer of velocityest (its truth and detections
+ * metas, which must be there and be of the same ping) into @score. */
+void sonar_test_score_ping (GstBuffer * buffer, SonarTestScore * score);
+
 /* Initialises GStreamer for a test program, with the build tree's plugin. */
 void sonar_test_init_gst (int *argc, char ***argv);
 

@@ -12,16 +12,9 @@
 
 #define FIG10_BANK "velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02"
 
-typedef struct
-{
-  guint n_truth, matched, false_positives;
-  double sum_error, max_error;
-  guint n_pings;
-} Score;
+typedef SonarTestScore Score;
 
-/* Runs @launch (ending in "appsink name=sink") and scores every ping's
- * detections meta against its truth meta: a detection within 5 cm of a
- * true object matches it; any other detection is a false positive. */
+/* Runs @launch (ending in "appsink name=sink") and scores every ping. */
 static Score
 score_pipeline (const char *launch, GString * json_out)
 {
@@ -34,52 +27,14 @@ score_pipeline (const char *launch, GString * json_out)
   gst_element_set_state (pipeline, GST_STATE_PLAYING);
   while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
     GstBuffer *buffer = gst_sample_get_buffer (sample);
-    SonarTruthMeta *truth = sonar_buffer_get_truth_meta (buffer);
-    SonarDetectionsMeta *dets = sonar_buffer_get_detections_meta (buffer);
     GstMapInfo map;
 
-    g_assert_nonnull (truth);
-    g_assert_nonnull (dets);
-    g_assert_cmpuint (truth->ping_index, ==, dets->ping_index);
     if (json_out) {
       gst_buffer_map (buffer, &map, GST_MAP_READ);
       g_string_append_len (json_out, (const char *) map.data, map.size);
       gst_buffer_unmap (buffer, &map);
     }
-    for (guint k = 0; k < truth->n_truths; k++) {
-      const SonarTruth *t = &truth->truths[k];
-      gboolean found = FALSE;
-      for (guint d = 0; d < dets->n_detections && !found; d++) {
-        const SonarDetection *x = &dets->detections[d];
-        if (sonar_vec3_norm (sonar_vec3_sub (x->position, t->position)) <
-            0.05) {
-          const double err = fabs (x->radial_velocity - t->radial_velocity);
-          g_test_message ("ping %" G_GUINT64_FORMAT ": %.2f m %+.1f deg "
-              "truth %+.4f, estimate %+.4f m/s", truth->ping_index,
-              t->range, t->azimuth, t->radial_velocity, x->radial_velocity);
-          s.sum_error += err;
-          s.max_error = MAX (s.max_error, err);
-          found = TRUE;
-        }
-      }
-      s.matched += found;
-      if (!found)
-        g_test_message ("ping %" G_GUINT64_FORMAT ": missed %.2f m %+.1f "
-            "deg", truth->ping_index, t->range, t->azimuth);
-    }
-    for (guint d = 0; d < dets->n_detections; d++) {
-      gboolean real = FALSE;
-      for (guint k = 0; k < truth->n_truths; k++)
-        real |= sonar_vec3_norm (sonar_vec3_sub
-            (dets->detections[d].position, truth->truths[k].position)) < 0.05;
-      if (!real) {
-        g_test_message ("false positive at %.2f m %+.1f deg",
-            dets->detections[d].range, dets->detections[d].azimuth);
-        s.false_positives++;
-      }
-    }
-    s.n_truth += truth->n_truths;
-    s.n_pings++;
+    sonar_test_score_ping (buffer, &s);
     gst_sample_unref (sample);
   }
   gst_element_set_state (pipeline, GST_STATE_NULL);

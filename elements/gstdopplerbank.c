@@ -793,7 +793,7 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
       "each ping's microphone recordings onto their band",
       "gst-sonar-velocity developers");
 
-  filter_class->needs_bank = FALSE;
+  filter_class->bank_role = GST_SONAR_FILTER_MAKES_BANK;
   filter_class->frames_pings = TRUE;
   filter_class->make_setup = GST_DEBUG_FUNCPTR (gst_doppler_bank_make_setup);
   filter_class->configure = GST_DEBUG_FUNCPTR (gst_doppler_bank_configure);

@@ -562,7 +562,7 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
       "an energyscape (direction x range) of the MIMO virtual array",
       "gst-sonar-velocity developers");
 
-  filter_class->needs_bank = TRUE;
+  filter_class->bank_role = GST_SONAR_FILTER_USES_BANK;
   filter_class->configure = GST_DEBUG_FUNCPTR (gst_mimo_beamform_configure);
   filter_class->unconfigure =
       GST_DEBUG_FUNCPTR (gst_mimo_beamform_unconfigure);

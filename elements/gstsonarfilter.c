@@ -96,24 +96,53 @@ gst_sonar_filter_use_pool (GstSonarFilter * filter, GstCaps * caps,
     gsize size)
 {
   GstSonarFilterPrivate *priv = PRIV (filter);
-  GstBufferPool *pool;
+  GstQuery *query;
+  GstBufferPool *pool = NULL;
+  GstAllocator *allocator = NULL;
+  GstAllocationParams params;
   GstStructure *config;
+  guint min = GST_SONAR_FILTER_POOL_MIN_BUFFERS, max = 0;
 
   /* The pool's size is a guint: a larger one would wrap. */
   if (size > G_MAXUINT)
     return FALSE;
-  pool = gst_buffer_pool_new ();
-  config = gst_buffer_pool_get_config (pool);
-  /* No upper bound: a tee or queue downstream may hold several pings. */
-  gst_buffer_pool_config_set_params (config, caps, size,
-      GST_SONAR_FILTER_POOL_MIN_BUFFERS, 0);
-  if (!gst_buffer_pool_set_config (pool, config)
-      || !gst_buffer_pool_set_active (pool, TRUE)) {
-    gst_object_unref (pool);
-    return FALSE;
+  /* Downstream has its say, as in GstBaseTransform's decide_allocation:
+   * its pool if it offers one, else a pool of our own on the allocator
+   * and parameters (alignment, padding) it asks for. */
+  gst_allocation_params_init (&params);
+  query = gst_query_new_allocation (caps, TRUE);
+  if (gst_pad_peer_query (priv->srcpad, query)) {
+    if (gst_query_get_n_allocation_params (query) > 0)
+      gst_query_parse_nth_allocation_param (query, 0, &allocator, &params);
+    if (gst_query_get_n_allocation_pools (query) > 0) {
+      guint offered_size, offered_min, offered_max;
+      gst_query_parse_nth_allocation_pool (query, 0, &pool, &offered_size,
+          &offered_min, &offered_max);
+      min = MAX (min, offered_min);
+      /* A bounded pool would stall a tee or queue holding pings. */
+      max = offered_max == 0 || offered_max >= min + 2 ? offered_max : 0;
+    }
   }
-  priv->pool = pool;
-  return TRUE;
+  gst_query_unref (query);
+  /* Downstream's pool, or when it will not take our buffers, our own. */
+  for (int own = pool == NULL; own <= 1 && !priv->pool; own++) {
+    if (own) {
+      g_clear_object (&pool);
+      pool = gst_buffer_pool_new ();
+      min = GST_SONAR_FILTER_POOL_MIN_BUFFERS;
+      max = 0;
+    }
+    config = gst_buffer_pool_get_config (pool);
+    gst_buffer_pool_config_set_params (config, caps, size, min, max);
+    gst_buffer_pool_config_set_allocator (config, allocator, &params);
+    if (gst_buffer_pool_set_config (pool, config)
+        && gst_buffer_pool_set_active (pool, TRUE))
+      priv->pool = g_steal_pointer (&pool);
+  }
+  g_clear_object (&pool);
+  if (allocator)
+    gst_object_unref (allocator);
+  return priv->pool != NULL;
 }
 
 GstBuffer *
@@ -316,8 +345,7 @@ configure (GstSonarFilter * filter)
   if (klass->make_setup) {
     SonarSetup *own = klass->make_setup (filter, priv->in_caps, &error);
     if (error) {
-      GST_ELEMENT_ERROR (filter, RESOURCE, SETTINGS, ("%s", error->message),
-          (NULL));
+      SONAR_ELEMENT_POST_ERROR (filter, error, NULL);
       g_error_free (error);
       return FALSE;
     }
@@ -333,11 +361,11 @@ configure (GstSonarFilter * filter)
         ("No sonar set-up arrived before the data: %s needs the array "
             "geometry and emission waveforms (the sonar-setup event that "
             "sonarsrc sends; for a recording, set dopplerbank's "
-            "waveforms-file and ping-length)", GST_OBJECT_NAME (filter)),
+            "sensor-file)", GST_OBJECT_NAME (filter)),
         (NULL));
     return FALSE;
   }
-  if (klass->needs_bank && !priv->bank) {
+  if (klass->bank_role == GST_SONAR_FILTER_USES_BANK && !priv->bank) {
     GST_ELEMENT_ERROR (filter, CORE, NEGOTIATION,
         ("No Doppler bank arrived before the data: %s must follow "
             "dopplerbank", GST_OBJECT_NAME (filter)), (NULL));
@@ -348,8 +376,7 @@ configure (GstSonarFilter * filter)
       upstream_is_live (filter));
   out_caps = klass->configure (filter, priv->in_caps, &error);
   if (!out_caps) {
-    GST_ELEMENT_ERROR (filter, CORE, NEGOTIATION, ("%s", error->message),
-        (NULL));
+    SONAR_ELEMENT_POST_ERROR (filter, error, NULL);
     g_error_free (error);
     return FALSE;
   }
@@ -475,8 +502,7 @@ gst_sonar_filter_sink_event (GstPad * pad, GstObject * parent,
         GError *error = NULL;
         SonarSetup *setup = sonar_setup_from_event (event, &error);
         if (!setup) {
-          GST_ELEMENT_ERROR (filter, STREAM, FORMAT, ("%s", error->message),
-              (NULL));
+          SONAR_ELEMENT_POST_ERROR (filter, error, NULL);
           g_error_free (error);
           gst_event_unref (event);
           return FALSE;
@@ -493,7 +519,8 @@ gst_sonar_filter_sink_event (GstPad * pad, GstObject * parent,
         unconfigure (filter);
         return TRUE;
       }
-      if (sonar_event_is_bank (event) && klass->needs_bank) {
+      if (sonar_event_is_bank (event)
+          && klass->bank_role == GST_SONAR_FILTER_USES_BANK) {
         SonarBand band;
         SonarDopplerBank *bank = sonar_bank_from_event (event, &band);
         if (!bank) {

@@ -30,12 +30,23 @@ G_BEGIN_DECLS
 G_DECLARE_DERIVABLE_TYPE (GstSonarFilter, gst_sonar_filter, GST,
     SONAR_FILTER, GstElement)
 
+/* What an element does with the Doppler bank. */
+typedef enum
+{
+  /* configure() needs the bank event from upstream: data before it is an
+   * error (mimobeamform, wardcluster, velocityest). */
+  GST_SONAR_FILTER_USES_BANK,
+  /* The element makes the bank (gst_sonar_filter_set_bank ()) and sends
+   * it downstream; a bank event from upstream is stale and dropped
+   * (dopplerbank). */
+  GST_SONAR_FILTER_MAKES_BANK,
+} GstSonarFilterBankRole;
+
 struct _GstSonarFilterClass
 {
   GstElementClass parent_class;
 
-  /* Whether configure() needs the Doppler bank event (all but dopplerbank). */
-  gboolean needs_bank;
+  GstSonarFilterBankRole bank_role;
   /* Whether the input is a stream the subclass cuts into pings
    * (dopplerbank): it then checks each ping with
    * gst_sonar_filter_drop_late() itself. Otherwise every input buffer is

@@ -437,7 +437,7 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
       "per-emitter Doppler-ACF curves; outputs one JSON line per ping",
       "gst-sonar-velocity developers");
 
-  filter_class->needs_bank = TRUE;
+  filter_class->bank_role = GST_SONAR_FILTER_USES_BANK;
   filter_class->configure = GST_DEBUG_FUNCPTR (gst_velocity_est_configure);
   filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_velocity_est_unconfigure);
   filter_class->process = GST_DEBUG_FUNCPTR (gst_velocity_est_process);

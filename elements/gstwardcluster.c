@@ -424,7 +424,7 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
       "thresholding, peak finding and hierarchical clustering",
       "gst-sonar-velocity developers");
 
-  filter_class->needs_bank = TRUE;
+  filter_class->bank_role = GST_SONAR_FILTER_USES_BANK;
   filter_class->configure = GST_DEBUG_FUNCPTR (gst_ward_cluster_configure);
   filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_ward_cluster_unconfigure);
   filter_class->process = GST_DEBUG_FUNCPTR (gst_ward_cluster_process);

@@ -638,6 +638,39 @@ all_finite (const float *x, gsize n)
   return TRUE;
 }
 
+/* The elements allocate as downstream asks (the ALLOCATION query): here
+ * memory aligned to 4096 bytes, which no default allocation gives. */
+static void
+test_allocation_from_downstream (void)
+{
+  g_autoptr (SonarSetup) setup = NULL;
+  GstBuffer *ping = sonarsrc_ping ("sonarsrc", 0, &setup);
+  GstAllocationParams params;
+  GstBus *bus;
+  GstHarness *h = fed_harness ("dopplerbank velocity-min=-0.3 "
+      "velocity-max=0.3 ! mimobeamform azimuth-count=61 range-max=3", setup,
+      &bus);
+  GstBuffer *out;
+
+  gst_allocation_params_init (&params);
+  params.align = 4095;
+  gst_harness_set_propose_allocator (h, NULL, &params);
+  g_assert_cmpint (gst_harness_push (h, ping), ==, GST_FLOW_OK);
+  out = gst_harness_pull (h);
+  g_assert_nonnull (out);
+  g_assert_cmpuint (gst_buffer_n_memory (out), ==, 1);
+  {
+    GstMapInfo map;
+    gst_buffer_map (out, &map, GST_MAP_READ);
+    g_assert_cmpuint ((guintptr) map.data % 4096, ==, 0);
+    g_assert_cmpuint (map.size, >, sizeof (SonarEnergyscapeHeader));
+    gst_buffer_unmap (out, &map);
+  }
+  gst_buffer_unref (out);
+  gst_harness_teardown (h);
+  gst_object_unref (bus);
+}
+
 /* 4a. Extreme sample values through dopplerbank ! mimobeamform. */
 static void
 test_extreme_inputs (void)
@@ -1219,5 +1252,7 @@ main (int argc, char **argv)
   g_test_add_func ("/elements/recording-formats", test_recording_formats);
   g_test_add_func ("/elements/datacube", test_datacube);
   g_test_add_func ("/elements/tune-while-playing", test_tune_while_playing);
+  g_test_add_func ("/elements/allocation-from-downstream",
+      test_allocation_from_downstream);
   return g_test_run ();
 }

@@ -91,9 +91,13 @@ def window_under_xvfb():
                    "installs)")
     # Xvfb writes its display number to -displayfd once it accepts
     # clients (xvfb-run's signal handshake fails where SIGUSR1 is ignored).
+    # -noreset: an X server resets when its last client leaves, and
+    # refuses connections meanwhile; autovideosink's probe of ximagesink is
+    # such a client, and the real sink would connect during the reset.
     ready, writer = os.pipe()
-    xvfb = subprocess.Popen(["Xvfb", "-displayfd", str(writer), "-screen",
-                             "0", "1280x800x24", "-nolisten", "tcp"],
+    xvfb = subprocess.Popen(["Xvfb", "-displayfd", str(writer), "-noreset",
+                             "-screen", "0", "1280x800x24", "-nolisten",
+                             "tcp"],
                             pass_fds=(writer,), stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     os.close(writer)

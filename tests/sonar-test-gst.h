@@ -9,12 +9,37 @@
 
 G_BEGIN_DECLS
 
-/* Runs a gst-launch style pipeline to EOS (or the first error). Returns
- * NULL on success, else the error message (and its debug text after a
- * newline): g_free it. @pipeline_out, if not NULL, receives the pipeline
- * (already set to NULL state; unref it) to inspect appsinks afterwards. */
-char *sonar_test_run_pipeline (const char *description,
-    GstElement ** pipeline_out);
+/* The tests' one pipeline runner: @launch (gst-launch syntax) played to
+ * EOS or its first error (300 s at most). The samples of every appsink
+ * are kept, by the appsink's name, in order; the warnings' texts and the
+ * first error too. The pipeline stays in PLAYING for inspection (sticky
+ * events, element properties) until sonar_test_run_free (). */
+typedef struct
+{
+  GstElement *pipeline;         /* NULL when @launch does not parse */
+  GHashTable *samples;          /* appsink name -> GPtrArray of GstSample */
+  GPtrArray *warnings;          /* char *: the warnings' messages */
+  GError *error;                /* the first error, its domain and code */
+  char *error_text;             /* its message, a newline and its debug
+                                 * text; a parse error or a timeout too;
+                                 * NULL when it ran to EOS */
+} SonarTestRun;
+
+SonarTestRun *sonar_test_run (const char *launch);
+void sonar_test_run_free (SonarTestRun * run);
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarTestRun, sonar_test_run_free)
+
+/* The samples of the appsink named @sink (an empty array when it got
+ * none; the appsink must exist). */
+GPtrArray *sonar_test_run_samples (const SonarTestRun * run,
+    const char *sink);
+/* The bytes of every sample of @sink, one after the other (velocityest's
+ * JSON lines): g_free it. */
+char *sonar_test_run_text (const SonarTestRun * run, const char *sink);
+
+/* sonar_test_run () for a pipeline run for its error alone: NULL when it
+ * ran to EOS, else error_text (g_free it). */
+char *sonar_test_run_pipeline (const char *launch);
 
 /* Detections against the simulator's truth, over pings: a detection
  * within 5 cm of a true object matches it (its radial velocity error is

@@ -14,110 +14,23 @@
 #define RECORDING_CAPS "audio/x-raw, format=F32LE, layout=interleaved, " \
   "rate=450000, channels=32, channel-mask=(bitmask)0"
 
-/* A pipeline run to EOS, its appsink's samples kept. */
-typedef struct
+/* The samples of the appsink named "sink". */
+static GPtrArray *
+sink_samples (SonarTestRun * run)
 {
-  GstElement *pipeline;
-  GPtrArray *samples;           /* GstSample */
-  char *error;                  /* NULL, or the first error's text */
-  GPtrArray *warnings;          /* char *: texts of the warnings */
-} Run;
-
-/* Runs @launch (an appsink named "sink", if any) to EOS or the first error.
- * The pipeline stays in PLAYING for inspection until run_free. */
-static Run *
-run_pipeline (const char *launch)
-{
-  Run *run = g_new0 (Run, 1);
-  GError *error = NULL;
-  GstElement *sink;
-  GstBus *bus;
-  gboolean done = FALSE;
-  gint64 deadline = g_get_monotonic_time () + 300 * G_TIME_SPAN_SECOND;
-
-  run->samples = g_ptr_array_new_with_free_func ((GDestroyNotify)
-      gst_sample_unref);
-  run->warnings = g_ptr_array_new_with_free_func (g_free);
-  run->pipeline = gst_parse_launch (launch, &error);
-  if (error) {
-    run->error = g_strdup_printf ("parse error: %s", error->message);
-    g_error_free (error);
-    return run;
-  }
-  sink = gst_bin_get_by_name (GST_BIN (run->pipeline), "sink");
-  bus = gst_element_get_bus (run->pipeline);
-  gst_element_set_state (run->pipeline, GST_STATE_PLAYING);
-  while (!done && g_get_monotonic_time () < deadline) {
-    GstMessage *msg;
-    if (sink) {
-      GstSample *sample = gst_app_sink_try_pull_sample (GST_APP_SINK (sink),
-          GST_MSECOND * 20);
-      if (sample)
-        g_ptr_array_add (run->samples, sample);
-    }
-    while ((msg = gst_bus_timed_pop_filtered (bus, sink ? 0 : GST_MSECOND *
-                20, GST_MESSAGE_EOS | GST_MESSAGE_ERROR |
-                GST_MESSAGE_WARNING))) {
-      GError *e = NULL;
-      char *debug = NULL;
-      switch (GST_MESSAGE_TYPE (msg)) {
-        case GST_MESSAGE_ERROR:
-          gst_message_parse_error (msg, &e, &debug);
-          run->error = g_strdup_printf ("%s\n%s", e->message,
-              debug ? debug : "");
-          done = TRUE;
-          break;
-        case GST_MESSAGE_WARNING:
-          gst_message_parse_warning (msg, &e, &debug);
-          g_ptr_array_add (run->warnings, g_strdup (e->message));
-          break;
-        default:
-          done = TRUE;          /* EOS */
-          break;
-      }
-      g_clear_error (&e);
-      g_free (debug);
-      gst_message_unref (msg);
-      if (done)
-        break;
-    }
-  }
-  /* Samples queued before EOS. */
-  if (sink && !run->error) {
-    GstSample *sample;
-    while ((sample = gst_app_sink_try_pull_sample (GST_APP_SINK (sink), 0)))
-      g_ptr_array_add (run->samples, sample);
-  }
-  if (!done && !run->error)
-    run->error = g_strdup ("timeout: no EOS within 300 s");
-  gst_object_unref (bus);
-  g_clear_object (&sink);
-  return run;
-}
-
-static void
-run_free (Run * run)
-{
-  if (run->pipeline) {
-    gst_element_set_state (run->pipeline, GST_STATE_NULL);
-    gst_object_unref (run->pipeline);
-  }
-  g_ptr_array_unref (run->samples);
-  g_ptr_array_unref (run->warnings);
-  g_free (run->error);
-  g_free (run);
+  return sonar_test_run_samples (run, "sink");
 }
 
 static GstBuffer *
-run_buffer (Run * run, guint i)
+run_buffer (SonarTestRun * run, guint i)
 {
-  g_assert_cmpuint (i, <, run->samples->len);
-  return gst_sample_get_buffer (g_ptr_array_index (run->samples, i));
+  g_assert_cmpuint (i, <, sink_samples (run)->len);
+  return gst_sample_get_buffer (g_ptr_array_index (sink_samples (run), i));
 }
 
 /* The sticky events on the appsink's pad. */
 static void
-sink_events (Run * run, SonarSetup ** setup, SonarDopplerBank ** bank,
+sink_events (SonarTestRun * run, SonarSetup ** setup, SonarDopplerBank ** bank,
     SonarBand * band)
 {
   GstElement *sink = gst_bin_get_by_name (GST_BIN (run->pipeline), "sink");
@@ -194,7 +107,7 @@ peak_index (const float *x, gsize n)
 static void
 test_chain_output (void)
 {
-  Run *run = run_pipeline ("sonarsrc num-buffers=2 ! dopplerbank ! "
+  SonarTestRun *run = sonar_test_run ("sonarsrc num-buffers=2 ! dopplerbank ! "
       "mimobeamform azimuth-count=61 range-max=3.5 ! "
       "appsink name=sink sync=false");
   g_autoptr (SonarSetup) setup = NULL;
@@ -206,11 +119,11 @@ test_chain_output (void)
   GstCaps *caps;
   const GstStructure *s;
 
-  g_assert_null (run->error);
-  g_assert_cmpuint (run->samples->len, ==, 2);
+  g_assert_null (run->error_text);
+  g_assert_cmpuint (sink_samples (run)->len, ==, 2);
 
   /* Caps: the grid asked for. */
-  caps = gst_sample_get_caps (g_ptr_array_index (run->samples, 0));
+  caps = gst_sample_get_caps (g_ptr_array_index (sink_samples (run), 0));
   s = gst_caps_get_structure (caps, 0);
   g_assert_true (gst_structure_has_name (s, SONAR_ENERGYSCAPE_MEDIA_TYPE));
   g_assert_true (sonar_energyscape_caps_parse (caps, &grid, &records, NULL));
@@ -246,7 +159,7 @@ test_chain_output (void)
       setup->band_high);
   g_assert_true (sonar_band_equal (&band, &expected_band));
 
-  for (guint k = 0; k < run->samples->len; k++) {
+  for (guint k = 0; k < sink_samples (run)->len; k++) {
     GstBuffer *buffer = run_buffer (run, k);
     SonarTruthMeta *truth = sonar_buffer_get_truth_meta (buffer);
     SonarSpectraMeta *spectra = sonar_buffer_get_spectra_meta (buffer);
@@ -336,7 +249,7 @@ test_chain_output (void)
     }
     gst_buffer_unmap (buffer, &map);
   }
-  run_free (run);
+  sonar_test_run_free (run);
 }
 
 static gboolean
@@ -370,20 +283,20 @@ test_taps (void)
   g_autofree char *launch2 = g_strdup_printf ("sonarsrc num-buffers=3 ! %s ! "
       "tee name=t t. ! queue ! filesink location=%s t. ! queue ! %s ! "
       "appsink name=sink sync=false", chain, spectra, imaging);
-  Run *run;
+  SonarTestRun *run;
   g_autofree char *contents = NULL;
   gsize length, offset = 0;
 
   /* Images. */
-  run = run_pipeline (launch1);
-  g_assert_null (run->error);
-  g_assert_cmpuint (run->samples->len, ==, 3);
+  run = sonar_test_run (launch1);
+  g_assert_null (run->error_text);
+  g_assert_cmpuint (sink_samples (run)->len, ==, 3);
   g_assert_true (g_file_get_contents (images, &contents, &length, NULL));
   {
     SonarImageGrid grid;
     guint records;
     g_assert_true (sonar_energyscape_caps_parse (gst_sample_get_caps
-            (g_ptr_array_index (run->samples, 0)), &grid, &records, NULL));
+            (g_ptr_array_index (sink_samples (run), 0)), &grid, &records, NULL));
     g_test_message ("energyscape file: %" G_GSIZE_FORMAT " bytes, 3 records "
         "of %" G_GSIZE_FORMAT, length, sizeof (SonarEnergyscapeHeader) +
         sizeof (float) * sonar_image_grid_size (&grid));
@@ -397,13 +310,13 @@ test_taps (void)
     offset += map.size;
     gst_buffer_unmap (run_buffer (run, k), &map);
   }
-  run_free (run);
+  sonar_test_run_free (run);
   g_clear_pointer (&contents, g_free);
 
   /* Spectra: the file holds, ping for ping, what the image's meta holds. */
-  run = run_pipeline (launch2);
-  g_assert_null (run->error);
-  g_assert_cmpuint (run->samples->len, ==, 3);
+  run = sonar_test_run (launch2);
+  g_assert_null (run->error_text);
+  g_assert_cmpuint (sink_samples (run)->len, ==, 3);
   g_assert_true (g_file_get_contents (spectra, &contents, &length, NULL));
   offset = 0;
   for (guint k = 0; k < 3; k++) {
@@ -424,7 +337,7 @@ test_taps (void)
     offset += map.size;
     gst_buffer_unmap (meta->spectra, &map);
   }
-  run_free (run);
+  sonar_test_run_free (run);
 
   /* The plotting tool draws the saved images. */
   if (have_matplotlib ()) {
@@ -482,7 +395,7 @@ test_errors_are_clear (void)
   };
 
   for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
-    g_autofree char *error = sonar_test_run_pipeline (cases[i].launch, NULL);
+    g_autofree char *error = sonar_test_run_pipeline (cases[i].launch);
     g_test_message ("%s -> %s", cases[i].launch, error);
     g_assert_nonnull (error);
     if (!strstr (error, cases[i].expected) && !(cases[i].alternative
@@ -517,29 +430,29 @@ test_range_fits_the_recording (void)
       "sync=false";
   g_autofree char *by_default = g_strdup_printf (chain, "");
   g_autofree char *too_far = g_strdup_printf (chain, "range-max=50");
-  Run *run = run_pipeline (by_default);
+  SonarTestRun *run = sonar_test_run (by_default);
   double reach;
 
-  g_assert_cmpstr (run->error, ==, NULL);
+  g_assert_cmpstr (run->error_text, ==, NULL);
   g_assert_cmpuint (run->warnings->len, ==, 0);
-  reach = image_range_max (g_ptr_array_index (run->samples, 0));
+  reach = image_range_max (g_ptr_array_index (sink_samples (run), 0));
   g_test_message ("default image reaches %.4f m", reach);
   g_assert_cmpfloat (reach, <=, 2.0);
   g_assert_cmpfloat (reach, >, 2.0 - 0.001);
-  run_free (run);
+  sonar_test_run_free (run);
 
-  run = run_pipeline (too_far);
-  g_assert_cmpstr (run->error, ==, NULL);
+  run = sonar_test_run (too_far);
+  g_assert_cmpstr (run->error_text, ==, NULL);
   g_assert_cmpuint (run->warnings->len, ==, 1);
   g_test_message ("%s", (char *) g_ptr_array_index (run->warnings, 0));
   /* 0.5 c ping-length / rate = 3.5787 m: the window of a 2 m recording. */
   g_assert_nonnull (strstr (g_ptr_array_index (run->warnings, 0),
           "range-max 50 m is beyond what one ping records: the image stops "
           "at 3.578 m, the end of the 9390-sample window"));
-  reach = image_range_max (g_ptr_array_index (run->samples, 0));
+  reach = image_range_max (g_ptr_array_index (sink_samples (run), 0));
   g_assert_cmpfloat (reach, <=, 3.578);
   g_assert_cmpfloat (reach, >, 3.578 - 0.001);
-  run_free (run);
+  sonar_test_run_free (run);
 }
 
 /* A ping of sonarsrc's default scene (interleaved) and its set-up. */
@@ -1117,21 +1030,21 @@ test_datacube (void)
       source);
   g_autofree char *fixed_launch = g_strdup_printf ("%s mode=fixed "
       "velocity=0 coarse-spacing=0 ! appsink name=sink sync=false", source);
-  Run *cube = run_pipeline (cube_launch);
-  Run *det = run_pipeline (det_launch);
-  Run *fixed = run_pipeline (fixed_launch);
+  SonarTestRun *cube = sonar_test_run (cube_launch);
+  SonarTestRun *det = sonar_test_run (det_launch);
+  SonarTestRun *fixed = sonar_test_run (fixed_launch);
   SonarImageGrid grid;
   guint records;
   gsize pixels;
   GstMapInfo cmap, dmap, fmap;
   float *maximum;
 
-  g_assert_null (cube->error);
-  g_assert_null (det->error);
-  g_assert_null (fixed->error);
-  g_assert_cmpuint (cube->samples->len, ==, 1);
+  g_assert_null (cube->error_text);
+  g_assert_null (det->error_text);
+  g_assert_null (fixed->error_text);
+  g_assert_cmpuint (sink_samples (cube)->len, ==, 1);
   g_assert_true (sonar_energyscape_caps_parse (gst_sample_get_caps
-          (g_ptr_array_index (cube->samples, 0)), &grid, &records, NULL));
+          (g_ptr_array_index (sink_samples (cube), 0)), &grid, &records, NULL));
   g_assert_cmpuint (records, ==, 5);
   pixels = sonar_image_grid_size (&grid);
   gst_buffer_map (run_buffer (cube, 0), &cmap, GST_MAP_READ);
@@ -1172,9 +1085,9 @@ test_datacube (void)
   gst_buffer_unmap (run_buffer (cube, 0), &cmap);
   gst_buffer_unmap (run_buffer (det, 0), &dmap);
   gst_buffer_unmap (run_buffer (fixed, 0), &fmap);
-  run_free (cube);
-  run_free (det);
-  run_free (fixed);
+  sonar_test_run_free (cube);
+  sonar_test_run_free (det);
+  sonar_test_run_free (fixed);
 }
 
 /* Centroids per ping of the default scene's 6 pings through wardcluster

@@ -46,27 +46,12 @@ run_chain (const GoldenCase * c)
   g_autofree char *launch = g_strdup_printf ("sonarsrc %s ! dopplerbank %s "
       "! mimobeamform %s ! wardcluster ! velocityest keep-rejected=true "
       "! appsink name=sink sync=false", c->source, c->bank, c->imager);
-  GstElement *pipeline = gst_parse_launch (launch, NULL);
-  GstElement *sink;
-  GstSample *sample;
-  GString *lines = g_string_new (NULL);
+  g_autoptr (SonarTestRun) run = sonar_test_run (launch);
+  g_autofree char *text = NULL;
 
-  g_assert_nonnull (pipeline);
-  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
-  gst_element_set_state (pipeline, GST_STATE_PLAYING);
-  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
-    GstBuffer *buffer = gst_sample_get_buffer (sample);
-    GstMapInfo map;
-
-    g_assert_true (gst_buffer_map (buffer, &map, GST_MAP_READ));
-    g_string_append_len (lines, (const char *) map.data, map.size);
-    gst_buffer_unmap (buffer, &map);
-    gst_sample_unref (sample);
-  }
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (sink);
-  gst_object_unref (pipeline);
-  return lines;
+  g_assert_null (run->error_text);
+  text = sonar_test_run_text (run, "sink");
+  return g_string_new (text);
 }
 
 static JsonObject *

@@ -58,7 +58,7 @@ test_not_a_regular_file (void)
   g_rmdir (dir);
 
   message = sonar_test_run_pipeline ("sonarsrc scene-file=/dev/zero "
-      "num-buffers=1 ! fakesink", NULL);
+      "num-buffers=1 ! fakesink");
   g_assert_nonnull (message);
   g_assert_true (g_str_has_prefix (message, "/dev/zero: not a regular file"));
 }

@@ -10,7 +10,7 @@
 static void
 assert_pipeline_error (const char *launch, const char *expected)
 {
-  g_autofree char *message = sonar_test_run_pipeline (launch, NULL);
+  g_autofree char *message = sonar_test_run_pipeline (launch);
   char *debug;
 
   g_assert_nonnull (message);

@@ -18,28 +18,18 @@ typedef SonarTestScore Score;
 static Score
 score_pipeline (const char *launch, GString * json_out)
 {
-  GstElement *pipeline = gst_parse_launch (launch, NULL);
-  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
-  GstSample *sample;
+  g_autoptr (SonarTestRun) run = sonar_test_run (launch);
+  GPtrArray *samples;
   Score s = { 0 };
 
-  g_assert_nonnull (sink);
-  gst_element_set_state (pipeline, GST_STATE_PLAYING);
-  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
-    GstBuffer *buffer = gst_sample_get_buffer (sample);
-    GstMapInfo map;
-
-    if (json_out) {
-      gst_buffer_map (buffer, &map, GST_MAP_READ);
-      g_string_append_len (json_out, (const char *) map.data, map.size);
-      gst_buffer_unmap (buffer, &map);
-    }
-    sonar_test_score_ping (buffer, &s);
-    gst_sample_unref (sample);
+  g_assert_null (run->error_text);
+  samples = sonar_test_run_samples (run, "sink");
+  for (guint i = 0; i < samples->len; i++)
+    sonar_test_score_ping (gst_sample_get_buffer (samples->pdata[i]), &s);
+  if (json_out) {
+    g_autofree char *text = sonar_test_run_text (run, "sink");
+    g_string_append (json_out, text);
   }
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (sink);
-  gst_object_unref (pipeline);
   return s;
 }
 
@@ -193,23 +183,10 @@ test_detection_instant (void)
 static char *
 collect_json (const char *launch)
 {
-  GstElement *pipeline = gst_parse_launch (launch, NULL);
-  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
-  GString *json = g_string_new (NULL);
-  GstSample *sample;
+  g_autoptr (SonarTestRun) run = sonar_test_run (launch);
 
-  gst_element_set_state (pipeline, GST_STATE_PLAYING);
-  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
-    GstMapInfo map;
-    gst_buffer_map (gst_sample_get_buffer (sample), &map, GST_MAP_READ);
-    g_string_append_len (json, (const char *) map.data, map.size);
-    gst_buffer_unmap (gst_sample_get_buffer (sample), &map);
-    gst_sample_unref (sample);
-  }
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (sink);
-  gst_object_unref (pipeline);
-  return g_string_free (json, FALSE);
+  g_assert_null (run->error_text);
+  return sonar_test_run_text (run, "sink");
 }
 
 #define REPLAY_BANK "velocity-min=-1.2 velocity-max=1.2 velocity-step=0.05"
@@ -229,7 +206,7 @@ test_wav_recording_identical (void)
       "write-sensor-file=%s ! wavenc ! filesink location=%s", sensor, wav);
   g_autofree char *load = g_strdup_printf ("filesrc location=%s ! wavparse "
       "! dopplerbank sensor-file=%s " REPLAY_BANK REPLAY_CHAIN, wav, sensor);
-  g_autofree char *error = sonar_test_run_pipeline (save, NULL);
+  g_autofree char *error = sonar_test_run_pipeline (save);
   g_autoptr (GString) live = g_string_new (NULL);
   g_autofree char *recorded = NULL;
 
@@ -271,7 +248,7 @@ test_wav_recording_waveforms_file (void)
   g_assert_true (g_spawn_sync (NULL, (char **) argv, NULL, 0, NULL, NULL,
           NULL, NULL, &status, NULL));
   g_assert_true (g_spawn_check_wait_status (status, NULL));
-  error = sonar_test_run_pipeline (save, NULL);
+  error = sonar_test_run_pipeline (save);
   g_assert_null (error);
   score_pipeline ("sonarsrc num-buffers=2 ! dopplerbank " REPLAY_BANK
       REPLAY_CHAIN, live);

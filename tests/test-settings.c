@@ -42,7 +42,7 @@ test_is_live_while_playing (void)
 static void
 assert_first_line (const char *launch, const char *expected)
 {
-  g_autofree char *message = sonar_test_run_pipeline (launch, NULL);
+  g_autofree char *message = sonar_test_run_pipeline (launch);
 
   if (!expected) {
     g_assert_null (message);

@@ -231,7 +231,7 @@ test_wav_round_trip (void)
   g_autofree char *wav = g_build_filename (dir, "pings.wav", NULL);
   g_autofree char *save = g_strdup_printf ("sonarsrc num-buffers=2 "
       "scene=fig10 ! wavenc ! filesink location=%s", wav);
-  g_autofree char *error = sonar_test_run_pipeline (save, NULL);
+  g_autofree char *error = sonar_test_run_pipeline (save);
   g_autofree char *load = g_strdup_printf ("filesrc location=%s ! wavparse "
       "! appsink name=sink sync=false", wav);
   GByteArray *direct = collect_samples ("sonarsrc num-buffers=2 scene=fig10 "
@@ -279,34 +279,12 @@ test_errors_are_clear (void)
         "at 450000 Hz"},
   };
   for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
-    g_autofree char *error = sonar_test_run_pipeline (cases[i].launch, NULL);
+    g_autofree char *error = sonar_test_run_pipeline (cases[i].launch);
     g_test_message ("%s -> %s", cases[i].launch, error);
     g_assert_nonnull (error);
     g_assert_nonnull (strstr (error, cases[i].expected));
     g_free (cases[i].launch);
   }
-}
-
-/* The first error @launch posts, as its GError (domain and code). */
-static GError *
-first_error (const char *launch)
-{
-  GstElement *pipeline = gst_parse_launch (launch, NULL);
-  GstBus *bus = gst_element_get_bus (pipeline);
-  GstMessage *msg;
-  GError *error = NULL;
-
-  gst_element_set_state (pipeline, GST_STATE_PLAYING);
-  msg = gst_bus_timed_pop_filtered (bus, 60 * GST_SECOND,
-      GST_MESSAGE_ERROR | GST_MESSAGE_EOS);
-  g_assert_nonnull (msg);
-  g_assert_cmpint (GST_MESSAGE_TYPE (msg), ==, GST_MESSAGE_ERROR);
-  gst_message_parse_error (msg, &error, NULL);
-  gst_message_unref (msg);
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (bus);
-  gst_object_unref (pipeline);
-  return error;
 }
 
 /* The core's errors reach the bus with their own domain and code
@@ -319,20 +297,22 @@ test_error_codes (void)
       "{\"reflectors\": [{\"range\": 1, \"azimut\": 3}]}");
   g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s ! "
       "fakesink", bad_scene);
-  GError *error;
+  SonarTestRun *run;
 
-  error = first_error ("sonarsrc ping-rate=100 ! fakesink");
-  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
-  g_assert_nonnull (strstr (error->message, "ping-rate 100 Hz is too fast"));
-  g_clear_error (&error);
-  error = first_error (launch);
-  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT);
-  g_assert_nonnull (strstr (error->message, "unknown member \"azimut\""));
-  g_clear_error (&error);
-  error = first_error ("sonarsrc scene-file=/nonexistent/scene.json ! "
+  run = sonar_test_run ("sonarsrc ping-rate=100 ! fakesink");
+  g_assert_error (run->error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
+  g_assert_nonnull (strstr (run->error->message,
+          "ping-rate 100 Hz is too fast"));
+  sonar_test_run_free (run);
+  run = sonar_test_run (launch);
+  g_assert_error (run->error, SONAR_ERROR, SONAR_ERROR_FORMAT);
+  g_assert_nonnull (strstr (run->error->message,
+          "unknown member \"azimut\""));
+  sonar_test_run_free (run);
+  run = sonar_test_run ("sonarsrc scene-file=/nonexistent/scene.json ! "
       "fakesink");
-  g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FILE);
-  g_clear_error (&error);
+  g_assert_error (run->error, SONAR_ERROR, SONAR_ERROR_FILE);
+  sonar_test_run_free (run);
 }
 
 static void
@@ -384,7 +364,7 @@ test_live_pacing (void)
 {
   gint64 start = g_get_monotonic_time ();
   g_autofree char *error = sonar_test_run_pipeline ("sonarsrc is-live=true "
-      "ping-rate=20 num-buffers=4 scene=empty ! fakesink sync=true", NULL);
+      "ping-rate=20 num-buffers=4 scene=empty ! fakesink sync=true");
   double elapsed = (g_get_monotonic_time () - start) / 1e6;
 
   g_assert_null (error);

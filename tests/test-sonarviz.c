@@ -377,13 +377,13 @@ test_pngenc (void)
   char *png = g_build_filename (dir, "fig9.png", NULL);
   char *sink = g_strdup_printf ("pngenc ! filesink location=%s", png);
   char *launch = g_strdup_printf (DEFAULT_VIZ, 1, "", sink);
-  char *error = sonar_test_run_pipeline (launch, NULL);
+  char *error = sonar_test_run_pipeline (launch);
   char *decode = g_strdup_printf ("filesrc location=%s ! pngdec "
       "! video/x-raw,format=RGB,width=960,height=540 ! fakesink", png);
 
   g_assert_null (error);
   /* It decodes back to a 960 x 540 RGB picture. */
-  error = sonar_test_run_pipeline (decode, NULL);
+  error = sonar_test_run_pipeline (decode);
   g_assert_null (error);
   g_remove (png);
   g_rmdir (dir);
@@ -414,7 +414,7 @@ test_mp4 (void)
   sink_text = g_strdup_printf ("videoconvert ! video/x-raw,format=I420 "
       "! x264enc ! mp4mux ! filesink location=%s", mp4);
   launch = g_strdup_printf (DEFAULT_VIZ, 3, "", sink_text);
-  error = sonar_test_run_pipeline (launch, NULL);
+  error = sonar_test_run_pipeline (launch);
   g_assert_null (error);
   /* Three H.264 frames at the ping rate come back out of the file. */
   demux = g_strdup_printf ("filesrc location=%s ! qtdemux "
@@ -448,7 +448,7 @@ test_autovideosink (void)
 {
   char *launch = g_strdup_printf (DEFAULT_VIZ, 1, "",
       "videoconvert ! autovideosink sync=false");
-  char *error = sonar_test_run_pipeline (launch, NULL);
+  char *error = sonar_test_run_pipeline (launch);
 
   g_assert_null (error);
   g_free (launch);
@@ -462,7 +462,7 @@ test_errors (void)
   /* Downstream wants another frame rate than the pings' 12 Hz. */
   error = sonar_test_run_pipeline ("sonarsrc num-buffers=1 ! dopplerbank "
       "velocity-min=-1 velocity-max=1 ! mimobeamform ! sonarviz "
-      "! video/x-raw,framerate=30/1 ! fakesink", NULL);
+      "! video/x-raw,framerate=30/1 ! fakesink");
   g_assert_nonnull (error);
   g_test_message ("%s", error);
   g_assert_nonnull (strstr (error, "sonarviz: downstream takes none of "
@@ -474,7 +474,7 @@ test_errors (void)
   error = sonar_test_run_pipeline ("sonarsrc num-buffers=1 ! dopplerbank "
       "velocity-min=-1 velocity-max=1 ! mimobeamform ! sonarviz name=viz "
       "! fakesink  fakesrc num-buffers=1 sizetype=fixed sizemax=4 "
-      "! text/x-raw,format=utf8 ! viz.detections", NULL);
+      "! text/x-raw,format=utf8 ! viz.detections");
   g_assert_nonnull (error);
   g_test_message ("%s", error);
   g_assert_nonnull (strstr (error, "sonarviz: the detections pad takes "

@@ -19,7 +19,6 @@
 /* A detection within this distance of a true object is that object (as in
  * test-pipeline.c). */
 #define MATCH_DISTANCE 0.05
-#define MAX_SINKS 4
 
 /* Helpers ------------------------------------------------------------------*/
 
@@ -55,31 +54,18 @@ assert_no_bus_error (GstBus * bus)
 static void
 run_one_ping (const char *launch, guint n_sinks, GstSample ** samples)
 {
-  GstElement *pipeline = parse_pipeline (launch);
-  GstBus *bus = gst_element_get_bus (pipeline);
+  g_autoptr (SonarTestRun) run = sonar_test_run (launch);
 
-  g_assert_cmpuint (n_sinks, <=, MAX_SINKS);
-  g_assert_cmpint (gst_element_set_state (pipeline, GST_STATE_PLAYING), !=,
-      GST_STATE_CHANGE_FAILURE);
+  if (run->error_text)
+    g_error ("%s: %s", launch, run->error_text);
   for (guint i = 0; i < n_sinks; i++) {
     g_autofree char *name = n_sinks == 1 ? g_strdup ("sink") :
         g_strdup_printf ("sink%u", i);
-    GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), name);
-    GstSample *extra;
+    GPtrArray *got = sonar_test_run_samples (run, name);
 
-    g_assert_nonnull (sink);
-    samples[i] = gst_app_sink_pull_sample (GST_APP_SINK (sink));
-    if (!samples[i])
-      assert_no_bus_error (bus);
-    g_assert_nonnull (samples[i]);
-    extra = gst_app_sink_pull_sample (GST_APP_SINK (sink));
-    g_assert_null (extra);
-    gst_object_unref (sink);
+    g_assert_cmpuint (got->len, ==, 1);
+    samples[i] = gst_sample_ref (got->pdata[0]);
   }
-  assert_no_bus_error (bus);
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (bus);
-  gst_object_unref (pipeline);
 }
 
 static SonarDetectionsMeta *
@@ -327,27 +313,20 @@ test_near_far_normal_alone_in_image (void)
  * (0.5593 for sonarsrc's default noise waveforms) over noise-amplitude^2. */
 #define EMISSION_POWER 0.5593
 
-/* Pulls @n pings from the appsink "sink" of @launch into @samples. */
+/* The @n pings of the appsink "sink" of @launch into @samples (unref
+ * them). Fails on any bus error. */
 static void
 run_pings (const char *launch, guint n, GstSample ** samples)
 {
-  GstElement *pipeline = parse_pipeline (launch);
-  GstBus *bus = gst_element_get_bus (pipeline);
-  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  g_autoptr (SonarTestRun) run = sonar_test_run (launch);
+  GPtrArray *got;
 
-  g_assert_cmpint (gst_element_set_state (pipeline, GST_STATE_PLAYING), !=,
-      GST_STATE_CHANGE_FAILURE);
-  for (guint i = 0; i < n; i++) {
-    samples[i] = gst_app_sink_pull_sample (GST_APP_SINK (sink));
-    if (!samples[i])
-      assert_no_bus_error (bus);
-    g_assert_nonnull (samples[i]);
-  }
-  assert_no_bus_error (bus);
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (sink);
-  gst_object_unref (bus);
-  gst_object_unref (pipeline);
+  if (run->error_text)
+    g_error ("%s: %s", launch, run->error_text);
+  got = sonar_test_run_samples (run, "sink");
+  g_assert_cmpuint (got->len, ==, n);
+  for (guint i = 0; i < n; i++)
+    samples[i] = gst_sample_ref (got->pdata[i]);
 }
 
 #define FAINT_PINGS 10
@@ -692,7 +671,7 @@ test_results_release_spectra (void)
 static void
 assert_run_error (const char *launch, const char *needle)
 {
-  g_autofree char *error = sonar_test_run_pipeline (launch, NULL);
+  g_autofree char *error = sonar_test_run_pipeline (launch);
 
   g_assert_nonnull (error);
   g_test_message ("%s\n  -> %s", launch, error);

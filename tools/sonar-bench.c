@@ -1397,6 +1397,11 @@ chain_run_ping (Chain * ch, const float *samples, guint n_mics,
   return n;
 }
 
+static void write_sensitivity_row (FILE * csv, const char *sweep,
+    const char *value, const char *scene, guint pings, guint found,
+    guint total, guint false_positives, double mean_error,
+    double max_error);
+
 static gboolean
 run_noise (Bench * b)
 {
@@ -1489,8 +1494,8 @@ run_noise (Bench * b)
       max_centroids, false_objects, noise_pings, pings_with_false,
       median (times, noise_pings));
   if (b->csv)
-    fprintf (b->csv, "noise,false-objects,empty,%u,0,0,%u,,,,,,,,,,,,,,,\n",
-        noise_pings, false_objects);
+    write_sensitivity_row (b->csv, "noise", "false-objects", "empty",
+        noise_pings, 0, 0, false_objects, NAN, NAN);
   sonar_scene_clear (&scene);
   chain_clear (dense);
   chain_clear (chain);
@@ -1630,11 +1635,13 @@ run_detection (Bench * b)
       found_all += found;
       sum_all += sum_error;
       worst = MAX (worst, max_error);
-      if (b->csv)
-        fprintf (b->csv, "detection,%g dB %g m,point,%u,%u,%u,%u,%.6g,%.6g,"
-            ",,,,,,,,,,,,\n", detection_snrs_db[i], detection_ranges[j],
+      if (b->csv) {
+        g_autofree char *value = g_strdup_printf ("%g dB %g m",
+            detection_snrs_db[i], detection_ranges[j]);
+        write_sensitivity_row (b->csv, "detection", value, "point",
             detection_pings, found, detection_pings, false_objects,
             found ? sum_error / found : NAN, max_error);
+      }
     }
     g_print ("\n");
   }
@@ -1669,7 +1676,7 @@ fail:
  * false object. Then single objects at the defaults: one of the same
  * reflectors alone, the presets (default, fig9, fig10) and random
  * scenes, where every duplicate is a false split. */
-#define SPLIT_PINGS 8
+#define SPLIT_PINGS 10
 #define SPLIT_RANGE_MIN 1.0
 #define SPLIT_RANGE_MAX 4.0
 #define SPLIT_BASE_SPEED 1.0
@@ -1808,10 +1815,11 @@ split_ping (Chain * ch, SonarSimulator * sim, const SonarSetup * setup,
   return found;
 }
 
-/* A separation x velocity difference table of @cells. */
+/* A separation x velocity difference table of @cells, shares (2
+ * decimals) or errors (3 digits). */
 static void
 print_split_table (const char *title,
-    double cells[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES])
+    double cells[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES], gboolean shares)
 {
   g_print ("%s:\n%10s", title, "sep \\ dv");
   for (guint j = 0; j < N_SPLIT_DIFFERENCES; j++)
@@ -1820,7 +1828,7 @@ print_split_table (const char *title,
   for (guint i = 0; i < N_SPLIT_SEPARATIONS; i++) {
     g_print ("%7.1f cm", 100.0 * split_separations[i]);
     for (guint j = 0; j < N_SPLIT_DIFFERENCES; j++)
-      g_print (" %9.3g", cells[i][j]);
+      g_print (shares ? " %9.2f" : " %9.3g", cells[i][j]);
     g_print ("\n");
   }
 }
@@ -1833,13 +1841,15 @@ print_tally (const char *name, const SplitTally * t)
       t->found ? t->sum_error / t->found : NAN, t->max_error);
 }
 
+/* @t as a CSV row: pairs split (or objects found) of @total, duplicates
+ * and false objects as its false positives. */
 static void
 write_tally_csv (FILE * csv, const char *value, const char *scene,
-    const SplitTally * t)
+    const SplitTally * t, guint found, guint total)
 {
-  fprintf (csv, "split,%s,%s,%u,%u,%u,%u,%.6g,%.6g,,,,,,,,,,,,,\n", value,
-      scene, t->pings, t->found, t->objects, t->duplicates + t->false_objects,
-      t->found ? t->sum_error / t->found : NAN, t->max_error);
+  write_sensitivity_row (csv, "split", value, scene, t->pings, found, total,
+      t->duplicates + t->false_objects, t->found ? t->sum_error / t->found :
+      NAN, t->max_error);
 }
 
 static gboolean
@@ -1897,7 +1907,7 @@ run_split (Bench * b)
       if (b->csv) {
         g_autofree char *value = g_strdup_printf ("%g cm %g m/s",
             100.0 * split_separations[i], split_differences[j]);
-        write_tally_csv (b->csv, value, "pair", &t);
+        write_tally_csv (b->csv, value, "pair", &t, splits, split_pings);
       }
       pairs.pings += t.pings;
       pairs.objects += t.objects;
@@ -1912,10 +1922,11 @@ run_split (Bench * b)
       "-60..60 deg; %u pings per cell; the elements' defaults, bank "
       "-7..7 / 0.05)\n", split_pings);
   print_split_table ("share of the pairs split into two objects, each "
-      "within 0.15 m/s of its velocity", rates);
-  print_split_table ("share split with both within 0.02 m/s", usual_rates);
+      "within 0.15 m/s of its velocity", rates, TRUE);
+  print_split_table ("share split with both within 0.02 m/s", usual_rates,
+      TRUE);
   print_split_table ("worst velocity error of the objects found, m/s",
-      worst_errors);
+      worst_errors, FALSE);
 
   /* The second object weaker: every separation, the differences in
    * turn. */
@@ -1939,7 +1950,7 @@ run_split (Bench * b)
     if (b->csv) {
       g_autofree char *value = g_strdup_printf ("weaker %g dB",
           split_weaker_db[w]);
-      write_tally_csv (b->csv, value, "pair", &t);
+      write_tally_csv (b->csv, value, "pair", &t, splits, n);
     }
   }
 
@@ -1954,8 +1965,10 @@ run_split (Bench * b)
   print_tally ("pairs (objects)", &pairs);
   print_tally ("single objects", &singles);
   if (b->csv) {
-    write_tally_csv (b->csv, "pairs", "pair", &pairs);
-    write_tally_csv (b->csv, "single", "point", &singles);
+    write_tally_csv (b->csv, "pairs", "pair", &pairs, pairs.found,
+        pairs.objects);
+    write_tally_csv (b->csv, "single", "point", &singles, singles.found,
+        singles.objects);
   }
   for (guint s = 0; s < G_N_ELEMENTS (presets) + G_N_ELEMENTS
       (random_sizes); s++) {
@@ -1978,7 +1991,7 @@ run_split (Bench * b)
     }
     print_tally (name, &t);
     if (b->csv)
-      write_tally_csv (b->csv, name, name, &t);
+      write_tally_csv (b->csv, name, name, &t, t.found, t.objects);
     scenes_tally.duplicates += t.duplicates;
     sonar_scene_clear (&scene);
   }
@@ -2041,6 +2054,22 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
   "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
   "us_velocity_per_evaluation"
+
+/* A row of a sensitivity sweep (noise, detection, split): the columns up
+ * to max_error, the timing and memory ones empty. */
+static void
+write_sensitivity_row (FILE * csv, const char *sweep, const char *value,
+    const char *scene, guint pings, guint found, guint total,
+    guint false_positives, double mean_error, double max_error)
+{
+  fprintf (csv, "%s,%s,%s,%u,%u,%u,%u,%.6g,%.6g", sweep, value, scene, pings,
+      found, total, false_positives, mean_error, max_error);
+  for (const char *c = strchr (CSV_HEADER, ','); c; c = strchr (c + 1, ','))
+    if (c > strstr (CSV_HEADER, "max_error"))
+      fputc (',', csv);
+  fputc ('\n', csv);
+  fflush (csv);
+}
 
 static void
 print_header (const Sweep * sweep)
@@ -2375,7 +2404,7 @@ main (int argc, char **argv)
         "Pings per SNR and range of the detection sweep (default 20)", "N"},
     {"split-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_split_pings,
         "Pings per separation and velocity difference of the split sweep "
-          "(default 8)", "N"},
+          "(default 10)", "N"},
     {"threads", 't', 0, G_OPTION_ARG_INT, &threads,
         "Velocity workers, as velocityest's threads (default 0: one per "
           "processor)", "N"},

@@ -595,14 +595,17 @@ describe_peak (SonarVelocityEstimator * est,
 }
 
 /* Sets the window's lags: the centroid's members' ranges and
- * window_ranges steps either side. */
+ * window_ranges steps either side. A span that does not hold the
+ * centroid's range (not filled in) counts as none. */
 static void
 set_window_lags (SonarVelocityEstimator * est, const SonarCentroid * c)
 {
   const double step = est->grid.range_step;
   const int wr = est->params.window_ranges;
-  const double near = MIN (c->range_min - c->range, 0.0) / step;
-  const double far = MAX (c->range_max - c->range, 0.0) / step;
+  const gboolean span = c->range_min <= c->range + 0.5 * step
+      && c->range_max >= c->range - 0.5 * step;
+  const double near = span ? MIN (c->range_min - c->range, 0.0) / step : 0.0;
+  const double far = span ? MAX (c->range_max - c->range, 0.0) / step : 0.0;
 
   est->lag_first = MAX (-(int) MAX_WINDOW_RANGES, -wr + (int) floor (near +
           1e-6));

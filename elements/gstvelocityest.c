@@ -368,8 +368,9 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "work)", 0, 32, d.window_directions, flags));
   g_object_class_install_property (gobject_class, PROP_WINDOW_RANGES,
       g_param_spec_uint ("window-ranges", "Window ranges", "Half width of "
-          "the Doppler-ACF window in image range steps (1: 3 ranges, each "
-          "refined on a 4x finer grid)", 0,
+          "the Doppler-ACF window in image range steps, beyond the ranges "
+          "the centroid's member peaks span (1: 3 ranges around a single "
+          "peak, each refined on a 4x finer grid)", 0,
           256, d.window_ranges, flags));
   g_object_class_install_property (gobject_class, PROP_REFINE,
       g_param_spec_boolean ("refine", "Refine", "Refine the peak below the "

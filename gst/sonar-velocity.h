@@ -18,6 +18,13 @@
  * coherence is checked first at a few Doppler hypotheses: a centroid that
  * fails it is rejected before the bank is evaluated (its estimate has a
  * NaN velocity).
+ *
+ * Two reflectors a few centimetres apart in range share a centroid: the
+ * window spans the ranges of its member peaks, so both echoes are in it,
+ * and a second peak of the product that stands out of the product's floor
+ * (the echoes' cross-talk) and passes the same tests is a second
+ * reflector. Each then takes its own echo's range, and its velocity is
+ * measured again on the window around its own echo.
  */
 #ifndef SONAR_VELOCITY_H
 #define SONAR_VELOCITY_H
@@ -32,7 +39,8 @@ G_BEGIN_DECLS
 typedef struct
 {
   guint window_directions;      /* half-width of the window, in image direction steps */
-  guint window_ranges;          /* half-width of the window, in image range steps */
+  guint window_ranges;          /* half-width of the window, in image range
+                                 * steps, beyond the centroid's span */
   gboolean refine;              /* parabolic sub-step refinement of the peak */
   double min_variance;          /* below: not peaked, flagged as a false positive */
   guint min_agreeing_emitters;  /* emitters whose own curve comes within 3 dB

@@ -1675,7 +1675,10 @@ fail:
  * MATCH_DISTANCE of an object is a duplicate (a false split), any other a
  * false object. Then single objects at the defaults: one of the same
  * reflectors alone, the presets (default, fig9, fig10) and random
- * scenes, where every duplicate is a false split. */
+ * scenes, where every duplicate is a false split. CSV rows: "S cm D m/s"
+ * and "weaker W dB" count the pairs split (found) of the pings (total);
+ * "pairs", "single" and the scenes the objects found of the objects;
+ * false_positives is duplicates and false objects. */
 #define SPLIT_PINGS 10
 #define SPLIT_RANGE_MIN 1.0
 #define SPLIT_RANGE_MAX 4.0

@@ -3,11 +3,13 @@
  *
  * For each centroid from wardcluster it evaluates every emitter's
  * single-emitter image at every velocity of the Doppler bank in a small
- * window around the centroid, multiplies the N Doppler-ACF curves and takes
- * the product's peak, refined below the bank's step (sonar-velocity.h).
- * Centroids whose curves are not peaked (sidelobes, cross-talk ghosts) are
- * dropped (keep-rejected=true keeps them, marked "valid": false). Two
- * separate peaks in one centroid give two detections.
+ * window around the centroid (spanning its member peaks' ranges),
+ * multiplies the N Doppler-ACF curves and takes the product's peak,
+ * refined below the bank's step (sonar-velocity.h). Centroids whose curves
+ * are not peaked (sidelobes, cross-talk ghosts) are dropped
+ * (keep-rejected=true keeps them, marked "valid": false). Two separate
+ * peaks in one centroid (objects a few centimetres apart in range, of
+ * different speeds) give two detections.
  *
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
@@ -380,8 +382,9 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "work)", 0, 32, d.window_directions, flags));
   g_object_class_install_property (gobject_class, PROP_WINDOW_RANGES,
       g_param_spec_uint ("window-ranges", "Window ranges", "Half width of "
-          "the Doppler-ACF window in image range steps (1: 3 ranges, each "
-          "refined on a 4x finer grid)", 0,
+          "the Doppler-ACF window in image range steps, beyond the ranges "
+          "the centroid's member peaks span (1: 3 ranges around a single "
+          "peak, each refined on a 4x finer grid)", 0,
           256, d.window_ranges, flags));
   g_object_class_install_property (gobject_class, PROP_REFINE,
       g_param_spec_boolean ("refine", "Refine", "Refine the peak below the "
@@ -407,8 +410,11 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           d.min_coherence, flags));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "
-          "Doppler-ACF peak at most this many dB (per emitter) below the "
-          "first, a main lobe away, is a second reflector in the centroid",
+          "Doppler-ACF product peak, more than half a Doppler main lobe "
+          "away, at most this many dB (per emitter) below the first, is a "
+          "second reflector in the centroid when it stands out of the "
+          "product's floor (4 interquartile ranges above its median) and "
+          "passes the same tests; each then reports its own range",
           0.01, 100.0, d.second_peak_db, flags));
   g_object_class_install_property (gobject_class, PROP_EMITTERS,
       g_param_spec_uint ("emitters", "Emitters", "Only the first this many "

@@ -139,6 +139,10 @@ typedef struct
    * by 1.5 % of the range for +-10 degrees. */
   double range, azimuth, elevation;
   SonarVec3 position;           /* the same point in the sensor frame, m */
+  /* The member peaks' nearest and farthest ranges (m): objects a few
+   * centimetres apart in range merge into one cluster, its centroid
+   * between them, and velocityest looks for each over this span. */
+  double range_min, range_max;
   double peak_value;            /* strongest member peak (linear envelope) */
   double energy;                /* sum of the member peak values squared */
   guint n_members;              /* peaks in the cluster */

@@ -21,6 +21,16 @@
 /* Bins per block of the lag sums (sonar_steering_emitter_blocks ()). */
 #define LAG_BLOCK 16
 
+/* Main lobes between two reflectors' peaks, at least: two echoes a main
+ * lobe apart in velocity (0.4 m/s) showed theirs 0.9-1.0 apart; a local
+ * maximum nearer is a shoulder of the first's own lobe. */
+#define SECOND_APART 0.75
+
+/* A second reflector's peak stands this many interquartile ranges of the
+ * Doppler-ACF product's floor above its median (sonar-bench --sweep
+ * split). */
+#define SECOND_FLOOR_SPREADS 4.0
+
 /* Range steps of the window, at most. */
 #define MAX_WINDOW_RANGES 256
 
@@ -44,8 +54,12 @@ struct _SonarVelocityEstimator
   float *spectra_re, *spectra_im;
   /* One emitter's matched filter output by blocks of LAG_BLOCK bins. */
   SonarComplex *blocks;
-  double complex *lag_sums;     /* [range offset]: sums over the emitters */
-  double *lag_powers;           /* [range offset] */
+  /* The window's range lags, in range steps from the centroid's range:
+   * its members' span and window_ranges either side (set per centroid). */
+  int lag_first, lag_last;
+  gboolean spread;              /* the members reach beyond window_ranges */
+  double complex *lag_sums;     /* [lag - lag_first]: sums over the emitters */
+  double *lag_powers;           /* [lag - lag_first] */
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
   double *scratch;              /* [velocity] */
@@ -67,7 +81,9 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->min_variance = 0.0;
   p->min_agreeing_emitters = 5;
   p->min_coherence = 0.8;
-  p->second_peak_db = 3.0;
+  /* A lone echo's cross-talk floor lies 11-14 dB below its peak: a
+   * second reflector can stand out of it no lower than this. */
+  p->second_peak_db = 12.0;
   p->emitters = 0;
 }
 
@@ -217,19 +233,32 @@ output_at (SonarVelocityEstimator * est, double offset)
       offset) * (2.0f / est->band.fft_size);
 }
 
+static double parabola_offset (double a, double b, double c);
+
+static double
+cabs2 (double complex z)
+{
+  return creal (z) * creal (z) + cimag (z) * cimag (z);
+}
+
 /* Coherence factor |sum|^2 / (N sum |.|^2) of the emitters' outputs at
  * the window pixel and velocity (of the @n_v indices @vs) where their sum
- * is largest. */
+ * is largest; *@strength (may be NULL) receives that sum's power and
+ * *@lag (may be NULL) its range offset from @range (m), refined between
+ * the window's lags by a parabola through the logarithms (as wardcluster
+ * refines its peaks). */
 static double
 coherence_over (SonarVelocityEstimator * est,
     const SonarSplitSpectra * spectra, double range, double azimuth,
-    double elevation, const guint * vs, guint n_v, double *strength)
+    double elevation, const guint * vs, guint n_v, double *strength,
+    double *lag)
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
-  const int wr = est->params.window_ranges;
   const int we = grid->n_elevation > 1 ? wd : 0;
-  double best_sum = -1.0, best = 0.0;
+  const int first = est->lag_first, last = est->lag_last;
+  double best_sum = -1.0, best = 0.0, best_lag = 0.0;
+  double before = 0.0, after = 0.0;     /* the sum's power a lag either side */
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
@@ -238,25 +267,27 @@ coherence_over (SonarVelocityEstimator * est,
       for (guint i = 0; i < n_v; i++) {
         /* In double: float squares underflow below amplitudes of about
          * 1e-19 and overflow above 1e19. */
-        double complex *sums = est->lag_sums + wr;
-        double *powers = est->lag_powers + wr;
-        for (int dr = -wr; dr <= wr; dr++) {
+        double complex *sums = est->lag_sums - first;
+        double *powers = est->lag_powers - first;
+        for (int dr = first; dr <= last; dr++) {
           sums[dr] = 0.0;
           powers[dr] = 0.0;
         }
         for (guint n = 0; n < est->n_emitters; n++) {
           emitter_blocks (est, n, vs[i], range);
-          for (int dr = -wr; dr <= wr; dr++) {
+          for (int dr = first; dr <= last; dr++) {
             const double complex y = output_at (est, dr * grid->range_step);
             sums[dr] += y;
-            powers[dr] += creal (y) * creal (y) + cimag (y) * cimag (y);
+            powers[dr] += cabs2 (y);
           }
         }
-        for (int dr = -wr; dr <= wr; dr++) {
-          const double sum_power = creal (sums[dr]) * creal (sums[dr]) +
-              cimag (sums[dr]) * cimag (sums[dr]);
+        for (int dr = first; dr <= last; dr++) {
+          const double sum_power = cabs2 (sums[dr]);
           if (sum_power > best_sum) {
             best_sum = sum_power;
+            best_lag = dr;
+            before = dr > first ? cabs2 (sums[dr - 1]) : 0.0;
+            after = dr < last ? cabs2 (sums[dr + 1]) : 0.0;
             best = powers[dr] > 0.0 ? sum_power / (est->n_emitters *
                 powers[dr]) : 0.0;
           }
@@ -266,10 +297,13 @@ coherence_over (SonarVelocityEstimator * est,
   }
   if (strength)
     *strength = best_sum;
+  if (lag) {
+    if (before > 0.0 && after > 0.0 && best_sum > 0.0)
+      best_lag += parabola_offset (log (before), log (best_sum), log (after));
+    *lag = best_lag * grid->range_step;
+  }
   return best;
 }
-
-static double parabola_offset (double a, double b, double c);
 
 /* Offsets of the direction search, in grid steps: -1/2 .. 1/2. */
 #define DIRECTION_SUBSTEPS 2
@@ -309,7 +343,7 @@ refine_direction (SonarVelocityEstimator * est,
       if (axis == 1 && i == 0 && best_strength >= 0.0)
         continue;
       cf = coherence_over (est, spectra, range, az, el, est->hypotheses,
-          est->n_hypotheses, &strength);
+          est->n_hypotheses, &strength, NULL);
       if (strength > best_strength) {
         best_strength = strength;
         best_az = az;
@@ -322,23 +356,22 @@ refine_direction (SonarVelocityEstimator * est,
   *elevation = best_el;
 }
 
-/* Envelope peak of emitter @n's output at velocity index @v over the lags
- * of range bins -wr..wr around @range. The image's range bins are about
+/* Envelope peak of emitter @n's output at velocity index @v over the
+ * window's lags around @range. The image's range bins are about
  * one envelope width apart: their sampled maximum would scallop
  * differently for every velocity (the peak's lag moves with the Doppler
  * mismatch) and bias the curve. So the best bin is refined on a grid four
  * times finer, and the peak read off a parabola through the logarithms of
  * the best fine sample and its neighbours. */
 static double
-window_peak (SonarVelocityEstimator * est, guint n, guint v, double range,
-    int wr)
+window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
 {
   const double step = est->grid.range_step;
   double fine[9], best_value = -1.0, best_lag = 0.0;
   int best = 4;
 
   emitter_blocks (est, n, v, range);
-  for (int dr = -wr; dr <= wr; dr++) {
+  for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
     const double y = cabsf (output_at (est, dr * step));
     if (y > best_value) {
       best_value = y;
@@ -371,7 +404,6 @@ evaluate_window (SonarVelocityEstimator * est,
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
-  const int wr = est->params.window_ranges;
   const int we = grid->n_elevation > 1 ? wd : 0;
 
   for (int de = -we; de <= we; de++) {
@@ -383,7 +415,7 @@ evaluate_window (SonarVelocityEstimator * est,
         for (guint v = 0; v < est->n_velocities; v++) {
           double *acf = &est->acf[(gsize) n * est->n_velocities + v];
           if (est->wanted[v] && !est->done[v])
-            *acf = MAX (*acf, window_peak (est, n, v, range, wr));
+            *acf = MAX (*acf, window_peak (est, n, v, range));
         }
       }
     }
@@ -495,17 +527,21 @@ compare_doubles (const void *a, const void *b)
   return (x > y) - (x < y);
 }
 
+/* Describes the product's peak at index @p and tests it. With a second
+ * reflector in the centroid, its peak at index @other (else -1), each
+ * peak is judged on the velocities nearer to it than to the other: there
+ * the other's main lobe does not count against it. */
 static void
 describe_peak (SonarVelocityEstimator * est,
-    const SonarSplitSpectra * spectra, guint p, double median,
-    SonarVelocityEstimate * out)
+    const SonarSplitSpectra * spectra, double centre, guint p, int other,
+    double median, SonarVelocityEstimate * out)
 {
   const guint nv = est->n_velocities;
   const double step = sonar_doppler_bank_step (est->bank);
   const double *lp = est->log_product;
   double v = sonar_doppler_bank_velocity (est->bank, p);
-  double mean = 0.0, mean2 = 0.0;
-  guint agree = 0;
+  double mean = 0.0, mean2 = 0.0, lag;
+  guint agree = 0, n_own = 0;
 
   if (est->params.refine && p > 0 && p + 1 < nv)
     v += step * fit_vertex (lp, nv, p, est->main_lobe / step);
@@ -517,22 +553,28 @@ describe_peak (SonarVelocityEstimator * est,
 
   /* The paper's variance test, on the product normalised to its peak. */
   for (guint i = 0; i < nv; i++) {
-    const double x = exp (lp[i] - lp[p]);
+    double x;
+    if (other >= 0 && abs ((int) i - other) < abs ((int) i - (int) p))
+      continue;
+    x = exp (lp[i] - lp[p]);
     mean += x;
     mean2 += x * x;
+    n_own++;
   }
-  mean /= nv;
-  out->variance = mean2 / nv - mean * mean;
+  mean /= n_own;
+  out->variance = mean2 / n_own - mean * mean;
 
   /* Emitter n agrees when its own curve, within half a main lobe of the
    * product's peak, comes within 3 dB of its maximum: with two reflectors
-   * of different speeds in one centroid every emitter has two peaks of
-   * about the same height, and either may be the larger. */
+   * of about the same strength in one centroid every emitter has two
+   * peaks, and either may be the larger. */
   for (guint n = 0; n < est->n_emitters; n++) {
     const double *acf = est->acf + (gsize) n * nv;
     const double vp = sonar_doppler_bank_velocity (est->bank, p);
     double global = 0.0, near = 0.0;
     for (guint i = 0; i < nv; i++) {
+      if (other >= 0 && abs ((int) i - other) < abs ((int) i - (int) p))
+        continue;
       global = MAX (global, acf[i]);
       if (fabs (sonar_doppler_bank_velocity (est->bank, i) - vp) <=
           0.5 * est->main_lobe)
@@ -541,26 +583,123 @@ describe_peak (SonarVelocityEstimator * est,
     agree += near >= AGREEMENT_RATIO * global;
   }
   out->agreeing_emitters = agree;
-  out->coherence = coherence_over (est, spectra, out->range, out->azimuth,
-      out->elevation, &p, 1, NULL);
+  out->coherence = coherence_over (est, spectra, centre, out->azimuth,
+      out->elevation, &p, 1, NULL, &lag);
+  /* A centroid whose members lie beyond the window around it, or that
+   * holds two reflectors, is a blend of echoes at different ranges: each
+   * estimate takes its own echo's. */
+  out->range = est->spread || other >= 0 ? centre + lag : centre;
   out->valid = agree >= MIN (est->params.min_agreeing_emitters,
       est->n_emitters) && out->variance >= est->params.min_variance
       && out->coherence >= est->params.min_coherence;
   out->second = FALSE;
 }
 
+/* Sets the window's lags: the centroid's members' ranges and
+ * window_ranges steps either side. A span that does not hold the
+ * centroid's range (not filled in) counts as none. */
+static void
+set_window_lags (SonarVelocityEstimator * est, const SonarCentroid * c)
+{
+  const double step = est->grid.range_step;
+  const int wr = est->params.window_ranges;
+  const gboolean span = c->range_min <= c->range + 0.5 * step
+      && c->range_max >= c->range - 0.5 * step;
+  const double near = span ? MIN (c->range_min - c->range, 0.0) / step : 0.0;
+  const double far = span ? MAX (c->range_max - c->range, 0.0) / step : 0.0;
+
+  est->lag_first = MAX (-(int) MAX_WINDOW_RANGES, -wr + (int) floor (near +
+          1e-6));
+  est->lag_last = MIN ((int) MAX_WINDOW_RANGES, wr + (int) ceil (far -
+          1e-6));
+  est->spread = est->lag_first < -wr || est->lag_last > wr;
+}
+
+/* The product's floor away from the main lobes of the peaks at indices
+ * @p and @q: the echoes' cross-talk through the other emitters' templates,
+ * 11-14 dB per emitter below a lone echo's peak. *@level receives its
+ * median, *@spread its interquartile range. FALSE when the bank holds
+ * less than two main lobes of it to measure. */
+static gboolean
+floor_spread (SonarVelocityEstimator * est, guint p, guint q, double *level,
+    double *spread)
+{
+  const double vp = sonar_doppler_bank_velocity (est->bank, p);
+  const double vq = sonar_doppler_bank_velocity (est->bank, q);
+  double *x = est->scratch;
+  guint n = 0;
+
+  for (guint v = 0; v < est->n_velocities; v++) {
+    const double vv = sonar_doppler_bank_velocity (est->bank, v);
+    if (fabs (vv - vp) > est->main_lobe && fabs (vv - vq) > est->main_lobe)
+      x[n++] = est->log_product[v];
+  }
+  if (n * sonar_doppler_bank_step (est->bank) < 2.0 * est->main_lobe)
+    return FALSE;
+  qsort (x, n, sizeof (double), compare_doubles);
+  *level = x[n / 2];
+  *spread = x[3 * n / 4] - x[n / 4];
+  return TRUE;
+}
+
+/* With two reflectors in the window, each one's curves near its peak
+ * also hold the other's main lobe, which pulls its peak towards the
+ * other's velocity. Where their echoes lie apart in range, @e's velocity
+ * is measured again on window_ranges around its own echo only (the bank
+ * around its peak, index @p, evaluated anew there). */
+static void
+refine_alone (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
+    guint p, SonarVelocityEstimate * e)
+{
+  const guint nv = est->n_velocities;
+  const double vp = sonar_doppler_bank_velocity (est->bank, p);
+  const int first = est->lag_first, last = est->lag_last;
+  const double *lp = est->log_product;
+  guint top = p;
+
+  est->lag_first = -(int) est->params.window_ranges;
+  est->lag_last = est->params.window_ranges;
+  for (guint v = 0; v < nv; v++) {
+    if (fabs (sonar_doppler_bank_velocity (est->bank, v) - vp) >
+        0.5 * est->main_lobe + est->coarse_stride *
+        sonar_doppler_bank_step (est->bank))
+      continue;
+    est->done[v] = FALSE;
+    for (guint n = 0; n < est->n_emitters; n++)
+      est->acf[(gsize) n * nv + v] = 0.0;
+  }
+  evaluate_around (est, spectra, e->range, e->azimuth, e->elevation, p);
+  fill_and_multiply (est);
+  for (guint v = 0; v < nv; v++)
+    if (fabs (sonar_doppler_bank_velocity (est->bank, v) - vp) <=
+        0.5 * est->main_lobe && lp[v] > lp[top])
+      top = v;
+  e->radial_velocity = sonar_doppler_bank_velocity (est->bank, top);
+  if (est->params.refine && top > 0 && top + 1 < nv)
+    e->radial_velocity += sonar_doppler_bank_step (est->bank) *
+        fit_vertex (lp, nv, top, est->main_lobe /
+        sonar_doppler_bank_step (est->bank));
+  e->bank_index = top;
+  e->at_bank_edge = top == 0 || top + 1 == nv;
+  est->lag_first = first;
+  est->lag_last = last;
+}
+
 /* sonar_velocity_estimate () on split spectra. */
 static guint
 estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
-    double range, double azimuth, double elevation,
-    SonarVelocityEstimate * out, float *curves)
+    const SonarCentroid * centroid, SonarVelocityEstimate * out,
+    float *curves)
 {
   const guint nv = est->n_velocities;
+  const double range = centroid->range;
+  double azimuth = centroid->azimuth, elevation = centroid->elevation;
   double *lp = est->log_product;
-  double median;
+  double median, lowest, floor_level, spread;
   guint peak = 0, count = 1;
   int second = -1;
 
+  set_window_lags (est, centroid);
   out[0].range = range;
   out[0].azimuth = azimuth;
   out[0].elevation = elevation;
@@ -604,19 +743,24 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
   qsort (est->scratch, nv, sizeof (double), compare_doubles);
   median = est->scratch[nv / 2];
 
-  describe_peak (est, mic_spectra, peak, median, &out[0]);
+  describe_peak (est, mic_spectra, range, peak, -1, median, &out[0]);
 
-  /* A second local maximum beyond the first's main lobe, nearly as high:
-   * two reflectors of different speeds in one centroid. */
+  /* A second reflector of another speed in the centroid: the highest
+   * local maximum of the product SECOND_APART main lobes from the first,
+   * within second_peak_db of it, that stands out of the product's floor
+   * (floor_spread ()). Found on the coarse pass (a spread lower: its top
+   * may lie between the coarse velocities), tested on its exact top. */
+  lowest = lp[peak] - est->n_emitters * est->params.second_peak_db *
+      G_LN10 / 20.0;
   for (guint v = 1; v + 1 < nv; v++) {
-    if (lp[v] >= lp[v - 1] && lp[v] >= lp[v + 1]
+    if (lp[v] >= lp[v - 1] && lp[v] >= lp[v + 1] && lp[v] >= lowest
         && fabs (sonar_doppler_bank_velocity (est->bank, v) -
-            sonar_doppler_bank_velocity (est->bank, peak)) > est->main_lobe
-        && (second < 0 || lp[v] > lp[second]))
+            sonar_doppler_bank_velocity (est->bank, peak)) >=
+        SECOND_APART * est->main_lobe && (second < 0 || lp[v] > lp[second]))
       second = v;
   }
-  if (second >= 0 && lp[second] >= lp[peak] - est->n_emitters *
-      est->params.second_peak_db * G_LN10 / 20.0) {
+  if (second >= 0 && floor_spread (est, peak, second, &floor_level, &spread)
+      && lp[second] >= floor_level + (SECOND_FLOOR_SPREADS - 1.0) * spread) {
     /* Its neighbourhood in full, and its exact top there. */
     const double vs = sonar_doppler_bank_velocity (est->bank, second);
     evaluate_around (est, mic_spectra, range, azimuth, elevation, second);
@@ -626,9 +770,18 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
           0.5 * est->main_lobe && lp[v] > lp[second])
         second = v;
     out[1] = out[0];
-    describe_peak (est, mic_spectra, second, median, &out[1]);
+    describe_peak (est, mic_spectra, range, second, peak, median, &out[1]);
     out[1].second = TRUE;
-    count = out[1].valid ? 2 : 1;
+    if (out[1].valid && fabs (out[1].radial_velocity -
+            out[0].radial_velocity) >= SECOND_APART * est->main_lobe
+        && lp[second] >= floor_level + SECOND_FLOOR_SPREADS * spread
+        && lp[second] >= lowest) {
+      /* The first judged on its side of the bank too. */
+      describe_peak (est, mic_spectra, range, peak, second, median, &out[0]);
+      count = 2;
+      refine_alone (est, mic_spectra, peak, &out[0]);
+      refine_alone (est, mic_spectra, second, &out[1]);
+    }
   }
   out[0].evaluated_velocities = 0;
   for (guint v = 0; v < nv; v++)
@@ -650,14 +803,28 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
 
 guint
 sonar_velocity_estimate (SonarVelocityEstimator * est,
-    const SonarComplex * mic_spectra, double range, double azimuth,
-    double elevation, SonarVelocityEstimate * out, float *curves)
+    const SonarComplex * mic_spectra, const SonarCentroid * centroid,
+    SonarVelocityEstimate * out, float *curves)
 {
   const SonarSplitSpectra split = { est->spectra_re, est->spectra_im };
 
   sonar_kernel_split (est->spectra_re, est->spectra_im, mic_spectra,
       (gsize) est->setup->geometry.n_microphones * est->band.n_bins);
-  return estimate (est, &split, range, azimuth, elevation, out, curves);
+  return estimate (est, &split, centroid, out, curves);
+}
+
+SonarCentroid
+sonar_velocity_point (double range, double azimuth, double elevation)
+{
+  SonarCentroid c = { 0 };
+
+  c.range = c.range_min = c.range_max = range;
+  c.azimuth = azimuth;
+  c.elevation = elevation;
+  c.position = sonar_vec3_scale (sonar_vec3_from_direction (azimuth,
+          elevation), range);
+  c.n_members = 1;
+  return c;
 }
 
 /* The pool -----------------------------------------------------------------*/
@@ -677,6 +844,46 @@ struct _SonarVelocityPool
   guint *counts;
 };
 
+/* Whether @a and @b are one echo: within a range step and an image
+ * direction step of each other, their velocities within half a Doppler
+ * main lobe. */
+static gboolean
+same_echo (const SonarVelocityEstimator * est, const SonarVelocityEstimate * a,
+    const SonarVelocityEstimate * b)
+{
+  const SonarImageGrid *g = &est->grid;
+
+  return a->valid && b->valid && fabs (a->range - b->range) <= g->range_step
+      && fabs (a->azimuth - b->azimuth) <= g->azimuth_step
+      && fabs (a->elevation - b->elevation) <= MAX (g->elevation_step, 1e-9)
+      && fabs (a->radial_velocity - b->radial_velocity) <= 0.5 *
+      est->main_lobe;
+}
+
+/* Centroids a few millimetres apart (wardcluster's distance set that low)
+ * may each see both of two echoes: an estimate of an echo that a centroid
+ * before it reports is dropped. */
+static void
+drop_duplicates (const SonarVelocityEstimator * est, guint n_centroids,
+    SonarVelocityEstimate * results, guint * counts)
+{
+  for (guint k = 1; k < n_centroids; k++) {
+    for (guint i = 0; i < counts[k];) {
+      gboolean seen = FALSE;
+      for (guint j = 0; j < k && !seen; j++)
+        for (guint m = 0; m < counts[j] && !seen; m++)
+          seen = same_echo (est, &results[2 * k + i], &results[2 * j + m]);
+      if (!seen) {
+        i++;
+        continue;
+      }
+      if (i == 0 && counts[k] == 2)
+        results[2 * k] = results[2 * k + 1];
+      counts[k]--;
+    }
+  }
+}
+
 /* Worker @w estimates centroids w, w + n, ... */
 static void
 estimate_share (gpointer data, guint w, guint n)
@@ -685,8 +892,8 @@ estimate_share (gpointer data, guint w, guint n)
 
   for (guint k = w; k < pool->n_centroids; k += n) {
     const SonarCentroid *c = &pool->centroids[k];
-    pool->counts[k] = estimate (pool->estimators[w], &pool->spectra,
-        c->range, c->azimuth, c->elevation, &pool->results[2 * k], NULL);
+    pool->counts[k] = estimate (pool->estimators[w], &pool->spectra, c,
+        &pool->results[2 * k], NULL);
   }
 }
 
@@ -745,6 +952,7 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   pool->results = results;
   pool->counts = counts;
   sonar_workers_run (pool->workers, estimate_share, pool);
+  drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }
 
 double

@@ -18,6 +18,13 @@
  * coherence is checked first at a few Doppler hypotheses: a centroid that
  * fails it is rejected before the bank is evaluated (its estimate has a
  * NaN velocity).
+ *
+ * Two reflectors a few centimetres apart in range share a centroid: the
+ * window spans the ranges of its member peaks, so both echoes are in it,
+ * and a second peak of the product that stands out of the product's floor
+ * (the echoes' cross-talk) and passes the same tests is a second
+ * reflector. Each then takes its own echo's range, and its velocity is
+ * measured again on the window around its own echo.
  */
 #ifndef SONAR_VELOCITY_H
 #define SONAR_VELOCITY_H
@@ -32,14 +39,17 @@ G_BEGIN_DECLS
 typedef struct
 {
   guint window_directions;      /* half-width of the window, in image direction steps */
-  guint window_ranges;          /* half-width of the window, in image range steps */
+  guint window_ranges;          /* half-width of the window, in image range
+                                 * steps, beyond the centroid's span */
   gboolean refine;              /* parabolic sub-step refinement of the peak */
   double min_variance;          /* below: not peaked, flagged as a false positive */
   guint min_agreeing_emitters;  /* emitters whose own curve comes within 3 dB
                                  * of its maximum near the product's peak */
   double min_coherence;         /* coherence factor across emitters, 0..1 */
   double second_peak_db;        /* a second product peak at most this far below
-                                 * the first (dB, > 0) is a second reflector */
+                                 * the first (dB per emitter, > 0) that stands
+                                 * out of the product's floor and passes the
+                                 * tests is a second reflector */
   guint emitters;               /* emitters whose curves enter the product and
                                  * the tests: the first k; 0 = all */
 } SonarVelocityParams;
@@ -72,16 +82,22 @@ SonarVelocityEstimator *sonar_velocity_estimator_new (SonarDopplerBank * bank,
     GError ** error);
 void sonar_velocity_estimator_free (SonarVelocityEstimator * est);
 
-/* Estimates at the reflector at (@range m, @azimuth, @elevation degrees)
- * from @mic_spectra (n_microphones x n_bins on the bank's band). Writes 1
- * or 2 estimates (2 when a second reflector of another speed shares the
- * centroid) and returns their number. If @curves is not NULL it receives
+/* Estimates at @centroid (its range, direction and members' span of
+ * ranges; for a point, range_min = range_max = range) from @mic_spectra
+ * (n_microphones x n_bins on the bank's band). Writes 1 or 2 estimates (2
+ * when a second reflector of another speed shares the centroid) and
+ * returns their number. If @curves is not NULL it receives
  * the n_emitters + 1 Doppler-ACF curves in dB (emitters, then the product
  * divided by n_emitters), n_velocities each; n_emitters is params.emitters
  * when set. */
 guint sonar_velocity_estimate (SonarVelocityEstimator * est,
-    const SonarComplex * mic_spectra, double range, double azimuth,
-    double elevation, SonarVelocityEstimate * out, float *curves);
+    const SonarComplex * mic_spectra, const SonarCentroid * centroid,
+    SonarVelocityEstimate * out, float *curves);
+
+/* A centroid of a single peak at (@range m, @azimuth, @elevation
+ * degrees): estimates at a known point. */
+SonarCentroid sonar_velocity_point (double range, double azimuth,
+    double elevation);
 
 /* A ping's centroids are independent: a pool of estimators shares them out
  * between threads and gathers the results in centroid order, so they do
@@ -96,8 +112,10 @@ SonarVelocityPool *sonar_velocity_pool_new (SonarDopplerBank * bank,
     guint n_threads, GError ** error);
 void sonar_velocity_pool_free (SonarVelocityPool * pool);
 
-/* Estimates at every centroid: results[2 k ..] receive counts[k] (1 or 2)
- * estimates of centroid k. Returns after all are done. */
+/* Estimates at every centroid: results[2 k ..] receive counts[k] (0 to 2)
+ * estimates of centroid k; an echo that an earlier centroid already
+ * reports (centroids millimetres apart both see it) is left out. Returns
+ * after all are done. */
 void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);

@@ -66,7 +66,8 @@ def strong(reflector, strength):
 
 
 # Each case: a foreign_sim spec. Objects stay within the default velocity
-# bank (+-7 m/s) and the image's 0.3 m minimum range, 15+ degrees apart.
+# bank (+-7 m/s) and the image's 0.3 m minimum range, 15+ degrees apart
+# (but the pairs that share a resolution cell).
 CASES = {
     "float": {
         # The paper's sensor as it is: eRTIS, 8 emitters, 450 kHz, 12 Hz;
@@ -101,6 +102,16 @@ CASES = {
         "seed": 5,
         "reflectors": [strong(polar(6.2, -20), 8.0),
                        strong(polar(6.9, 25, radial=-1.0), 8.0)]},
+    "pairs": {
+        # Three pairs, each two reflectors at one azimuth 0.5-2 cm apart
+        # in range whose speeds differ by 1.5-3 m/s: one centroid each,
+        # two objects.
+        "name": "pairs", "field_of_view": "fan", "seed": 11,
+        "reflectors": [polar(2.0, 20), polar(2.015, 20, radial=1.5),
+                       polar(3.0, -30, radial=-0.8),
+                       polar(3.02, -30, radial=1.2),
+                       polar(1.5, 50, radial=0.3),
+                       polar(1.505, 50, radial=-2.7)]},
     "int16": {
         # 16-bit PCM at 400 kHz (32000 samples per ping).
         "name": "int16", "sample_format": "int16", "sample_rate": 400000,
@@ -362,6 +373,13 @@ def chain_short_window():
 def chain_long_window():
     """chain: pings of 25020 samples (8 m), objects at 6-7 m"""
     check_case("long-window")
+
+
+@test
+def chain_pairs():
+    """chain: pairs of reflectors 0.5-2 cm apart in range at one azimuth,
+    1.5-3 m/s apart in radial velocity: each object found"""
+    check_case("pairs")
 
 
 @test

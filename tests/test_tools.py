@@ -430,6 +430,48 @@ def bench_emitters_sweep():
 
 
 @test
+def plot_bench_sensitivity():
+    """plot-bench.py: the detection and split sweeps' rows (as sonar-bench
+    writes them, timing columns empty) give a Pd-against-SNR figure and a
+    split-rate map beside the output, read back from the values"""
+    path = TMP / "sensitivity.csv"
+    listed = run(BENCH, "--help").stdout
+    assert "  split  " in listed, listed
+    columns = ("sweep,value,scene,pings,found,total,false_positives,"
+               "mean_error,max_error").split(",")
+    rows = [["detection", f"{snr} dB {r} m", "point", 10,
+             min(10, max(0, snr + 35 + r)), 10, 0, 0.01, 0.02]
+            for snr in (-35, -30, -25) for r in (2, 5, 8)]
+    rows += [["split", f"{sep} cm {dv} m/s", "pair", 4, 4 if dv > 0.5 else
+              2, 4, 0, 0.005, 0.01] for sep in (0.5, 1.5) for dv in
+             (0.4, 1.5, 5)]
+    rows += [["split", "single", "point", 35, 35, 35, 0, 0.001, 0.003],
+             ["noise", "false-objects", "empty", 1000, 0, 0, 0, "nan",
+              "nan"]]
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns + ["ms_spectra"])
+        for row in rows:
+            writer.writerow(row + [""])
+    plot_bench = load_script("plot-bench")
+    _, sensitivity = plot_bench.load_rows(path)
+    curves = plot_bench.detection_curves(sensitivity["detection"])
+    assert sorted(curves) == [2.0, 5.0, 8.0], curves
+    assert curves[2.0] == [(-35.0, 0.2, 10), (-30.0, 0.7, 10),
+                           (-25.0, 1.0, 10)], curves[2.0]
+    separations, differences, shares = plot_bench.split_grid(
+        sensitivity["split"])
+    assert separations == [0.5, 1.5] and differences == [0.4, 1.5, 5.0]
+    assert shares == [[0.5, 1.0, 1.0], [0.5, 1.0, 1.0]], shares
+    out = TMP / "sensitivity.png"
+    result = run(PYTHON, TOOLS / "plot-bench.py", path, "-o", out)
+    assert_png(TMP / "sensitivity-detection.png")
+    assert_png(TMP / "sensitivity-split.png")
+    assert not out.exists(), "no configuration rows: no Pareto figure"
+    assert "sensitivity-split.png" in result.stdout, result.stdout
+
+
+@test
 def bench_refuses_other_csv():
     """sonar-bench: a CSV of other columns is refused, not appended to"""
     path = TMP / "old-bench.csv"

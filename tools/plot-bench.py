@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Draw sonar-bench results: time per ping against mean velocity error.
+"""Draw sonar-bench results: time per ping against mean velocity error,
+and the sensitivity sweeps (probability of detection, split rate).
 
 Usage: tools/plot-bench.py BENCH.csv [-o out.png] [--scene fig10]
 
@@ -16,11 +17,19 @@ wider bank, one ping) are scenes of their own: "fig10 3-D", "fig10 +-1".
 Only configurations that found every object without a false positive are
 candidates: the mean error of one that misses objects is over fewer, easier
 ones. The others are drawn hollow and listed below the table.
+
+Rows of the sensitivity sweeps are drawn beside, each figure named after
+the output: the detection sweep's probability of detection against
+per-channel SNR, a curve per range (OUT-detection.png), and the split
+sweep's share of pairs split into two objects, separation against
+velocity difference (OUT-split.png).
 """
 
 import argparse
 import csv
 import math
+import pathlib
+import re
 import sys
 
 import matplotlib
@@ -37,6 +46,8 @@ COLOURS = {"fig10": "tab:blue", "fig9": "tab:orange", "fig10 3-D": "tab:green",
            "fig10 +-1": "tab:purple"}
 # Sweeps whose rows are not comparable with their scene's others.
 OWN_SCENE = {"hemisphere": "fig10 3-D", "datacube": "fig10 +-1"}
+# Sweeps that render their own pings: no timing, their own figures.
+SENSITIVITY = ("noise", "detection", "split")
 
 
 def parse_args(argv):
@@ -50,10 +61,15 @@ def parse_args(argv):
 
 
 def load_rows(path, scene=None):
-    """The CSV's configurations, rows of one run merged under both labels."""
+    """The CSV's configurations, rows of one run merged under both labels;
+    and the sensitivity sweeps' rows, by sweep."""
     merged = {}
+    sensitivity = {name: [] for name in SENSITIVITY}
     with open(path, newline="") as f:
         for row in csv.DictReader(f):
+            if row.get("sweep") in SENSITIVITY:
+                sensitivity[row["sweep"]].append(row)
+                continue
             if scene and row["scene"] != scene:
                 continue
             try:
@@ -68,7 +84,87 @@ def load_rows(path, scene=None):
                     merged[key]["labels"].append(label)
             else:
                 merged[key] = dict(values, scene=group, labels=[label])
-    return list(merged.values())
+    return list(merged.values()), sensitivity
+
+
+def detection_curves(rows):
+    """{range m: [(SNR dB, Pd, pings)]} of the detection sweep's rows
+    ("-28 dB 5 m"), by increasing SNR."""
+    curves = {}
+    for row in rows:
+        match = re.fullmatch(r"(-?[\d.]+) dB ([\d.]+) m", row["value"])
+        if not match:
+            continue
+        snr, distance = float(match[1]), float(match[2])
+        pings = int(row["total"])
+        curves.setdefault(distance, []).append(
+            (snr, int(row["found"]) / pings if pings else math.nan, pings))
+    return {d: sorted(points) for d, points in sorted(curves.items())}
+
+
+def split_grid(rows):
+    """The split sweep's pair cells ("1.5 cm 0.4 m/s"): separations (cm),
+    velocity differences (m/s) and the share split, rows by separation."""
+    cells = {}
+    for row in rows:
+        match = re.fullmatch(r"([\d.]+) cm ([\d.]+) m/s", row["value"])
+        if match and int(row["total"]):
+            cells[(float(match[1]), float(match[2]))] = \
+                int(row["found"]) / int(row["total"])
+    separations = sorted({s for s, _ in cells})
+    differences = sorted({d for _, d in cells})
+    return separations, differences, [
+        [cells.get((s, d), math.nan) for d in differences]
+        for s in separations]
+
+
+def plot_detection(curves, output):
+    """Probability of detection against per-channel SNR, one curve per
+    range."""
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for distance, points in curves.items():
+        ax.plot([p[0] for p in points], [p[1] for p in points], "-o",
+                label=f"{distance:g} m")
+    pings = sorted({p[2] for points in curves.values() for p in points})
+    ax.set_xlabel("per-channel SNR, dB")
+    ax.set_ylabel("probability of detection")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title("sonar-bench --sweep detection: one point reflector, "
+                 f"{'/'.join(str(p) for p in pings)} pings per point")
+    ax.grid(True, alpha=0.3)
+    ax.legend(title="range")
+    fig.tight_layout()
+    fig.savefig(output, dpi=120)
+    plt.close(fig)
+
+
+def plot_split(separations, differences, shares, output):
+    """The share of pairs split, separation against velocity difference,
+    each cell labelled."""
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    image = ax.imshow(shares, vmin=0.0, vmax=1.0, cmap="viridis",
+                      origin="lower", aspect="auto")
+    for i, row in enumerate(shares):
+        for j, share in enumerate(row):
+            if math.isfinite(share):
+                ax.text(j, i, f"{share:.2f}", ha="center", va="center",
+                        color="black" if share > 0.5 else "white")
+    ax.set_xticks(range(len(differences)), [f"{d:g}" for d in differences])
+    ax.set_yticks(range(len(separations)), [f"{s:g}" for s in separations])
+    ax.set_xlabel("radial velocity difference, m/s")
+    ax.set_ylabel("separation in range, cm")
+    ax.set_title("sonar-bench --sweep split: share of the pairs reported "
+                 "as two objects")
+    fig.colorbar(image, ax=ax, label="split rate")
+    fig.tight_layout()
+    fig.savefig(output, dpi=120)
+    plt.close(fig)
+
+
+def beside(output, suffix):
+    """@output's path with -@suffix before its extension."""
+    path = pathlib.Path(output)
+    return str(path.with_name(f"{path.stem}-{suffix}{path.suffix or '.png'}"))
 
 
 def complete(row):
@@ -169,11 +265,22 @@ def main(argv=None):
     """Reads the CSV, prints each scene's front, writes the PNG."""
     args = parse_args(argv)
     try:
-        rows = load_rows(args.csv, args.scene)
+        rows, sensitivity = load_rows(args.csv, args.scene)
     except OSError as e:
         raise SystemExit(f"{args.csv}: {e.strerror}")
-    if not rows:
+    curves = detection_curves(sensitivity["detection"])
+    separations, differences, shares = split_grid(sensitivity["split"])
+    if not rows and not curves and not separations:
         raise SystemExit(f"{args.csv}: no configurations")
+    if curves:
+        plot_detection(curves, beside(args.output, "detection"))
+        print(f"wrote {beside(args.output, 'detection')}")
+    if separations:
+        plot_split(separations, differences, shares,
+                   beside(args.output, "split"))
+        print(f"wrote {beside(args.output, 'split')}")
+    if not rows:
+        return 0
     fronts = {}
     for scene in sorted({r["scene"] for r in rows}):
         candidates = [r for r in rows if r["scene"] == scene and complete(r)]

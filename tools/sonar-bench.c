@@ -1099,10 +1099,11 @@ measure_curves (Chain * ch, const SonarTruth * truths, guint n, Result * r,
     const SonarTruth *t = &truths[k];
 
     if (est) {
+      const SonarCentroid at = sonar_velocity_point (t->range, t->azimuth,
+          t->elevation);
       SonarVelocityEstimate e[2];
 
-      sonar_velocity_estimate (est, ch->spectra, t->range, t->azimuth,
-          t->elevation, e, curves);
+      sonar_velocity_estimate (est, ch->spectra, &at, e, curves);
       /* The last curve is the product per emitter. */
       for (guint v = 0; v < nv; v++)
         db[v] = ch->n_emitters * curves[(gsize) ch->n_emitters * nv + v];
@@ -1574,6 +1575,11 @@ chain_run_ping (Chain * ch, const float *samples, guint n_mics,
   return n;
 }
 
+static void write_sensitivity_row (FILE * csv, const char *sweep,
+    const char *value, const char *scene, guint pings, guint found,
+    guint total, guint false_positives, double mean_error,
+    double max_error);
+
 static gboolean
 run_noise (Bench * b)
 {
@@ -1666,8 +1672,8 @@ run_noise (Bench * b)
       max_centroids, false_objects, noise_pings, pings_with_false,
       median (times, noise_pings));
   if (b->csv)
-    fprintf (b->csv, "noise,false-objects,empty,%u,0,0,%u,,,,,,,,,,,,,,,\n",
-        noise_pings, false_objects);
+    write_sensitivity_row (b->csv, "noise", "false-objects", "empty",
+        noise_pings, 0, 0, false_objects, NAN, NAN);
   sonar_scene_clear (&scene);
   chain_clear (dense);
   chain_clear (chain);
@@ -1807,11 +1813,13 @@ run_detection (Bench * b)
       found_all += found;
       sum_all += sum_error;
       worst = MAX (worst, max_error);
-      if (b->csv)
-        fprintf (b->csv, "detection,%g dB %g m,point,%u,%u,%u,%u,%.6g,%.6g,"
-            ",,,,,,,,,,,,\n", detection_snrs_db[i], detection_ranges[j],
+      if (b->csv) {
+        g_autofree char *value = g_strdup_printf ("%g dB %g m",
+            detection_snrs_db[i], detection_ranges[j]);
+        write_sensitivity_row (b->csv, "detection", value, "point",
             detection_pings, found, detection_pings, false_objects,
             found ? sum_error / found : NAN, max_error);
+      }
     }
     g_print ("\n");
   }
@@ -1832,6 +1840,347 @@ fail:
   g_printerr ("detection: %s\n", error->message);
   chain_clear (ch);
   return FALSE;
+}
+
+/* The split sweep (issue 12): two point reflectors of unit strength at
+ * one azimuth, @separation apart in range, whose radial velocities differ
+ * by more than a Doppler main lobe (0.33 m/s); per ping a random range in
+ * 1-4 m, azimuth in -60..60 degrees, the first one's velocity in -1..1
+ * m/s and the second's that plus or minus the difference, the nearer one
+ * either; noise seed = ping. Each object takes the valid detection within
+ * MATCH_DISTANCE nearest to it in velocity, if within half a main lobe;
+ * the pair is split when both are found. A detection left within
+ * MATCH_DISTANCE of an object is a duplicate (a false split), any other a
+ * false object. Then single objects at the defaults: one of the same
+ * reflectors alone, the presets (default, fig9, fig10) and random
+ * scenes, where every duplicate is a false split. CSV rows: "S cm D m/s"
+ * and "weaker W dB" count the pairs split (found) of the pings (total);
+ * "pairs", "single" and the scenes the objects found of the objects;
+ * false_positives is duplicates and false objects. */
+#define SPLIT_PINGS 10
+#define SPLIT_RANGE_MIN 1.0
+#define SPLIT_RANGE_MAX 4.0
+#define SPLIT_BASE_SPEED 1.0
+#define SPLIT_VELOCITY_MATCH 0.15
+/* m/s: a worse error is printed. */
+#define SPLIT_USUAL_ERROR 0.02
+#define SPLIT_SCENE_PINGS 4
+
+#define N_SPLIT_SEPARATIONS 5
+#define N_SPLIT_DIFFERENCES 7
+
+static guint split_pings = SPLIT_PINGS;
+static const double split_separations[N_SPLIT_SEPARATIONS] =
+    { 0.005, 0.01, 0.015, 0.02, 0.03 };
+static const double split_differences[N_SPLIT_DIFFERENCES] =
+    { 0.4, 0.7, 1.0, 1.5, 2.0, 3.0, 5.0 };
+static const double split_weaker_db[] = { 3.0, 6.0, 10.0, 14.0 };
+
+typedef struct
+{
+  guint pings, objects, found, duplicates, false_objects;
+  double sum_error, max_error;
+} SplitTally;
+
+/* Scores the chain's detections of one ping against @truths (see above);
+ * returns the objects found. */
+static guint
+tally_ping (SplitTally * t, const Chain * ch, const SonarTruth * truths,
+    guint n_truths)
+{
+  gboolean used[2 * MAX_CENTROIDS] = { FALSE };
+  guint found = 0;
+
+  t->pings++;
+  for (guint k = 0; k < n_truths; k++) {
+    int best = -1;
+
+    t->objects++;
+    for (guint d = 0; d < ch->n_detections; d++) {
+      const double dv = fabs (ch->velocities[d] -
+          truths[k].radial_velocity);
+      if (!used[d] && dv <= SPLIT_VELOCITY_MATCH
+          && sonar_vec3_norm (sonar_vec3_sub (ch->positions[d],
+                  truths[k].position)) < MATCH_DISTANCE
+          && (best < 0 || dv < fabs (ch->velocities[best] -
+                  truths[k].radial_velocity)))
+        best = d;
+    }
+    if (best >= 0) {
+      const double err = fabs (ch->velocities[best] -
+          truths[k].radial_velocity);
+      used[best] = TRUE;
+      found++;
+      t->sum_error += err;
+      t->max_error = MAX (t->max_error, err);
+    }
+  }
+  t->found += found;
+  for (guint d = 0; d < ch->n_detections; d++) {
+    gboolean near = FALSE;
+
+    if (used[d])
+      continue;
+    for (guint k = 0; k < n_truths && !near; k++)
+      near = sonar_vec3_norm (sonar_vec3_sub (ch->positions[d],
+              truths[k].position)) < MATCH_DISTANCE;
+    t->duplicates += near;
+    t->false_objects += !near;
+  }
+  return found;
+}
+
+/* One ping of @n (1 or 2) reflectors of the split sweep through @ch;
+ * returns the objects found, *@worst (may be NULL) their worst velocity
+ * error. */
+static guint
+split_ping (Chain * ch, SonarSimulator * sim, const SonarSetup * setup,
+    guint n, double separation, double difference, double weaker_db,
+    guint64 ping, SplitTally * t, float *planar, float *samples,
+    double *worst)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  SonarReflector reflectors[2] = { 0 };
+  SonarTruth truths[2];
+  SonarScene scene;
+  SonarRng rng;
+  double range, azimuth, speed, sign, near;
+  SonarVec3 u;
+  const double max_error = t->max_error;
+  const guint extra = t->duplicates + t->false_objects;
+  guint found;
+
+  sonar_rng_init (&rng, RANDOM_SCENE_SEED, ping);
+  range = SPLIT_RANGE_MIN + (SPLIT_RANGE_MAX - SPLIT_RANGE_MIN) *
+      sonar_rng_uniform (&rng);
+  azimuth = SENSITIVITY_AZIMUTH * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+  speed = SPLIT_BASE_SPEED * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+  sign = sonar_rng_uniform (&rng) < 0.5 ? -1.0 : 1.0;
+  near = sonar_rng_uniform (&rng) < 0.5 ? 0.0 : separation;
+  u = sonar_vec3_from_direction (azimuth, 0.0);
+  for (guint k = 0; k < n; k++) {
+    const double r = range + (k == 0 ? near : separation - near);
+    reflectors[k].kind = SONAR_REFLECTOR_POINT;
+    reflectors[k].position = sonar_vec3_scale (u, r);
+    reflectors[k].velocity = sonar_vec3_scale (u, speed + k * sign *
+        difference);
+    reflectors[k].strength = k ? pow (10.0, -weaker_db / 20.0) : 1.0;
+  }
+  sonar_scene_init_preset (&scene, SONAR_SCENE_PRESET_EMPTY);
+  scene.reflectors = reflectors;
+  scene.n_reflectors = n;
+  sonar_simulator_render (sim, &scene, ping, 0.0, planar, truths);
+  scene.reflectors = NULL;
+  scene.n_reflectors = 0;
+  sonar_scene_clear (&scene);
+  interleave (planar, n_mics, setup->ping_length, samples);
+  chain_run_ping (ch, samples, n_mics, setup->ping_length);
+  t->max_error = 0.0;
+  found = tally_ping (t, ch, truths, n);
+  if (found < n || t->duplicates + t->false_objects > extra
+      || t->max_error > SPLIT_USUAL_ERROR) {
+    g_printerr ("split: ping %" G_GUINT64_FORMAT ": %u of %u found at %.3f "
+        "m %+.1f deg (", ping, found, n, truths[0].range, truths[0].azimuth);
+    for (guint k = 0; k < n; k++)
+      g_printerr ("%s%.4f m %+.3f m/s", k ? ", " : "", truths[k].range,
+          truths[k].radial_velocity);
+    g_printerr ("); detections:");
+    for (guint d = 0; d < ch->n_detections; d++)
+      g_printerr (" %.4f m %+.4f m/s;", sonar_vec3_norm (ch->positions[d]),
+          ch->velocities[d]);
+    g_printerr ("\n");
+  }
+  if (worst)
+    *worst = t->max_error;
+  t->max_error = MAX (t->max_error, max_error);
+  return found;
+}
+
+/* A separation x velocity difference table of @cells, shares (2
+ * decimals) or errors (3 digits). */
+static void
+print_split_table (const char *title,
+    double cells[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES], gboolean shares)
+{
+  g_print ("%s:\n%10s", title, "sep \\ dv");
+  for (guint j = 0; j < N_SPLIT_DIFFERENCES; j++)
+    g_print (" %5.1f m/s", split_differences[j]);
+  g_print ("\n");
+  for (guint i = 0; i < N_SPLIT_SEPARATIONS; i++) {
+    g_print ("%7.1f cm", 100.0 * split_separations[i]);
+    for (guint j = 0; j < N_SPLIT_DIFFERENCES; j++)
+      g_print (shares ? " %9.2f" : " %9.3g", cells[i][j]);
+    g_print ("\n");
+  }
+}
+
+static void
+print_tally (const char *name, const SplitTally * t)
+{
+  g_print ("  %-22s %5u %8u/%-5u %10u %6u %9.4f %9.4f\n", name, t->pings,
+      t->found, t->objects, t->duplicates, t->false_objects,
+      t->found ? t->sum_error / t->found : NAN, t->max_error);
+}
+
+/* @t as a CSV row: pairs split (or objects found) of @total, duplicates
+ * and false objects as its false positives. */
+static void
+write_tally_csv (FILE * csv, const char *value, const char *scene,
+    const SplitTally * t, guint found, guint total)
+{
+  write_sensitivity_row (csv, "split", value, scene, t->pings, found, total,
+      t->duplicates + t->false_objects, t->found ? t->sum_error / t->found :
+      NAN, t->max_error);
+}
+
+static gboolean
+run_split (Bench * b)
+{
+  const guint n_mics = b->setup->geometry.n_microphones;
+  const gsize length = b->setup->ping_length;
+  const SonarScenePreset presets[] = { SONAR_SCENE_PRESET_DEFAULT,
+    SONAR_SCENE_PRESET_FIG9, SONAR_SCENE_PRESET_FIG10
+  };
+  const char *const preset_names[] = { "default", "fig9", "fig10" };
+  const guint random_sizes[] = { 5, 20 };
+  g_autoptr (GError) error = NULL;
+  g_autoptr (SonarSimulator) sim = NULL;
+  g_autofree Chain *ch = g_new0 (Chain, 1);
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  g_autofree SonarTruth *truths = NULL;
+  SplitTally pairs = { 0 }, singles = { 0 }, scenes_tally = { 0 };
+  double rates[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES];
+  double usual_rates[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES];
+  double worst_errors[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES];
+  SonarSimulatorParams sp;
+  Result r = { 0 };
+  Config c;
+
+  sonar_simulator_params_init_default (&sp);
+  sp.noise_amplitude = NOISE_AMPLITUDE;
+  sp.seed = NOISE_SEED;
+  sim = sonar_simulator_new (b->setup, &sp, &error);
+  config_init (&c, &scenes[SCENE_FIG9]);
+  if (!sim || !chain_init (ch, b, &c, &r, &error)) {
+    g_printerr ("split: %s\n", error->message);
+    chain_clear (ch);
+    return FALSE;
+  }
+  g_printerr ("split: %u pings per cell\n", split_pings);
+  for (guint i = 0; i < G_N_ELEMENTS (split_separations); i++) {
+    for (guint j = 0; j < G_N_ELEMENTS (split_differences); j++) {
+      SplitTally t = { 0 };
+      guint splits = 0, usual = 0;
+
+      for (guint p = 0; p < split_pings; p++) {
+        const guint64 ping = 10000 * (i + 1) + 100 * j + p;
+        double worst;
+        const gboolean split = split_ping (ch, sim, b->setup, 2,
+            split_separations[i], split_differences[j], 0.0, ping, &t,
+            planar, samples, &worst) == 2;
+        splits += split;
+        usual += split && worst <= SPLIT_USUAL_ERROR;
+      }
+      rates[i][j] = (double) splits / split_pings;
+      usual_rates[i][j] = (double) usual / split_pings;
+      worst_errors[i][j] = t.max_error;
+      if (b->csv) {
+        g_autofree char *value = g_strdup_printf ("%g cm %g m/s",
+            100.0 * split_separations[i], split_differences[j]);
+        write_tally_csv (b->csv, value, "pair", &t, splits, split_pings);
+      }
+      pairs.pings += t.pings;
+      pairs.objects += t.objects;
+      pairs.found += t.found;
+      pairs.duplicates += t.duplicates;
+      pairs.false_objects += t.false_objects;
+      pairs.sum_error += t.sum_error;
+      pairs.max_error = MAX (pairs.max_error, t.max_error);
+    }
+  }
+  g_print ("\nsplit (two unit point reflectors at one azimuth, 1-4 m, "
+      "-60..60 deg; %u pings per cell; the elements' defaults, bank "
+      "-7..7 / 0.05)\n", split_pings);
+  print_split_table ("share of the pairs split into two objects, each "
+      "within 0.15 m/s of its velocity", rates, TRUE);
+  print_split_table ("share split with both within 0.02 m/s", usual_rates,
+      TRUE);
+  print_split_table ("worst velocity error of the objects found, m/s",
+      worst_errors, FALSE);
+
+  /* The second object weaker: every separation, the differences in
+   * turn. */
+  g_print ("the second object weaker (every separation, the velocity "
+      "differences in turn, %u pings each):\n%10s %9s %9s %9s\n",
+      split_pings * (guint) G_N_ELEMENTS (split_separations), "weaker",
+      "split", "mean m/s", "max m/s");
+  for (guint w = 0; w < G_N_ELEMENTS (split_weaker_db); w++) {
+    SplitTally t = { 0 };
+    guint splits = 0, n = 0;
+
+    for (guint i = 0; i < G_N_ELEMENTS (split_separations); i++)
+      for (guint p = 0; p < split_pings; p++, n++)
+        splits += split_ping (ch, sim, b->setup, 2, split_separations[i],
+            split_differences[n % G_N_ELEMENTS (split_differences)],
+            split_weaker_db[w], 90000 + 1000 * w + n, &t, planar,
+            samples, NULL) == 2;
+    g_print ("%7.0f dB %9.2f %9.4f %9.4f\n", split_weaker_db[w],
+        (double) splits / n, t.found ? t.sum_error / t.found : NAN,
+        t.max_error);
+    if (b->csv) {
+      g_autofree char *value = g_strdup_printf ("weaker %g dB",
+          split_weaker_db[w]);
+      write_tally_csv (b->csv, value, "pair", &t, splits, n);
+    }
+  }
+
+  /* Single objects: the same reflectors alone, then scenes. */
+  for (guint i = 0; i < G_N_ELEMENTS (split_separations); i++)
+    for (guint j = 0; j < G_N_ELEMENTS (split_differences); j++)
+      for (guint p = 0; p < split_pings; p++)
+        split_ping (ch, sim, b->setup, 1, 0.0, 0.0, 0.0, 10000 * (i + 1) +
+            100 * j + p, &singles, planar, samples, NULL);
+  g_print ("%-24s %5s %14s %10s %6s %9s %9s\n", "", "pings", "found",
+      "duplicates", "false", "mean m/s", "max m/s");
+  print_tally ("pairs (objects)", &pairs);
+  print_tally ("single objects", &singles);
+  if (b->csv) {
+    write_tally_csv (b->csv, "pairs", "pair", &pairs, pairs.found,
+        pairs.objects);
+    write_tally_csv (b->csv, "single", "point", &singles, singles.found,
+        singles.objects);
+  }
+  for (guint s = 0; s < G_N_ELEMENTS (presets) + G_N_ELEMENTS
+      (random_sizes); s++) {
+    const gboolean preset = s < G_N_ELEMENTS (presets);
+    g_autofree char *name = preset ? g_strdup (preset_names[s]) :
+        g_strdup_printf ("rand%u", random_sizes[s - G_N_ELEMENTS (presets)]);
+    SplitTally t = { 0 };
+    SonarScene scene;
+
+    if (preset)
+      sonar_scene_init_preset (&scene, presets[s]);
+    else
+      random_scene_init (&scene, random_sizes[s - G_N_ELEMENTS (presets)]);
+    truths = g_renew (SonarTruth, truths, MAX (scene.n_reflectors, 1));
+    for (guint p = 0; p < SPLIT_SCENE_PINGS; p++) {
+      sonar_simulator_render (sim, &scene, p, p / PING_RATE, planar, truths);
+      interleave (planar, n_mics, length, samples);
+      chain_run_ping (ch, samples, n_mics, length);
+      tally_ping (&t, ch, truths, scene.n_reflectors);
+    }
+    print_tally (name, &t);
+    if (b->csv)
+      write_tally_csv (b->csv, name, name, &t, t.found, t.objects);
+    scenes_tally.duplicates += t.duplicates;
+    sonar_scene_clear (&scene);
+  }
+  g_print ("false splits (duplicates) on single objects: %u of %u single "
+      "reflectors, %u on the scenes\n", singles.duplicates, singles.pings,
+      scenes_tally.duplicates);
+  chain_clear (ch);
+  return TRUE;
 }
 
 static const Sweep sweeps[] = {
@@ -1856,6 +2205,7 @@ static const Sweep sweeps[] = {
   {"hemisphere", SCENE_FIG10, 4, apply_hemisphere},
   {"noise", SCENE_FIG9, 0, NULL, run_noise},
   {"detection", SCENE_FIG9, 0, NULL, run_detection},
+  {"split", SCENE_FIG9, 0, NULL, run_split},
 };
 
 static const Sweep *
@@ -1886,6 +2236,22 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
   "us_velocity_per_evaluation,timed_pings,ms_total_p10,ms_total_p90," \
   "floor_ms_spectra,floor_ms_imaging,floor_ms_clustering,floor_ms_velocity"
+
+/* A row of a sensitivity sweep (noise, detection, split): the columns up
+ * to max_error, the timing and memory ones empty. */
+static void
+write_sensitivity_row (FILE * csv, const char *sweep, const char *value,
+    const char *scene, guint pings, guint found, guint total,
+    guint false_positives, double mean_error, double max_error)
+{
+  fprintf (csv, "%s,%s,%s,%u,%u,%u,%u,%.6g,%.6g", sweep, value, scene, pings,
+      found, total, false_positives, mean_error, max_error);
+  for (const char *c = strchr (CSV_HEADER, ','); c; c = strchr (c + 1, ','))
+    if (c > strstr (CSV_HEADER, "max_error"))
+      fputc (',', csv);
+  fputc ('\n', csv);
+  fflush (csv);
+}
 
 static void
 print_header (const Sweep * sweep)
@@ -2188,6 +2554,13 @@ parse_detection_pings (const char *option_name, const char *value,
   return parse_pings (option_name, value, &detection_pings, error);
 }
 
+static gboolean
+parse_split_pings (const char *option_name, const char *value,
+    gpointer data, GError ** error)
+{
+  return parse_pings (option_name, value, &split_pings, error);
+}
+
 /* Opens @path to append rows, with the header if it is new; a file of
  * other columns (an older sonar-bench's) is refused. */
 static FILE *
@@ -2250,6 +2623,9 @@ main (int argc, char **argv)
         "Pings of the noise sweep (default 1000)", "N"},
     {"detection-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_detection_pings,
         "Pings per SNR and range of the detection sweep (default 20)", "N"},
+    {"split-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_split_pings,
+        "Pings per separation and velocity difference of the split sweep "
+          "(default 10)", "N"},
     {"threads", 't', 0, G_OPTION_ARG_INT, &threads,
         "Velocity workers, as velocityest's threads (default 0: one per "
           "processor)", "N"},
@@ -2306,7 +2682,13 @@ main (int argc, char **argv)
       "  detection                 probability of detection against "
       "per-channel SNR at 2, 5,\n"
       "                            8 m; the 7 m / -28 dB goal "
-      "(--detection-pings)\n");
+      "(--detection-pings)\n"
+      "  split                     pairs 0.5-3 cm apart in range at one "
+      "azimuth, velocities\n"
+      "                            0.4-5 m/s apart: share split into two "
+      "objects; false splits\n"
+      "                            of single objects, presets and random "
+      "scenes (--split-pings)\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, &argc, &argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);

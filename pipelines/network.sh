@@ -7,6 +7,9 @@
 #   pipelines/network.sh sensor 127.0.0.1 5000 12     # 12 pings, then EOS
 # SONAR_BANK sets dopplerbank's bank on the processing side (default: the
 # element's -7..7 m/s), e.g. SONAR_BANK="velocity-min=-1.5 velocity-max=1.5".
+# SONAR_LIVE=false sends pings as fast as the processing takes them
+# instead of at the sensor's rate (a live sensor loses the pings it records
+# while the link is busy, as the real one does).
 set -euo pipefail
 cd "$(dirname "$0")/.." && . tools/env.sh
 case "${1:-}" in
@@ -16,7 +19,8 @@ case "${1:-}" in
       ! gdpdepay ! dopplerbank ${SONAR_BANK:-} ! mimobeamform ! wardcluster \
       ! velocityest ! fdsink ;;
   sensor)
-    exec gst-launch-1.0 -q sonarsrc is-live=true num-buffers="${4:-12}" \
+    exec gst-launch-1.0 -q sonarsrc is-live="${SONAR_LIVE:-true}" \
+      num-buffers="${4:-12}" \
       ! gdppay ! tcpclientsink host="${2:?host}" port="${3:?port}" ;;
   *)
     echo "usage: $0 processing PORT | sensor HOST PORT [PINGS]" >&2

@@ -394,7 +394,7 @@ assert_matrix (JsonObject * o, const char *name, const double m[3][3])
 }
 
 /* 6. The JSON line, the meta and the bus message say the same, with the
- * names of docs/CONTRACTS.md section 9b. */
+ * names of docs/CONTRACTS.md section 14. */
 static void
 test_outputs_agree (void)
 {

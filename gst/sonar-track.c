@@ -44,8 +44,9 @@ struct _SonarTracker
   double s[3], s_cov[9];
   gboolean s_observed;
   /* Assignment work space. */
-  double *cost;
-  guint cost_capacity;
+  gpointer cost, pair_costs, indices, hungarian_d, hungarian_u;
+  gsize cost_capacity, pair_capacity, indices_capacity;
+  gsize hungarian_d_capacity, hungarian_u_capacity;
   gint *track_detection;
   gboolean *detection_taken;
   guint *position_gates;        /* per detection: tracks whose position
@@ -54,6 +55,18 @@ struct _SonarTracker
 };
 
 static const char *const state_names[] = { "tentative", "confirmed" };
+
+/* Grows *@buffer to hold @count items of @size bytes: work space kept
+ * from ping to ping, so that a steady stream allocates nothing. */
+static gpointer
+reserve (gpointer * buffer, gsize * capacity, gsize count, gsize size)
+{
+  if (count > *capacity) {
+    *capacity = MAX (count, 2 * *capacity);
+    *buffer = g_realloc_n (*buffer, *capacity, size);
+  }
+  return *buffer;
+}
 
 const char *
 sonar_track_state_to_string (SonarTrackState state)
@@ -162,6 +175,10 @@ sonar_tracker_free (SonarTracker * tr)
   g_array_unref (tr->tracks);
   g_array_unref (tr->reports);
   g_free (tr->cost);
+  g_free (tr->pair_costs);
+  g_free (tr->indices);
+  g_free (tr->hungarian_d);
+  g_free (tr->hungarian_u);
   g_free (tr->track_detection);
   g_free (tr->detection_taken);
   g_free (tr->position_gates);
@@ -408,6 +425,16 @@ update (const SonarTracker * tr, double *x, double *p,
   return TRUE;
 }
 
+/* A detection with a place (its radial velocity may be NaN). */
+static gboolean
+usable (const SonarMeasurement * m)
+{
+  return isfinite (m->range) && m->range > 0.0 && isfinite (m->azimuth)
+      && isfinite (m->elevation) && m->sigma_range > 0.0
+      && m->sigma_azimuth > 0.0 && m->sigma_elevation > 0.0
+      && (!isfinite (m->radial_velocity) || m->sigma_radial_velocity > 0.0);
+}
+
 /* The squared distance of detection @m from @track moved to @instant,
  * NO_PAIR outside the gate; *@in_position_gate: its position alone is
  * inside the position's gate. */
@@ -418,6 +445,9 @@ pair_cost (const SonarTracker * tr, const Track * track,
   double x[NX], p[NX * NX], z[4], h[4], H[4 * NX], R[16], s_inv[16], d2;
   guint rows, position_rows;
 
+  *in_position_gate = FALSE;
+  if (!usable (m))
+    return NO_PAIR;
   memcpy (x, track->x, sizeof x);
   memcpy (p, track->p, sizeof p);
   predict (tr, x, p, instant - track->t);
@@ -433,12 +463,17 @@ pair_cost (const SonarTracker * tr, const Track * track,
  * algorithm with potentials, O(n^3)); @row_of[j] receives the row
  * assigned to column j. */
 static void
-hungarian (const double *cost, guint n, gint * row_of)
+hungarian (SonarTracker * tr, const double *cost, guint n, gint * row_of)
 {
-  double *u = g_new0 (double, n + 1), *v = g_new0 (double, n + 1);
-  double *minv = g_new (double, n + 1);
-  guint *p = g_new0 (guint, n + 1), *way = g_new0 (guint, n + 1);
-  gboolean *used = g_new (gboolean, n + 1);
+  double *d = reserve (&tr->hungarian_d, &tr->hungarian_d_capacity,
+      3 * (gsize) (n + 1), sizeof (double));
+  guint *w = reserve (&tr->hungarian_u, &tr->hungarian_u_capacity,
+      3 * (gsize) (n + 1), sizeof (guint));
+  double *u = d, *v = d + n + 1, *minv = d + 2 * (n + 1);
+  guint *p = w, *way = w + n + 1, *used = w + 2 * (n + 1);
+
+  memset (d, 0, sizeof (double) * 2 * (n + 1));
+  memset (w, 0, sizeof (guint) * 2 * (n + 1));
 
   for (guint i = 1; i <= n; i++) {
     guint j0 = 0;
@@ -481,12 +516,6 @@ hungarian (const double *cost, guint n, gint * row_of)
   }
   for (guint j = 1; j <= n; j++)
     row_of[j - 1] = (gint) p[j] - 1;
-  g_free (u);
-  g_free (v);
-  g_free (minv);
-  g_free (p);
-  g_free (way);
-  g_free (used);
 }
 
 /* Which detection each track takes (tr->track_detection, -1: none), from
@@ -494,7 +523,10 @@ hungarian (const double *cost, guint n, gint * row_of)
 static void
 assign (SonarTracker * tr, const double *costs, guint n_tracks, guint n_det)
 {
-  gint *track_rows = g_new (gint, n_tracks), *det_cols = g_new (gint, n_det);
+  gint *track_rows = reserve (&tr->indices, &tr->indices_capacity,
+      2 * ((gsize) n_tracks + n_det), sizeof (gint));
+  gint *det_cols = track_rows + n_tracks;
+  gint *row_of = det_cols + n_det;
   guint n_t = 0, n_d = 0;
 
   for (guint i = 0; i < n_tracks; i++)
@@ -541,13 +573,8 @@ assign (SonarTracker * tr, const double *costs, guint n_tracks, guint n_det)
      * each: a pair is taken only inside its gate. */
     const guint n = n_t + n_d;
     const double half = 0.5 * tr->gate_threshold[4];
-    double *c;
-    gint *row_of = g_new (gint, n);
-    if ((gsize) n * n > tr->cost_capacity) {
-      tr->cost_capacity = n * n;
-      tr->cost = g_renew (double, tr->cost, tr->cost_capacity);
-    }
-    c = tr->cost;
+    double *c = reserve (&tr->cost, &tr->cost_capacity, (gsize) n * n,
+        sizeof (double));
     for (guint k = 0; k < n * n; k++)
       c[k] = NO_PAIR;
     for (guint i = 0; i < n_tracks; i++)
@@ -563,7 +590,7 @@ assign (SonarTracker * tr, const double *costs, guint n_tracks, guint n_det)
         for (guint i = 0; i < n_t; i++)
           c[(n_t + det_cols[j]) * n + n_d + i] = 0.0;
       }
-    hungarian (c, n, row_of);
+    hungarian (tr, c, n, row_of);
     for (guint j = 0; j < n_det; j++)
       if (det_cols[j] >= 0) {
         const gint row = row_of[det_cols[j]];
@@ -572,10 +599,7 @@ assign (SonarTracker * tr, const double *costs, guint n_tracks, guint n_det)
             if (track_rows[i] == row && costs[i * n_det + j] < NO_PAIR)
               tr->track_detection[i] = j;
       }
-    g_free (row_of);
   }
-  g_free (track_rows);
-  g_free (det_cols);
 }
 
 /* The filtered sensor velocity moved to @dt later and updated with the
@@ -781,7 +805,8 @@ sonar_tracker_process (SonarTracker * tr, double ping_time,
     tr->detection_taken = g_renew (gboolean, tr->detection_taken, n);
     tr->position_gates = g_renew (guint, tr->position_gates, n);
   }
-  costs = g_new (double, MAX ((gsize) n_tracks * n, 1));
+  costs = reserve (&tr->pair_costs, &tr->pair_capacity,
+      MAX ((gsize) n_tracks * n, 1), sizeof (double));
   for (guint j = 0; j < n; j++)
     tr->position_gates[j] = 0;
   for (guint i = 0; i < n_tracks; i++) {
@@ -796,7 +821,6 @@ sonar_tracker_process (SonarTracker * tr, double ping_time,
     }
   }
   assign (tr, costs, n_tracks, n);
-  g_free (costs);
 
   for (guint j = 0; j < n; j++)
     tr->detection_taken[j] = FALSE;
@@ -838,7 +862,7 @@ sonar_tracker_process (SonarTracker * tr, double ping_time,
   }
   /* Beginnings. */
   for (guint j = 0; j < n && tr->tracks->len < p->max_tracks; j++)
-    if (!tr->detection_taken[j]) {
+    if (!tr->detection_taken[j] && usable (&detections[j])) {
       const SonarMeasurement *m = &detections[j];
       start_track (tr, m, isfinite (m->instant) ? m->instant : ping_time,
           ping_time, p->mirror_z && labels && labels[j].behind, j);

@@ -125,7 +125,8 @@ void sonar_tracker_free (SonarTracker * tracker);
 void sonar_tracker_reset (SonarTracker * tracker);
 
 /* One ping at @ping_time (s): its @n detections (a NaN instant means
- * @ping_time; a NaN radial velocity, position only), the ping's
+ * @ping_time; a NaN radial velocity, position only; one without a finite
+ * place or with a sigma of 0 is ignored), the ping's
  * ego-motion and the detections' labels (NULL: none). Pings must come in
  * time order; an earlier one is an error (SONAR_ERROR_FORMAT) that leaves
  * the tracks as they were. */

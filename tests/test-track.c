@@ -718,6 +718,65 @@ test_track_life (void)
   }
 }
 
+/* 11. Detections without a place or a speed: the estimators leave them
+ * out (untested, no track) and nothing they report is NaN. */
+static void
+test_bad_input (void)
+{
+  SonarSigmaModel model;
+  SonarEgoParams ep;
+  SonarTrackerParams tp;
+  SonarMeasurement m[6];
+  SonarEgoLabel labels[6];
+  SonarEgoMotion ego;
+  const SonarTrack *tracks;
+  GError *error = NULL;
+  guint n;
+
+  sonar_sigma_model_init_default (&model);
+  sonar_ego_params_init_default (&ep);
+  sonar_tracker_params_init_default (&tp);
+  for (guint k = 0; k < 6; k++) {
+    m[k].range = 1.0 + 0.5 * k;
+    m[k].azimuth = -50.0 + 20.0 * k;
+    m[k].elevation = 0.0;
+    m[k].instant = NAN;
+    /* A still sensor among still objects: the same detections every
+     * ping. */
+    m[k].radial_velocity = 0.0;
+    sonar_measurement_set_nominal_sigma (&m[k], &model);
+  }
+  m[4].radial_velocity = NAN;   /* at the bank's edge: a place only */
+  m[5].azimuth = NAN;           /* nowhere */
+  {
+    g_autoptr (SonarEgoEstimator) est = ego_new (&ep);
+    g_autoptr (SonarTracker) tr = tracker_new (&tp);
+    sonar_ego_estimate (est, m, 6, &ego, labels);
+    g_assert_cmpint (ego.status, ==, SONAR_EGO_OBSERVED);
+    g_assert_cmpuint (ego.n_used, ==, 4);
+    g_assert_cmpfloat (sonar_vec3_norm (ego.velocity), <, 1e-9);
+    g_assert_true (isnan (labels[4].statistic) && !labels[4].still);
+    g_assert_true (isnan (labels[5].statistic) && !labels[5].still);
+    for (guint ping = 0; ping < 3; ping++)
+      g_assert_true (sonar_tracker_process (tr, ping * 0.1, m, 6, &ego,
+              labels, &error));
+    tracks = sonar_tracker_tracks (tr, &n);
+    g_assert_cmpuint (n, ==, 5);
+    for (guint i = 0; i < n; i++) {
+      g_assert_cmpint (tracks[i].state, ==, SONAR_TRACK_CONFIRMED);
+      g_assert_true (isfinite (tracks[i].radial_velocity)
+          && isfinite (sonar_vec3_norm (tracks[i].velocity))
+          && isfinite (tracks[i].velocity_covariance[2][2]));
+      g_assert_false (tracks[i].moving);
+    }
+    /* A ping time that is not a number is refused. */
+    g_assert_false (sonar_tracker_process (tr, NAN, m, 6, &ego, labels,
+            &error));
+    g_assert_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT);
+    g_clear_error (&error);
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -732,5 +791,6 @@ main (int argc, char **argv)
   g_test_add_func ("/track/crossing", test_tracks_crossing);
   g_test_add_func ("/track/gaps-and-extent", test_tracks_gaps_and_extent);
   g_test_add_func ("/track/life", test_track_life);
+  g_test_add_func ("/track/bad-input", test_bad_input);
   return g_test_run ();
 }

@@ -615,7 +615,7 @@ gst_sonar_track_class_init (GstSonarTrackClass * klass)
   g_object_class_install_property (gobject_class, PROP_DIRECTION_SIGMA,
       g_param_spec_double ("direction-sigma", "Direction sigma", "Nominal "
           "1-sigma error of a detection's direction cosines (the sine of "
-          "the angle from boresight): 0.004 is 0.23 degrees at boresight, "
+          "the angle from boresight): 0.002 is 0.11 degrees at boresight, "
           "more towards the array's plane", 1e-6, 1.0, s.direction_sine,
           flags));
   g_object_class_install_property (gobject_class, PROP_VELOCITY_SIGMA,
@@ -639,9 +639,10 @@ gst_sonar_track_class_init (GstSonarTrackClass * klass)
           "is unobservable", 0.0, 45.0, e.min_spread, flags));
   g_object_class_install_property (gobject_class, PROP_AMBIGUITY,
       g_param_spec_double ("ambiguity", "Ambiguity", "Another sensor "
-          "velocity that this share of the winner's still detections (none "
-          "of them the winner's) fits makes the ping ambiguous: "
-          "unobservable", 0.01, 1.0, e.ambiguity, flags));
+          "velocity that fits this share of as many detections as the "
+          "winner, two or more of them detections the winner rejects, and "
+          "not by chance, makes the ping ambiguous: unobservable", 0.01, 1.0,
+          e.ambiguity, flags));
   g_object_class_install_property (gobject_class, PROP_PRIOR_VELOCITY,
       gst_param_spec_array ("prior-velocity", "Prior velocity", "The "
           "sensor's velocity from elsewhere (odometry), vx, vy, vz m/s in "

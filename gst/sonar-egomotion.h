@@ -105,11 +105,11 @@ typedef struct
   double radial_velocity;       /* m/s */
 } SonarSigmaModel;
 
-/* The defaults, from the chain's measured errors on the presets (README):
- * range 3 mm (measured: bias 1 mm, spread 0.4 mm, 5 mm on fast movers),
- * direction sine 0.004 (0.23 degrees at boresight, a tenth of the 2.3-degree
- * main lobe; measured spread 0.001-0.004), at most 5 degrees, radial
- * velocity 0.005 m/s (measured spread 0.003, worst 0.004-0.01). */
+/* The defaults, about twice the chain's measured errors on the presets
+ * (Fig. 9, Fig. 10, crossing; README): range 3 mm (measured: spread
+ * 0.3 mm, bias 1 mm), direction sine 0.002 (0.11 degrees at boresight;
+ * measured spread 0.0006-0.0009, worst 0.003), at most 5 degrees, radial
+ * velocity 0.005 m/s (measured spread 0.002-0.003, worst 0.01). */
 void sonar_sigma_model_init_default (SonarSigmaModel * model);
 
 /* Fills @m's sigmas from its position and @model. The one place that

@@ -324,6 +324,45 @@ test_mostly_moving (void)
   sonar_scene_clear (&scene);
 }
 
+/* 4b. 3-D: a hemisphere sensor driving at (0.05, 0, 0.3) m/s among six
+ * points at -30..40 degrees of elevation: the ego velocity in all three
+ * components within 0.01 m/s, every point still and confirmed. */
+static void
+test_3d (void)
+{
+  const char *json = "{\"dimensions\": 3, \"sensor\": {\"velocity\": "
+      "[0.05, 0, 0.3]}, \"reflectors\": ["
+      "{\"range\": 1.5, \"azimuth\": -40, \"elevation\": 20},"
+      "{\"range\": 2.0, \"azimuth\": 10, \"elevation\": -30},"
+      "{\"range\": 2.5, \"azimuth\": 35, \"elevation\": 15},"
+      "{\"range\": 3.0, \"azimuth\": -10, \"elevation\": 40},"
+      "{\"range\": 1.8, \"azimuth\": 60, \"elevation\": -10},"
+      "{\"range\": 3.5, \"azimuth\": -55, \"elevation\": -20}]}";
+  g_autofree char *path = sonar_test_write_temp ("drive-3d.json", json);
+  g_autofree char *source = g_strdup_printf ("scene-file=%s num-buffers=4",
+      path);
+  SonarScene scene;
+  Run run = run_chain (source, FIG10_BANK, "", NULL);
+  Score s;
+
+  g_assert_true (sonar_scene_load_file (&scene, path, NULL));
+  score_run (&run, &scene, &s);
+  report ("3-D drive", &s);
+  g_assert_cmpuint (s.pings, ==, 4);
+  g_assert_cmpuint (s.unobservable, ==, 0);
+  g_assert_cmpfloat (s.worst_ego, <=, 0.01);
+  g_assert_cmpuint (s.wrong_moving, ==, 0);
+  g_assert_cmpuint (s.matches, ==, 6 * 2);
+  for (guint b = 0; b < run.buffers->len; b++) {
+    SonarTracksMeta *m = sonar_buffer_get_tracks_meta
+        (g_ptr_array_index (run.buffers, b));
+    g_assert_cmpuint (m->ego.dimensions, ==, 3);
+    g_assert_cmpfloat (m->ego.covariance[1][1], >, 0.0);
+  }
+  run_clear (&run);
+  sonar_scene_clear (&scene);
+}
+
 /* 5. Dropped pings: 5-7 of the Fig. 10 drive never reach sonartrack; the
  * tracks carry on with their identities, the output numbers the pings
  * with the gap. */
@@ -564,6 +603,7 @@ main (int argc, char **argv)
   g_test_add_func ("/sonartrack/fig9", test_fig9);
   g_test_add_func ("/sonartrack/crossing", test_crossing);
   g_test_add_func ("/sonartrack/mostly-moving", test_mostly_moving);
+  g_test_add_func ("/sonartrack/3d", test_3d);
   g_test_add_func ("/sonartrack/dropped-pings", test_dropped_pings);
   g_test_add_func ("/sonartrack/outputs-agree", test_outputs_agree);
   g_test_add_func ("/sonartrack/prior-event", test_prior_event);

@@ -616,8 +616,10 @@ sensor_step (SonarTracker * tr, double dt, const SonarEgoMotion * ego)
       tr->s_cov[k * 3 + k] += a * a;
   if (!ego || ego->status != SONAR_EGO_OBSERVED)
     return;
+  /* A 2-D ego-motion takes vy as 0 (its covariance 0 there): so do the
+   * tracks. */
   axes[n++] = 0;
-  if (ego->dimensions == 3 && tr->params.dimensions == 3)
+  if (tr->params.dimensions == 3)
     axes[n++] = 1;
   axes[n++] = 2;
   {

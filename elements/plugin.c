@@ -7,6 +7,7 @@
 #include "gstdopplerbank.h"
 #include "gstmimobeamform.h"
 #include "gstsonarsrc.h"
+#include "gstsonartrack.h"
 #include "gstsonarviz.h"
 #include "gstvelocityest.h"
 #include "gstwardcluster.h"
@@ -22,10 +23,11 @@ plugin_init (GstPlugin * plugin)
   ok |= GST_ELEMENT_REGISTER (wardcluster, plugin);
   ok |= GST_ELEMENT_REGISTER (velocityest, plugin);
   ok |= GST_ELEMENT_REGISTER (sonarviz, plugin);
+  ok |= GST_ELEMENT_REGISTER (sonartrack, plugin);
   return ok;
 }
 
 GST_PLUGIN_DEFINE (GST_VERSION_MAJOR, GST_VERSION_MINOR, sonar,
     "MIMO in-air sonar: simulation, Doppler matched-filter bank, imaging, "
-    "clustering, radial velocity estimation and display", plugin_init, VERSION,
+    "clustering, radial velocity estimation, ego-motion, tracks and display", plugin_init, VERSION,
     "LGPL", PACKAGE, PACKAGE_ORIGIN)

@@ -45,6 +45,26 @@ static const SonarPresetObject fig10_objects[] = {
   {SONAR_REFLECTOR_CYLINDER, 4.5, -50.0, 0.0, 0.0, 0.10, 1.0},
 };
 
+/* A driving sensor among crossing movers: the sensor drives forward at
+ * 0.3 m/s towards a still wall of seven posts (z = 4 m in the world, x =
+ * -2.4..2.4 m, 0.8 m apart); two walkers (cylinders of 5 cm) cross in
+ * front of it at different speeds, both reaching the world point (0.3, 0,
+ * 2.4) m at t = 1.25 s (ping 15 at 12 Hz), where they overlap: walker A
+ * from (-0.95, 0, 2.7125) m at (1.0, 0, -0.25) m/s (1.03 m/s), walker B
+ * from (1.05, 0, 2.025) m at (-0.6, 0, 0.3) m/s (0.67 m/s). Relative to
+ * the sensor their radial velocities there are -0.40 and -0.09 m/s. */
+static const SonarPresetObject crossing_objects[] = {
+  {SONAR_REFLECTOR_CYLINDER, 2.8240, -19.3018, -0.5665, 0.8612, 0.05, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 2.2310, 27.4076, -0.0099, -0.6707, 0.05, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.6348, -30.9638, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.2781, -21.8014, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.0492, -11.3099, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 3.9700, 0.0, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.0492, 11.3099, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.2781, 21.8014, 0.0, 0.0, 0.03, 1.0},
+  {SONAR_REFLECTOR_CYLINDER, 4.6348, 30.9638, 0.0, 0.0, 0.03, 1.0},
+};
+
 #define OBJECTS(a) a, G_N_ELEMENTS (a)
 
 static const SonarScenePresetInfo presets[] = {
@@ -59,6 +79,10 @@ static const SonarScenePresetInfo presets[] = {
       OBJECTS (fig10_objects)},
   {SONAR_SCENE_PRESET_EMPTY, "empty", "No reflector (noise only)", {0, 0, 0},
       NULL, 0},
+  {SONAR_SCENE_PRESET_CROSSING, "crossing",
+        "Sensor driving at 0.3 m/s towards a still wall of 7 posts, two "
+        "walkers crossing at 1.03 and 0.67 m/s", {0, 0, 0.3},
+      OBJECTS (crossing_objects)},
 };
 
 const SonarScenePresetInfo *

@@ -47,6 +47,7 @@ typedef enum
   SONAR_SCENE_PRESET_FIG9,      /* paper Fig. 9: 4 still + 2 moving objects */
   SONAR_SCENE_PRESET_FIG10,     /* paper Fig. 10: drive at 0.3 m/s past objects */
   SONAR_SCENE_PRESET_EMPTY,     /* no reflector: noise only */
+  SONAR_SCENE_PRESET_CROSSING,  /* driving past a still wall, two walkers cross */
 } SonarScenePreset;
 
 /* An object of a preset, in the horizontal plane, placed around the

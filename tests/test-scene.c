@@ -19,7 +19,7 @@ test_presets_valid (void)
   guint n;
   const SonarScenePresetInfo *presets = sonar_scene_presets (&n);
 
-  g_assert_cmpuint (n, ==, SONAR_SCENE_PRESET_EMPTY + 1);
+  g_assert_cmpuint (n, ==, SONAR_SCENE_PRESET_CROSSING + 1);
   for (guint i = 0; i < n; i++) {
     const SonarScenePreset p = presets[i].preset;
     SonarScene scene;

@@ -3,7 +3,7 @@
 # uninitialised value used, nothing definitely or indirectly lost (GLib's
 # and GStreamer's one-off type and plugin allocations are "still
 # reachable", not lost). Prints TAP. About 1.5 minutes.
-#   1. gst-launch-1.0 runs the chain on two pings.
+#   1. gst-launch-1.0 runs the chain (and sonartrack) on two pings.
 #   2. tests/stability-cycles takes one pipeline from NULL to PLAYING and
 #      back SONAR_VALGRIND_CYCLES times (default 6; to EOS, or stopped
 #      mid-run), the elements' thread pools included.
@@ -45,7 +45,7 @@ memcheck 1 "whole chain" definite,indirect \
   gst-launch-1.0 -q sonarsrc num-buffers=2 max-range=2.0 \
   ! dopplerbank velocity-min=-0.3 velocity-max=0.3 velocity-step=0.05 \
   ! mimobeamform range-max=2.0 threads=2 \
-  ! wardcluster ! velocityest threads=2 ! fakesink
+  ! wardcluster ! velocityest threads=2 ! sonartrack ! fakesink
 
 # The program ends with gst_deinit (), so even "possibly lost" counts: a
 # worker pool leaked with its threads shows only as that.

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Tests of the command-line tools: sonar-waveforms, the ambiguity function
 (tools/ambiguity.py, tools/plot-ambiguity.py), the energyscape reader and
-plotter (tools/energyscape.py, tools/plot-energyscape.py) and the benchmark
-(sonar-bench, tools/plot-bench.py).
+plotter (tools/energyscape.py, tools/plot-energyscape.py), the tracks
+plotter (tools/plot-tracks.py) and the benchmark (sonar-bench,
+tools/plot-bench.py).
 
 Run as SONAR_BUILD_DIR=build SONAR_SOURCE_DIR=. /usr/bin/python3
 tests/test_tools.py; prints TAP and exits non-zero when a test fails.
@@ -480,6 +481,47 @@ def bench_refuses_other_csv():
     assert result.returncode == 1, result
     assert "not this sonar-bench's" in result.stderr, result.stderr
     assert path.read_text() == "sweep,value,scene\nlinkage,ward,fig10\n"
+
+
+# Tracks ---------------------------------------------------------------------
+
+
+def tracks_line(ping, time, ego, z):
+    """A sonartrack line with one still track at (0.5, 0, z)."""
+    return {"ping": ping, "time": time,
+            "ego_status": "observed" if ego else "unobservable",
+            "ego_velocity": ego, "ego_covariance":
+            [[1e-6, 0, 0], [0, 0, 0], [0, 0, 1e-6]] if ego else None,
+            "tracks": [{"id": 1, "state": "confirmed", "moving": False,
+                        "x": 0.5, "y": 0.0, "z": z,
+                        "velocity": [0.0, 0.0, 0.0]}]}
+
+
+@test
+def plot_tracks_writes_png():
+    """plot-tracks.py: the sensor's path from the ego velocities (kept
+    through an unobservable ping), a PNG in either frame; other JSON
+    refused"""
+    plot_tracks = load_script("plot-tracks")
+    lines = [tracks_line(0, 0.0, [0.0, 0.0, 0.5], 3.0),
+             tracks_line(1, 1.0, None, 2.5),
+             tracks_line(2, 2.0, [0.0, 0.0, 0.5], 2.0)]
+    assert plot_tracks.sensor_path(lines) == [(0.0, 0.0), (0.0, 0.5),
+                                              (0.0, 1.0)]
+    path = TMP / "tracks.jsonl"
+    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    for frame in ("sensor", "world"):
+        out = TMP / f"tracks-{frame}.png"
+        result = run(PYTHON, TOOLS / "plot-tracks.py", path, "--frame",
+                     frame, "-o", out)
+        assert_png(out)
+        assert "1 tracks over 3 pings" in result.stdout, result.stdout
+    other = TMP / "detections-only.jsonl"
+    other.write_text(json.dumps({"ping": 0, "detections": []}) + "\n")
+    result = run(PYTHON, TOOLS / "plot-tracks.py", other, "-o",
+                 TMP / "x.png", check=False)
+    assert result.returncode != 0
+    assert "sonartrack's output" in result.stderr, result.stderr
 
 
 if __name__ == "__main__":

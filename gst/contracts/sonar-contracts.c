@@ -840,3 +840,282 @@ sonar_element_post_error (GstElement * element, const GError * error,
       error->code, g_strdup (error->message), g_strdup (debug), file,
       function, line);
 }
+
+/* Tracks -----------------------------------------------------------------*/
+
+GType
+sonar_tracks_meta_api_get_type (void)
+{
+  static GType type = 0;
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type, array_meta_api_type ("SonarTracksMetaAPI"));
+  return type;
+}
+
+static gboolean
+tracks_meta_init (GstMeta * meta, gpointer params, GstBuffer * buffer)
+{
+  SonarTracksMeta *m = (SonarTracksMeta *) meta;
+  m->ping_index = 0;
+  memset (&m->ego, 0, sizeof m->ego);
+  m->n_tracks = 0;
+  m->tracks = NULL;
+  return TRUE;
+}
+
+static void
+tracks_meta_free (GstMeta * meta, GstBuffer * buffer)
+{
+  g_free (((SonarTracksMeta *) meta)->tracks);
+}
+
+static gboolean
+tracks_meta_transform (GstBuffer * dest, GstMeta * meta, GstBuffer * buffer,
+    GQuark type, gpointer data)
+{
+  SonarTracksMeta *m = (SonarTracksMeta *) meta;
+  return sonar_buffer_add_tracks_meta (dest, m->ping_index, &m->ego,
+      m->tracks, m->n_tracks) != NULL;
+}
+
+SonarTracksMeta *
+sonar_buffer_add_tracks_meta (GstBuffer * buffer, guint64 ping_index,
+    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n)
+{
+  static const GstMetaInfo *info = NULL;
+  SonarTracksMeta *m;
+
+  if (g_once_init_enter ((GstMetaInfo **) & info)) {
+    const GstMetaInfo *mi = gst_meta_get_info ("SonarTracksMeta");
+    if (!mi)
+      mi = gst_meta_register (SONAR_TRACKS_META_API_TYPE, "SonarTracksMeta",
+          sizeof (SonarTracksMeta), tracks_meta_init, tracks_meta_free,
+          tracks_meta_transform);
+    g_once_init_leave ((GstMetaInfo **) & info, (GstMetaInfo *) mi);
+  }
+  m = (SonarTracksMeta *) gst_buffer_add_meta (buffer, info, NULL);
+  if (!m)
+    return NULL;
+  m->ping_index = ping_index;
+  m->ego = *ego;
+  m->n_tracks = n;
+  m->tracks = g_memdup2 (tracks, sizeof (SonarTrack) * n);
+  return m;
+}
+
+static void
+take_doubles (GstStructure * s, const char *field, const double *values,
+    guint n)
+{
+  GValue array = G_VALUE_INIT;
+
+  g_value_init (&array, GST_TYPE_ARRAY);
+  for (guint i = 0; i < n; i++) {
+    GValue item = G_VALUE_INIT;
+    g_value_init (&item, G_TYPE_DOUBLE);
+    g_value_set_double (&item, values[i]);
+    gst_value_array_append_and_take_value (&array, &item);
+  }
+  gst_structure_take_value (s, field, &array);
+}
+
+static const char *
+ego_reason (const SonarEgoMotion * ego)
+{
+  return ego->status == SONAR_EGO_OBSERVED ? NULL :
+      sonar_ego_status_to_string (ego->status);
+}
+
+GstStructure *
+sonar_tracks_to_structure (guint64 ping_index, GstClockTime timestamp,
+    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n)
+{
+  const gboolean observed = ego->status == SONAR_EGO_OBSERVED;
+  GValue array = G_VALUE_INIT;
+  GstStructure *s;
+
+  g_value_init (&array, GST_TYPE_ARRAY);
+  for (guint k = 0; k < n; k++) {
+    const SonarTrack *t = &tracks[k];
+    const double velocity[3] = { t->velocity.x, t->velocity.y,
+      t->velocity.z
+    };
+    GValue item = G_VALUE_INIT;
+    GstStructure *track = gst_structure_new ("track",
+        "id", G_TYPE_UINT64, t->id,
+        "state", G_TYPE_STRING, sonar_track_state_to_string (t->state),
+        "moving", G_TYPE_BOOLEAN, t->moving,
+        "instant", G_TYPE_DOUBLE, t->instant,
+        "range", G_TYPE_DOUBLE, t->range,
+        "azimuth", G_TYPE_DOUBLE, t->azimuth,
+        "elevation", G_TYPE_DOUBLE, t->elevation,
+        "x", G_TYPE_DOUBLE, t->position.x,
+        "y", G_TYPE_DOUBLE, t->position.y,
+        "z", G_TYPE_DOUBLE, t->position.z,
+        "radial-velocity", G_TYPE_DOUBLE, t->radial_velocity,
+        "radius", G_TYPE_DOUBLE, t->radius,
+        "hits", G_TYPE_UINT, t->hits,
+        "misses", G_TYPE_UINT, t->misses,
+        "detection", G_TYPE_INT, t->detection, NULL);
+    take_doubles (track, "velocity", velocity, 3);
+    take_doubles (track, "position-covariance", &t->position_covariance[0][0],
+        9);
+    take_doubles (track, "velocity-covariance", &t->velocity_covariance[0][0],
+        9);
+    g_value_init (&item, GST_TYPE_STRUCTURE);
+    g_value_take_boxed (&item, track);
+    gst_value_array_append_and_take_value (&array, &item);
+  }
+  s = list_message (SONAR_TRACKS_MESSAGE_NAME, ping_index, timestamp,
+      "tracks", &array);
+  gst_structure_set (s, "ego-status", G_TYPE_STRING, observed ? "observed" :
+      "unobservable", "ego-still", G_TYPE_UINT, ego->n_still, NULL);
+  if (observed) {
+    const double velocity[3] = { ego->velocity.x, ego->velocity.y,
+      ego->velocity.z
+    };
+    gst_structure_set (s, "ego-dimensions", G_TYPE_UINT, ego->dimensions,
+        NULL);
+    take_doubles (s, "ego-velocity", velocity, 3);
+    take_doubles (s, "ego-covariance", &ego->covariance[0][0], 9);
+  } else {
+    gst_structure_set (s, "ego-reason", G_TYPE_STRING, ego_reason (ego),
+        NULL);
+  }
+  return s;
+}
+
+/* A number in JSON to @digits significant digits (covariances span
+ * decades), C locale. */
+static void
+append_significant (GString * s, double value, int digits)
+{
+  char buffer[G_ASCII_DTOSTR_BUF_SIZE];
+  char format[8];
+
+  g_snprintf (format, sizeof format, "%%.%dg", digits);
+  g_string_append (s, isfinite (value) ? g_ascii_formatd (buffer,
+          sizeof buffer, format, value) : "null");
+}
+
+static void
+append_vector (GString * s, const char *name, SonarVec3 v, int decimals)
+{
+  char buffer[G_ASCII_DTOSTR_BUF_SIZE];
+  char format[8];
+  const double c[3] = { v.x, v.y, v.z };
+
+  g_snprintf (format, sizeof format, "%%.%df", decimals);
+  g_string_append_printf (s, "\"%s\": [", name);
+  for (guint i = 0; i < 3; i++)
+    g_string_append_printf (s, "%s%s", i ? ", " : "", isfinite (c[i]) ?
+        g_ascii_formatd (buffer, sizeof buffer, format, c[i]) : "null");
+  g_string_append (s, "]");
+}
+
+static void
+append_matrix (GString * s, const char *name, const double m[3][3])
+{
+  g_string_append_printf (s, "\"%s\": [", name);
+  for (guint r = 0; r < 3; r++) {
+    g_string_append (s, r ? ", [" : "[");
+    for (guint c = 0; c < 3; c++) {
+      if (c)
+        g_string_append (s, ", ");
+      append_significant (s, m[r][c], 4);
+    }
+    g_string_append (s, "]");
+  }
+  g_string_append (s, "]");
+}
+
+char *
+sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
+    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n)
+{
+  const gboolean observed = ego->status == SONAR_EGO_OBSERVED;
+  GString *s = g_string_new (NULL);
+
+  g_string_append_printf (s, "{\"ping\": %" G_GUINT64_FORMAT ", ", ping_index);
+  append_number (s, "time", GST_CLOCK_TIME_IS_VALID (timestamp) ?
+      timestamp / (double) GST_SECOND : NAN, 6);
+  g_string_append_printf (s, ", \"ego_status\": \"%s\", ", observed ?
+      "observed" : "unobservable");
+  if (observed) {
+    g_string_append (s, "\"ego_reason\": null, ");
+    append_vector (s, "ego_velocity", ego->velocity, 4);
+    g_string_append (s, ", ");
+    append_matrix (s, "ego_covariance", ego->covariance);
+    g_string_append_printf (s, ", \"ego_dimensions\": %u", ego->dimensions);
+  } else {
+    g_string_append_printf (s, "\"ego_reason\": \"%s\", \"ego_velocity\": "
+        "null, \"ego_covariance\": null, \"ego_dimensions\": null",
+        ego_reason (ego));
+  }
+  g_string_append_printf (s, ", \"ego_still\": %u, \"tracks\": [",
+      ego->n_still);
+  for (guint k = 0; k < n; k++) {
+    const SonarTrack *t = &tracks[k];
+    g_string_append_printf (s, "%s{\"id\": %" G_GUINT64_FORMAT ", \"state\": "
+        "\"%s\", \"moving\": %s, ", k ? ", " : "", t->id,
+        sonar_track_state_to_string (t->state), t->moving ? "true" : "false");
+    append_number (s, "instant", t->instant, 7);
+    g_string_append (s, ", ");
+    append_number (s, "range", t->range, 4);
+    g_string_append (s, ", ");
+    append_number (s, "azimuth", t->azimuth, 2);
+    g_string_append (s, ", ");
+    append_number (s, "elevation", t->elevation, 2);
+    g_string_append (s, ", ");
+    append_number (s, "x", t->position.x, 4);
+    g_string_append (s, ", ");
+    append_number (s, "y", t->position.y, 4);
+    g_string_append (s, ", ");
+    append_number (s, "z", t->position.z, 4);
+    g_string_append (s, ", ");
+    append_number (s, "radial_velocity", t->radial_velocity, 4);
+    g_string_append (s, ", ");
+    append_vector (s, "velocity", t->velocity, 4);
+    g_string_append (s, ", ");
+    append_number (s, "radius", t->radius, 4);
+    g_string_append (s, ", ");
+    append_matrix (s, "position_covariance", t->position_covariance);
+    g_string_append (s, ", ");
+    append_matrix (s, "velocity_covariance", t->velocity_covariance);
+    g_string_append_printf (s, ", \"hits\": %u, \"misses\": %u, "
+        "\"detection\": ", t->hits, t->misses);
+    if (t->detection >= 0)
+      g_string_append_printf (s, "%d}", t->detection);
+    else
+      g_string_append (s, "null}");
+  }
+  g_string_append (s, "]}\n");
+  return g_string_free (s, FALSE);
+}
+
+GstEvent *
+sonar_ego_prior_event_new (SonarVec3 velocity, double sigma)
+{
+  return gst_event_new_custom (GST_EVENT_CUSTOM_UPSTREAM,
+      gst_structure_new (SONAR_EGO_PRIOR_EVENT_NAME,
+          "vx", G_TYPE_DOUBLE, velocity.x,
+          "vy", G_TYPE_DOUBLE, velocity.y,
+          "vz", G_TYPE_DOUBLE, velocity.z,
+          "sigma", G_TYPE_DOUBLE, sigma, NULL));
+}
+
+gboolean
+sonar_ego_prior_event_parse (GstEvent * event, SonarVec3 * velocity,
+    double *sigma)
+{
+  const GstStructure *s;
+
+  if (GST_EVENT_TYPE (event) != GST_EVENT_CUSTOM_UPSTREAM
+      || !gst_event_has_name (event, SONAR_EGO_PRIOR_EVENT_NAME))
+    return FALSE;
+  s = gst_event_get_structure (event);
+  return gst_structure_get_double (s, "vx", &velocity->x)
+      && gst_structure_get_double (s, "vy", &velocity->y)
+      && gst_structure_get_double (s, "vz", &velocity->z)
+      && gst_structure_get_double (s, "sigma", sigma);
+}

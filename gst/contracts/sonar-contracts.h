@@ -11,6 +11,7 @@
 #include "sonar-image-grid.h"
 #include "sonar-setup.h"
 #include "sonar-simulator.h"
+#include "sonar-track.h"
 
 G_BEGIN_DECLS
 
@@ -258,6 +259,46 @@ char *sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
       __FILE__, GST_FUNCTION, __LINE__)
 void sonar_element_post_error (GstElement * element, const GError * error,
     const char *debug, const char *file, const char *function, int line);
+
+/* Tracks (sonartrack's results) ------------------------------------------*/
+
+/* The ping's ego-motion and tracks, on sonartrack's output buffer.
+ * Registered without tags. */
+typedef struct
+{
+  GstMeta meta;
+  guint64 ping_index;
+  SonarEgoMotion ego;           /* the ping's own estimate (sonar-egomotion.h) */
+  guint n_tracks;
+  SonarTrack *tracks;           /* by id (sonar-track.h) */
+} SonarTracksMeta;
+
+GType sonar_tracks_meta_api_get_type (void);
+#define SONAR_TRACKS_META_API_TYPE (sonar_tracks_meta_api_get_type ())
+SonarTracksMeta *sonar_buffer_add_tracks_meta (GstBuffer * buffer,
+    guint64 ping_index, const SonarEgoMotion * ego,
+    const SonarTrack * tracks, guint n);
+#define sonar_buffer_get_tracks_meta(b) \
+  ((SonarTracksMeta *) gst_buffer_get_meta ((b), SONAR_TRACKS_META_API_TYPE))
+
+/* Element message posted by sonartrack per ping. */
+#define SONAR_TRACKS_MESSAGE_NAME "sonar-tracks"
+GstStructure *sonar_tracks_to_structure (guint64 ping_index,
+    GstClockTime timestamp, const SonarEgoMotion * ego,
+    const SonarTrack * tracks, guint n);
+/* One line of JSON (ending in a newline) with the ping's ego-motion and
+ * tracks. */
+char *sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
+    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n);
+
+/* Custom upstream event an application sends to sonartrack with its own
+ * estimate of the sensor's velocity (odometry): fields vx, vy, vz (m/s,
+ * sensor frame) and sigma (m/s per axis; 0 removes the prior). */
+#define SONAR_EGO_PRIOR_EVENT_NAME "sonar-ego-prior"
+GstEvent *sonar_ego_prior_event_new (SonarVec3 velocity, double sigma);
+/* FALSE when @event is not a well-formed ego prior event. */
+gboolean sonar_ego_prior_event_parse (GstEvent * event, SonarVec3 * velocity,
+    double *sigma);
 
 G_END_DECLS
 

@@ -582,10 +582,10 @@ test_errors (void)
 {
   g_autofree char *no_meta = sonar_test_run_pipeline ("fakesrc num-buffers=1 "
       "sizetype=fixed sizemax=4 filltype=zero ! text/x-raw,format=utf8 ! "
-      "sonartrack ! fakesink", NULL);
+      "sonartrack ! fakesink");
   g_autofree char *settings = sonar_test_run_pipeline ("sonarsrc "
       "num-buffers=1 ! dopplerbank ! mimobeamform ! wardcluster ! "
-      "velocityest ! sonartrack dimensions=1 ! fakesink", NULL);
+      "velocityest ! sonartrack dimensions=1 ! fakesink");
 
   g_assert_nonnull (no_meta);
   g_assert_true (g_str_has_prefix (no_meta, "sonartrack: a buffer without "

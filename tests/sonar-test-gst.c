@@ -50,6 +50,13 @@ drain_sink (SonarTestRun * run, GstElement * sink, GstClockTime timeout)
 SonarTestRun *
 sonar_test_run (const char *launch)
 {
+  return sonar_test_run_with (launch, NULL, NULL);
+}
+
+SonarTestRun *
+sonar_test_run_with (const char *launch, SonarTestPrepare prepare,
+    gpointer data)
+{
   SonarTestRun *run = g_new0 (SonarTestRun, 1);
   GError *error = NULL;
   g_autoptr (GPtrArray) sinks = NULL;
@@ -60,6 +67,8 @@ sonar_test_run (const char *launch)
   run->samples = g_hash_table_new_full (g_str_hash, g_str_equal, g_free,
       (GDestroyNotify) g_ptr_array_unref);
   run->warnings = g_ptr_array_new_with_free_func (g_free);
+  run->messages = g_ptr_array_new_with_free_func ((GDestroyNotify)
+      gst_structure_free);
   run->pipeline = gst_parse_launch (launch, &error);
   if (error) {
     run->error_text = g_strdup_printf ("parse error: %s", error->message);
@@ -73,6 +82,8 @@ sonar_test_run (const char *launch)
             (sinks->pdata[i])), g_ptr_array_new_with_free_func
         ((GDestroyNotify) gst_sample_unref));
   bus = gst_element_get_bus (run->pipeline);
+  if (prepare)
+    prepare (run->pipeline, data);
   gst_element_set_state (run->pipeline, GST_STATE_PLAYING);
   while (!done && g_get_monotonic_time () < deadline) {
     GstMessage *msg;
@@ -82,7 +93,7 @@ sonar_test_run (const char *launch)
       drain_sink (run, sinks->pdata[i], GST_MSECOND * 20 / sinks->len);
     while ((msg = gst_bus_timed_pop_filtered (bus, sinks->len ? 0 :
                 GST_MSECOND * 20, GST_MESSAGE_EOS | GST_MESSAGE_ERROR |
-                GST_MESSAGE_WARNING))) {
+                GST_MESSAGE_WARNING | GST_MESSAGE_ELEMENT))) {
       GError *e = NULL;
       char *debug = NULL;
       switch (GST_MESSAGE_TYPE (msg)) {
@@ -96,6 +107,11 @@ sonar_test_run (const char *launch)
         case GST_MESSAGE_WARNING:
           gst_message_parse_warning (msg, &e, &debug);
           g_ptr_array_add (run->warnings, g_strdup (e->message));
+          break;
+        case GST_MESSAGE_ELEMENT:
+          if (gst_message_get_structure (msg))
+            g_ptr_array_add (run->messages, gst_structure_copy
+                (gst_message_get_structure (msg)));
           break;
         default:
           done = TRUE;          /* EOS */
@@ -128,6 +144,7 @@ sonar_test_run_free (SonarTestRun * run)
   }
   g_hash_table_unref (run->samples);
   g_ptr_array_unref (run->warnings);
+  g_ptr_array_unref (run->messages);
   g_clear_error (&run->error);
   g_free (run->error_text);
   g_free (run);

@@ -19,6 +19,7 @@ typedef struct
   GstElement *pipeline;         /* NULL when @launch does not parse */
   GHashTable *samples;          /* appsink name -> GPtrArray of GstSample */
   GPtrArray *warnings;          /* char *: the warnings' messages */
+  GPtrArray *messages;          /* GstStructure: the element messages */
   GError *error;                /* the first error, its domain and code */
   char *error_text;             /* its message, a newline and its debug
                                  * text; a parse error or a timeout too;
@@ -26,6 +27,11 @@ typedef struct
 } SonarTestRun;
 
 SonarTestRun *sonar_test_run (const char *launch);
+/* The same, with @prepare (may be NULL) called on the pipeline before it
+ * plays: to add pad probes, set properties. */
+typedef void (*SonarTestPrepare) (GstElement * pipeline, gpointer data);
+SonarTestRun *sonar_test_run_with (const char *launch,
+    SonarTestPrepare prepare, gpointer data);
 void sonar_test_run_free (SonarTestRun * run);
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarTestRun, sonar_test_run_free)
 

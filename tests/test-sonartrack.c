@@ -44,6 +44,18 @@ drop_pings (GstPad * pad, GstPadProbeInfo * info, gpointer data)
       <= gap->last ? GST_PAD_PROBE_DROP : GST_PAD_PROBE_OK;
 }
 
+/* The gap's probe before sonartrack. */
+static void
+add_gap (GstElement * pipeline, gpointer data)
+{
+  GstElement *tracker = gst_bin_get_by_name (GST_BIN (pipeline), "track");
+  GstPad *pad = gst_element_get_static_pad (tracker, "sink");
+
+  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, drop_pings, data, NULL);
+  gst_object_unref (pad);
+  gst_object_unref (tracker);
+}
+
 /* Runs "sonarsrc @source ! dopplerbank @bank ! mimobeamform ! wardcluster
  * ! velocityest ! sonartrack @track ! appsink" to EOS. */
 static Run
@@ -54,50 +66,26 @@ run_chain (const char *source, const char *bank, const char *track,
       "! mimobeamform ! wardcluster ! velocityest post-messages=false ! "
       "sonartrack name=track %s ! appsink name=sink sync=false", source, bank,
       track);
-  GstElement *pipeline = gst_parse_launch (launch, NULL);
-  GstElement *sink, *tracker;
-  GstBus *bus;
-  GstMessage *msg;
-  GstSample *sample;
+  g_autoptr (SonarTestRun) test_run = sonar_test_run_with (launch,
+      gap ? add_gap : NULL, (gpointer) gap);
+  GPtrArray *samples;
   Run run;
 
-  g_assert_nonnull (pipeline);
+  if (test_run->error_text)
+    g_error ("%s", test_run->error_text);
   run.buffers = g_ptr_array_new_with_free_func ((GDestroyNotify)
       gst_buffer_unref);
   run.messages = g_ptr_array_new_with_free_func ((GDestroyNotify)
       gst_structure_free);
-  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
-  tracker = gst_bin_get_by_name (GST_BIN (pipeline), "track");
-  if (gap) {
-    GstPad *pad = gst_element_get_static_pad (tracker, "sink");
-    gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, drop_pings,
-        (gpointer) gap, NULL);
-    gst_object_unref (pad);
-  }
-  bus = gst_element_get_bus (pipeline);
-  gst_element_set_state (pipeline, GST_STATE_PLAYING);
-  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
-    g_ptr_array_add (run.buffers,
-        gst_buffer_ref (gst_sample_get_buffer (sample)));
-    gst_sample_unref (sample);
-  }
-  while ((msg = gst_bus_pop (bus))) {
-    if (GST_MESSAGE_TYPE (msg) == GST_MESSAGE_ERROR) {
-      GError *error = NULL;
-      gst_message_parse_error (msg, &error, NULL);
-      g_error ("%s", error->message);
-    }
-    if (GST_MESSAGE_TYPE (msg) == GST_MESSAGE_ELEMENT
-        && gst_message_has_name (msg, SONAR_TRACKS_MESSAGE_NAME))
-      g_ptr_array_add (run.messages,
-          gst_structure_copy (gst_message_get_structure (msg)));
-    gst_message_unref (msg);
-  }
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (bus);
-  gst_object_unref (sink);
-  gst_object_unref (tracker);
-  gst_object_unref (pipeline);
+  samples = sonar_test_run_samples (test_run, "sink");
+  for (guint i = 0; i < samples->len; i++)
+    g_ptr_array_add (run.buffers, gst_buffer_ref (gst_sample_get_buffer
+            (samples->pdata[i])));
+  for (guint i = 0; i < test_run->messages->len; i++)
+    if (gst_structure_has_name (test_run->messages->pdata[i],
+            SONAR_TRACKS_MESSAGE_NAME))
+      g_ptr_array_add (run.messages, gst_structure_copy
+          (test_run->messages->pdata[i]));
   return run;
 }
 

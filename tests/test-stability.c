@@ -375,6 +375,19 @@ assert_centroid_finite (const SonarCentroid * c)
     g_assert_true (isfinite (values[i]));
 }
 
+/* The edit's probe on sonarsrc's output. */
+static void
+add_edit (GstElement * pipeline, gpointer data)
+{
+  GstElement *source = gst_bin_get_by_name (GST_BIN (pipeline), "src");
+  GstPad *pad = gst_element_get_static_pad (source, "src");
+
+  gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, edit_samples, data,
+      NULL);
+  gst_object_unref (pad);
+  gst_object_unref (source);
+}
+
 /* Runs one ping of @scene_json (sonarsrc properties @src) through @chain,
  * with @edit (may be NULL) applied to the recording on its way out of
  * sonarsrc. Fails on a bus error and on any non-finite number in the JSON
@@ -387,43 +400,24 @@ run_chain (const char *scene_json, const char *src, const char *chain,
   g_autofree char *launch = g_strdup_printf ("sonarsrc name=src "
       "scene-file=%s num-buffers=1 max-range=2.0 %s ! %s ! appsink name=sink "
       "sync=false", scene, src, chain);
+  EditProbe probe = { edit, edit_data };
+  g_autoptr (SonarTestRun) run = sonar_test_run_with (launch,
+      edit ? add_edit : NULL, &probe);
+  g_autoptr (JsonParser) parser = json_parser_new ();
   GError *error = NULL;
-  GstElement *pipeline = gst_parse_launch (launch, &error);
-  GstElement *sink, *source;
-  GstBus *bus;
-  GstSample *sample;
+  GPtrArray *samples;
   GstBuffer *buffer;
-  GstMapInfo map;
   SonarDetectionsMeta *dets;
   SonarCentroidsMeta *centroids;
-  GstMessage *msg;
-  EditProbe probe = { edit, edit_data };
-  g_autoptr (JsonParser) parser = json_parser_new ();
 
-  g_assert_no_error (error);
+  if (run->error_text)
+    g_error ("%s", run->error_text);
   memset (r, 0, sizeof (*r));
-  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
-  source = gst_bin_get_by_name (GST_BIN (pipeline), "src");
-  bus = gst_element_get_bus (pipeline);
-  if (edit) {
-    GstPad *pad = gst_element_get_static_pad (source, "src");
-    gst_pad_add_probe (pad, GST_PAD_PROBE_TYPE_BUFFER, edit_samples, &probe,
-        NULL);
-    gst_object_unref (pad);
-  }
-  gst_element_set_state (pipeline, GST_STATE_PLAYING);
-  sample = gst_app_sink_pull_sample (GST_APP_SINK (sink));
-  if (!sample && (msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR))) {
-    gst_message_parse_error (msg, &error, NULL);
-    g_error ("%s: %s", GST_OBJECT_NAME (GST_MESSAGE_SRC (msg)),
-        error->message);
-  }
-  g_assert_nonnull (sample);
-  buffer = gst_sample_get_buffer (sample);
+  samples = sonar_test_run_samples (run, "sink");
+  g_assert_cmpuint (samples->len, ==, 1);
+  buffer = gst_sample_get_buffer (samples->pdata[0]);
 
-  gst_buffer_map (buffer, &map, GST_MAP_READ);
-  r->json = g_strndup ((const char *) map.data, map.size);
-  gst_buffer_unmap (buffer, &map);
+  r->json = sonar_test_run_text (run, "sink");
   g_test_message ("%s", r->json);
   g_assert_true (json_parser_load_from_data (parser, r->json, -1, &error));
   g_assert_no_error (error);
@@ -441,36 +435,16 @@ run_chain (const char *scene_json, const char *src, const char *chain,
   r->n_centroids = centroids->n_centroids;
   for (guint i = 0; i < centroids->n_centroids; i++)
     assert_centroid_finite (&centroids->centroids[i]);
-  gst_sample_unref (sample);
-  g_assert_null (gst_app_sink_pull_sample (GST_APP_SINK (sink)));
 
-  while ((msg = gst_bus_pop (bus))) {
-    switch (GST_MESSAGE_TYPE (msg)) {
-      case GST_MESSAGE_ERROR:
-        gst_message_parse_error (msg, &error, NULL);
-        g_error ("%s: %s", GST_OBJECT_NAME (GST_MESSAGE_SRC (msg)),
-            error->message);
-        break;
-      case GST_MESSAGE_WARNING:
-        if (!r->warning) {
-          gst_message_parse_warning (msg, &error, NULL);
-          r->warning = g_strdup (error->message);
-          g_clear_error (&error);
-        }
-        break;
-      case GST_MESSAGE_ELEMENT:{
-        const GstStructure *s = gst_message_get_structure (msg);
-        gst_structure_foreach (s, assert_field_finite, (gpointer) s);
-        r->n_centroid_messages += gst_message_has_name (msg,
-            SONAR_CENTROIDS_MESSAGE_NAME);
-        r->n_detection_messages += gst_message_has_name (msg,
-            SONAR_DETECTIONS_MESSAGE_NAME);
-        break;
-      }
-      default:
-        break;
-    }
-    gst_message_unref (msg);
+  if (run->warnings->len > 0)
+    r->warning = g_strdup (run->warnings->pdata[0]);
+  for (guint i = 0; i < run->messages->len; i++) {
+    const GstStructure *m = run->messages->pdata[i];
+    gst_structure_foreach (m, assert_field_finite, (gpointer) m);
+    r->n_centroid_messages += gst_structure_has_name (m,
+        SONAR_CENTROIDS_MESSAGE_NAME);
+    r->n_detection_messages += gst_structure_has_name (m,
+        SONAR_DETECTIONS_MESSAGE_NAME);
   }
   g_assert_cmpuint (r->n_centroid_messages, ==, 1);
   g_assert_cmpuint (r->n_detection_messages, ==, 1);
@@ -480,11 +454,6 @@ run_chain (const char *scene_json, const char *src, const char *chain,
         r->detections[d].radial_velocity,
         r->detections[d].out_of_range ? " (out of range)" : "",
         r->detections[d].valid ? "" : " (rejected)");
-  gst_element_set_state (pipeline, GST_STATE_NULL);
-  gst_object_unref (bus);
-  gst_object_unref (source);
-  gst_object_unref (sink);
-  gst_object_unref (pipeline);
 }
 
 /* Runs the chain on one ping of @scene_json (extra sonarsrc properties in

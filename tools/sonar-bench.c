@@ -81,35 +81,47 @@ parse_split_pings (const char *option_name, const char *value,
   return parse_pings (option_name, value, &split_pings, error);
 }
 
-int
-main (int argc, char **argv)
+/* The command line. */
+typedef struct
 {
-  g_auto (GStrv) sweep_names = NULL;
-  g_autofree char *csv_path = NULL;
+  char **sweep_names;
+  char *csv_path;
+  gboolean all, quick;
+  int threads, timed_pings;
+} Options;
+
+static void
+options_clear (Options * o)
+{
+  g_clear_pointer (&o->sweep_names, g_strfreev);
+  g_clear_pointer (&o->csv_path, g_free);
+}
+
+G_DEFINE_AUTO_CLEANUP_CLEAR_FUNC (Options, options_clear)
+
+/* Reads the command line into @o; FALSE, having said why, when it is
+ * wrong. */
+static gboolean
+parse_options (Options * o, int *argc, char ***argv)
+{
   g_autoptr (GOptionContext) context = NULL;
   g_autoptr (GError) error = NULL;
-  g_autoptr (GPtrArray) selected = g_ptr_array_new ();
   g_autoptr (GString) sweep_help = g_string_new ("Run this sweep "
       "(repeatable):");
-  gboolean all = FALSE, quick = FALSE, needed[N_SCENES] = { FALSE };
-  gboolean ok = TRUE;
-  int threads = 0, timed_pings = 20;
-  Bench b = { 0 };
-  double start = now_ms ();
   GOptionEntry entries[] = {
-    {"sweep", 's', 0, G_OPTION_ARG_STRING_ARRAY, &sweep_names, NULL,
+    {"sweep", 's', 0, G_OPTION_ARG_STRING_ARRAY, &o->sweep_names, NULL,
         "NAME"},
-    {"all", 'a', 0, G_OPTION_ARG_NONE, &all,
+    {"all", 'a', 0, G_OPTION_ARG_NONE, &o->all,
         "Run every sweep but baseline", NULL},
-    {"quick", 'q', 0, G_OPTION_ARG_NONE, &quick,
+    {"quick", 'q', 0, G_OPTION_ARG_NONE, &o->quick,
         "Only 2 fig10 pings and the linkage and refine sweeps", NULL},
-    {"csv", 'c', 0, G_OPTION_ARG_FILENAME, &csv_path,
+    {"csv", 'c', 0, G_OPTION_ARG_FILENAME, &o->csv_path,
         "Append one row per configuration to this CSV file", "FILE"},
     {"fig10-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_fig10_pings,
         "Pings of the fig10 drive (default 9)", "N"},
     {"fig9-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_fig9_pings,
         "Pings of the fig9 world (default 5)", "N"},
-    {"timed-pings", 0, 0, G_OPTION_ARG_INT, &timed_pings,
+    {"timed-pings", 0, 0, G_OPTION_ARG_INT, &o->timed_pings,
         "Pings timed per configuration, at least (default 20): a scene "
           "with fewer goes round them again, each scored once", "N"},
     {"noise-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_noise_pings,
@@ -119,7 +131,7 @@ main (int argc, char **argv)
     {"split-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_split_pings,
         "Pings per separation and velocity difference of the split sweep "
           "(default 10)", "N"},
-    {"threads", 't', 0, G_OPTION_ARG_INT, &threads,
+    {"threads", 't', 0, G_OPTION_ARG_INT, &o->threads,
         "Velocity workers, as velocityest's threads (default 0: one per "
           "processor)", "N"},
     {NULL}
@@ -183,47 +195,62 @@ main (int argc, char **argv)
       "                            of single objects, presets and random "
       "scenes (--split-pings)\n");
   g_option_context_add_main_entries (context, entries, NULL);
-  if (!g_option_context_parse (context, &argc, &argv, &error)) {
+  if (!g_option_context_parse (context, argc, argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);
-    return 2;
+    return FALSE;
   }
-  if (threads < 0 || threads > SONAR_VELOCITY_MAX_THREADS) {
+  if (o->threads < 0 || o->threads > SONAR_VELOCITY_MAX_THREADS) {
     g_printerr ("sonar-bench: --threads must be 0 to %d\n",
         SONAR_VELOCITY_MAX_THREADS);
-    return 2;
+    return FALSE;
   }
-  if (timed_pings < 1 || timed_pings > 100000) {
+  if (o->timed_pings < 1 || o->timed_pings > 100000) {
     g_printerr ("sonar-bench: --timed-pings must be 1 to 100000\n");
-    return 2;
+    return FALSE;
   }
-  b.timed_pings = (guint) timed_pings;
-  b.peak_gflops = measure_peak_gflops ();
-  b.read_gbs = measure_read_gbs ();
-  b.n_threads = CLAMP (threads ? (guint) threads : g_get_num_processors (),
-      1, SONAR_VELOCITY_MAX_THREADS);
+  return TRUE;
+}
 
-  if (quick) {
+/* The sweeps to run, in order: --quick's or --all's, then those named;
+ * the baseline when none. NULL, having said why, for an unknown name. */
+static GPtrArray *
+select_sweeps (const Options * o)
+{
+  g_autoptr (GPtrArray) selected = g_ptr_array_new ();
+
+  if (o->quick) {
     scenes[SCENE_FIG10].n_pings = 2;
     g_ptr_array_add (selected, (gpointer) find_sweep ("linkage"));
     g_ptr_array_add (selected, (gpointer) find_sweep ("refine"));
-  } else if (all) {
+  } else if (o->all) {
     /* The sensitivity sweeps take minutes: only by name. */
     for (guint i = 1; i < n_sweeps; i++)
       if (!sweeps[i].run)
         g_ptr_array_add (selected, (gpointer) &sweeps[i]);
   }
-  for (guint i = 0; sweep_names && sweep_names[i]; i++) {
-    const Sweep *sweep = find_sweep (sweep_names[i]);
+  for (guint i = 0; o->sweep_names && o->sweep_names[i]; i++) {
+    const Sweep *sweep = find_sweep (o->sweep_names[i]);
 
     if (!sweep) {
       g_printerr ("sonar-bench: no sweep \"%s\" (see --help)\n",
-          sweep_names[i]);
-      return 2;
+          o->sweep_names[i]);
+      return NULL;
     }
     g_ptr_array_add (selected, (gpointer) sweep);
   }
   if (selected->len == 0)
     g_ptr_array_add (selected, (gpointer) find_sweep ("baseline"));
+  return g_steal_pointer (&selected);
+}
+
+/* Renders the pings of every scene the @selected sweeps' configurations
+ * use. */
+static gboolean
+render_scenes (const GPtrArray * selected, SonarSetup * setup,
+    GError ** error)
+{
+  gboolean needed[N_SCENES] = { FALSE };
+
   for (guint i = 0; i < selected->len; i++) {
     const Sweep *sweep = g_ptr_array_index (selected, i);
 
@@ -235,9 +262,42 @@ main (int argc, char **argv)
       needed[c.scene - scenes] = TRUE;
     }
   }
+  for (guint s = 0; s < N_SCENES; s++) {
+    double t = now_ms ();
 
-  if (csv_path) {
-    b.csv = open_csv (csv_path, &error);
+    if (!needed[s])
+      continue;
+    if (!render_scene (&scenes[s], setup, error))
+      return FALSE;
+    g_printerr ("rendered %u pings of %s in %.1f s\n", scenes[s].n_pings,
+        scenes[s].name, (now_ms () - t) * 1e-3);
+  }
+  return TRUE;
+}
+
+int
+main (int argc, char **argv)
+{
+  g_auto (Options) options = {.timed_pings = 20 };
+  g_autoptr (GError) error = NULL;
+  g_autoptr (GPtrArray) selected = NULL;
+  gboolean ok = TRUE;
+  Bench b = { 0 };
+  double start = now_ms ();
+
+  if (!parse_options (&options, &argc, &argv))
+    return 2;
+  b.timed_pings = (guint) options.timed_pings;
+  b.peak_gflops = measure_peak_gflops ();
+  b.read_gbs = measure_read_gbs ();
+  b.n_threads = CLAMP (options.threads ? (guint) options.threads :
+      g_get_num_processors (), 1, SONAR_VELOCITY_MAX_THREADS);
+  selected = select_sweeps (&options);
+  if (!selected)
+    return 2;
+
+  if (options.csv_path) {
+    b.csv = open_csv (options.csv_path, &error);
     if (!b.csv) {
       g_printerr ("sonar-bench: %s\n", error->message);
       return 1;
@@ -245,21 +305,9 @@ main (int argc, char **argv)
   }
 
   b.setup = make_setup (MAX_RANGE, &error);
-  if (!b.setup) {
+  if (!b.setup || !render_scenes (selected, b.setup, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);
     return 1;
-  }
-  for (guint s = 0; s < N_SCENES; s++) {
-    double t = now_ms ();
-
-    if (!needed[s])
-      continue;
-    if (!render_scene (&scenes[s], b.setup, &error)) {
-      g_printerr ("sonar-bench: %s\n", error->message);
-      return 1;
-    }
-    g_printerr ("rendered %u pings of %s in %.1f s\n", scenes[s].n_pings,
-        scenes[s].name, (now_ms () - t) * 1e-3);
   }
   g_print ("sonar-bench: %u microphones, %u emitters, %u samples per ping; "
       "velocity on %u thread%s; times are medians over the pings, ms per "

@@ -254,6 +254,9 @@ sweep_config (const Sweep * sweep, guint i, Config * c, char *label,
   sweep->apply (c, i, label, size);
 }
 
+/* Runs @sweep's configurations (one already run, under another sweep's
+ * name, is not run again) and prints its tables; a sensitivity sweep
+ * runs itself. */
 gboolean
 run_sweep (Bench * b, const Sweep * sweep)
 {

@@ -1,0 +1,750 @@
+/* sonar-bench's chain: per configuration, the DSP core run the way the
+ * elements run it (dopplerbank ! mimobeamform ! wardcluster ! velocityest,
+ * with their defaults), each ping's detections scored against the
+ * simulator's ground truth, every stage timed, the memory it holds
+ * measured and its arithmetic floor computed.
+ *
+ * The velocity stage shares the centroids between worker threads as
+ * velocityest does (--threads). Every ping is rendered before anything
+ * is timed (scenes.c): the simulator's cost is not counted. Times are
+ * wall-clock medians over at least --timed-pings pings (20; a scene with
+ * fewer goes round them again, each scored once) after an untimed
+ * warm-up on the first, ms per ping, with the 10th-90th percentile
+ * spread, plus the chain's CPU time (median). Set-up work (the Doppler
+ * bank, FFT plans, the imager's tables) is not timed, as the elements do
+ * it once per stream.
+ *
+ * Memory is the heap each stage holds (glibc mallinfo2: FFTW and GLib
+ * allocate through malloc), counted when its objects are made and while
+ * it warms up on the first ping (buffers made on first use); the bank is
+ * dopplerbank's. Thread stacks are not heap and not counted. Peak RSS is
+ * the process's during the configuration's run (Linux resets it per run),
+ * rendered pings and banks of earlier runs included. */
+#include <malloc.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+
+#include "bench.h"
+
+#define MB (1024.0 * 1024.0)
+
+/* The paper's Fig. 10b: SLINK struggles below this range. */
+#define NEAR_RANGE 1.0
+
+/* Timing and memory ------------------------------------------------------*/
+
+static double
+clock_ms (clockid_t clock)
+{
+  struct timespec ts;
+
+  clock_gettime (clock, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+double
+now_ms (void)
+{
+  return clock_ms (CLOCK_MONOTONIC);
+}
+
+/* Heap in use, MB: FFTW and GLib allocate through malloc, and mallinfo2
+ * sums every thread's arena. */
+double
+heap_mb (void)
+{
+  const struct mallinfo2 m = mallinfo2 ();
+
+  return (m.uordblks + m.hblkhd) / MB;
+}
+
+/* Restarts the kernel's peak-RSS count (VmHWM), so that a run's peak is
+ * its own; only on Linux. */
+static void
+reset_peak_rss (void)
+{
+  FILE *f = fopen ("/proc/self/clear_refs", "w");
+
+  if (f) {
+    fputs ("5", f);
+    fclose (f);
+  }
+}
+
+/* Peak RSS since reset_peak_rss (), MB; the whole run's where the kernel
+ * does not say. */
+double
+peak_rss_mb (void)
+{
+  FILE *f = fopen ("/proc/self/status", "r");
+  struct rusage usage;
+  char line[256];
+  double kb = -1.0;
+
+  while (f && fgets (line, sizeof (line), f))
+    if (g_str_has_prefix (line, "VmHWM:"))
+      kb = g_ascii_strtod (line + 6, NULL);
+  if (f)
+    fclose (f);
+  if (kb < 0.0) {
+    getrusage (RUSAGE_SELF, &usage);
+    kb = usage.ru_maxrss;
+  }
+  return kb / 1024.0;
+}
+
+static int
+compare_doubles (const void *a, const void *b)
+{
+  const double x = *(const double *) a, y = *(const double *) b;
+
+  return (x > y) - (x < y);
+}
+
+/* Sorts @v in place. */
+double
+median (double *v, guint n)
+{
+  qsort (v, n, sizeof (double), compare_doubles);
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* The @fraction quantile of @v (nearest rank), sorted in place. */
+static double
+percentile (double *v, guint n, double fraction)
+{
+  qsort (v, n, sizeof (double), compare_doubles);
+  return v[MIN (n - 1, (guint) floor (fraction * n))];
+}
+
+/* Scoring ----------------------------------------------------------------*/
+
+/* Scores one ping as test-pipeline.c does: each true object matches the
+ * first detection within MATCH_DISTANCE; any detection matching no object
+ * is a false positive. */
+static void
+score_ping (Result * r, const SonarTruth * truths, guint n_truths,
+    const SonarVec3 * positions, const double *velocities, guint n)
+{
+  for (guint k = 0; k < n_truths; k++) {
+    const SonarTruth *t = &truths[k];
+    const gboolean near = t->range < NEAR_RANGE;
+
+    r->total++;
+    for (guint d = 0; d < n; d++) {
+      if (sonar_vec3_norm (sonar_vec3_sub (positions[d], t->position)) <
+          MATCH_DISTANCE) {
+        const double err = fabs (velocities[d] - t->radial_velocity);
+
+        r->found++;
+        r->sum_error += err;
+        r->max_error = MAX (r->max_error, err);
+        if (near) {
+          r->near_found++;
+          r->near_sum_error += err;
+        }
+        break;
+      }
+    }
+  }
+  for (guint d = 0; d < n; d++) {
+    gboolean real = FALSE;
+
+    for (guint k = 0; k < n_truths && !real; k++)
+      real = sonar_vec3_norm (sonar_vec3_sub (positions[d],
+              truths[k].position)) < MATCH_DISTANCE;
+    r->false_positives += !real;
+  }
+}
+
+/* The arithmetic floor ---------------------------------------------------*/
+
+/* Independent chains of fused multiply-adds, enough of them to fill the
+ * pipelines: the core's peak. Where AVX2 and FMA are missing, the same
+ * loop as the compiler makes it for the baseline. */
+#define PEAK_CHAINS 12
+typedef float PeakVec __attribute__ ((vector_size (32)));
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__ ((target ("avx2,fma")))
+#endif
+static float
+peak_loop (guint iterations)
+{
+  PeakVec acc[PEAK_CHAINS], a = { 0 }, b = { 0 };
+  float sum = 0.0f;
+
+  for (int l = 0; l < 8; l++) {
+    a[l] = 0.999f + 1e-5f * l;
+    b[l] = 1e-6f * l;
+  }
+  for (int c = 0; c < PEAK_CHAINS; c++)
+    acc[c] = a * (float) c;
+  for (guint i = 0; i < iterations; i++) {
+    for (int c = 0; c < PEAK_CHAINS; c++)
+      acc[c] = acc[c] * a + b;
+    /* Keeps the compiler from folding the loop. */
+    __asm__ volatile ("" : "+x" (a));
+  }
+  for (int c = 0; c < PEAK_CHAINS; c++)
+    for (int l = 0; l < 8; l++)
+      sum += acc[c][l];
+  return sum;
+}
+
+/* GFLOP/s of one core (2 flops per lane of a fused multiply-add): the
+ * best of a few runs of about 20 ms (others share the machine). */
+double
+measure_peak_gflops (void)
+{
+  const guint iterations = 1000000;
+  double best = 0.0;
+  volatile float sink;
+
+  for (int run = 0; run < 5; run++) {
+    const double start = clock_ms (CLOCK_THREAD_CPUTIME_ID);
+    double ms;
+    sink = peak_loop (iterations);
+    ms = clock_ms (CLOCK_THREAD_CPUTIME_ID) - start;
+    best = MAX (best, 2.0 * 8 * PEAK_CHAINS * (double) iterations /
+        (ms * 1e6));
+  }
+  (void) sink;
+  return best;
+}
+
+/* GB/s one core reads a 64 MB array at (far beyond the caches). */
+double
+measure_read_gbs (void)
+{
+  const gsize n = 16 * 1024 * 1024;
+  g_autofree float *v = g_new (float, n);
+  double best = 0.0;
+  volatile float sink;
+
+  for (gsize i = 0; i < n; i++)
+    v[i] = (float) (i & 7);
+  for (int run = 0; run < 3; run++) {
+    const double start = clock_ms (CLOCK_THREAD_CPUTIME_ID);
+    float sum[8] = { 0 };
+    double ms;
+    for (gsize i = 0; i < n; i += 8)
+      for (int l = 0; l < 8; l++)
+        sum[l] += v[i + l];
+    sink = sum[0] + sum[7];
+    ms = clock_ms (CLOCK_THREAD_CPUTIME_ID) - start;
+    best = MAX (best, n * sizeof (float) / (ms * 1e6));
+  }
+  (void) sink;
+  return best;
+}
+
+/* Flops of a complex transform of @n points, as FFTW counts them. */
+static double
+fft_flops (double n)
+{
+  return 5.0 * n * log2 (n);
+}
+
+/* The floors of one ping, from what it did: @units and @passes the
+ * imager's (sonar_imager_last_work ()), @centroids and @evaluations (bank
+ * velocities evaluated, over the centroids) the velocity stage's. Each
+ * stage on the cores it uses. The counts are the arithmetic of the
+ * method as implemented, not of a cleverer one:
+ *   spectra     a real transform per microphone (2.5 N log2 N);
+ *   imaging     per unit the receive sum (8 flops per microphone and bin:
+ *               a complex multiply-add, the phasor's rotation shared),
+ *               per pass the transmit sum (8 per emitter and bin), the
+ *               product (6 per bin), the inverse transform and the
+ *               envelope (3 per range bin);
+ *   clustering  two reads of the image at the measured read rate;
+ *   velocity    per centroid the receive sums of its window's directions
+ *               (three calls: direction search, bank pass, around the
+ *               peak), per evaluated velocity and window direction and
+ *               emitter the block sums (14 per bin) and the window's lags
+ *               (8 per block and lag). */
+static void
+arithmetic_floors (const Bench * b, const Chain * ch, guint units,
+    guint passes, guint centroids, double evaluations, double *floor_ms)
+{
+  const SonarSetup *setup = b->setup;
+  const double J = setup->geometry.n_microphones;
+  const double N = ch->n_emitters;
+  const double K = ch->band->n_bins;
+  const double F = ch->band->fft_size;
+  const double R = ch->grid->n_range;
+  const double M = round (0.5 * setup->speed_of_sound * F /
+      setup->sample_rate / ch->grid->range_step);
+  const SonarVelocityParams *vp = &ch->config->velocity;
+  const double window = (2.0 * vp->window_directions + 1) *
+      (ch->grid->n_elevation > 1 ? 2.0 * vp->window_directions + 1 : 1.0);
+  const double lags = 2.0 * vp->window_ranges + 1;
+  const double cores = g_get_num_processors ();
+  const double per_core_ms = 1.0 / (b->peak_gflops * 1e6);
+  double flops[N_STAGES];
+
+  flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
+  flops[STAGE_IMAGING] = units * 8.0 * J * K + passes * (8.0 * N * K +
+      6.0 * K + fft_flops (M) + 3.0 * R);
+  flops[STAGE_CLUSTERING] = 0.0;
+  flops[STAGE_VELOCITY] = centroids * 3.0 * window * 8.0 * J * K +
+      evaluations * window * N * (14.0 * K + 8.0 * lags * K / 16.0);
+  floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
+  floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
+  floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *
+      sizeof (float) / (b->read_gbs * 1e6);
+  floor_ms[STAGE_VELOCITY] = flops[STAGE_VELOCITY] * per_core_ms /
+      MIN (cores, b->n_threads);
+}
+
+/* The chain --------------------------------------------------------------*/
+
+void
+chain_clear (Chain * ch)
+{
+  g_clear_pointer (&ch->analyzer, sonar_spectrum_free);
+  g_clear_pointer (&ch->imager, sonar_imager_free);
+  g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
+  g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
+  g_clear_pointer (&ch->hypotheses, g_free);
+  g_clear_pointer (&ch->spectra, g_free);
+  g_clear_pointer (&ch->image, g_free);
+  g_clear_pointer (&ch->cube, g_free);
+  g_clear_pointer (&ch->curve, g_free);
+}
+
+/* Makes @c's stages as the elements do at start, charging each the heap
+ * its objects take. */
+gboolean
+chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
+    GError ** error)
+{
+  const guint n_mics = b->setup->geometry.n_microphones;
+  g_autofree guint *indices = NULL;
+  SonarDopplerBank *bank;
+  SonarClusterParams cluster;
+  guint nv;
+  double heap;
+
+  ch->config = c;
+  ch->bank = get_bank (b, c, error);
+  if (!ch->bank)
+    return FALSE;
+  bank = ch->bank->bank;
+  nv = sonar_doppler_bank_n_velocities (bank);
+  ch->band = sonar_doppler_bank_band (bank);
+  ch->n_emitters = c->velocity.emitters ? c->velocity.emitters :
+      b->setup->geometry.n_emitters;
+  r->bank_mb = ch->bank->mb;
+  r->bank_velocities = nv;
+  r->template_error_db = ch->bank->template_error_db;
+  indices = g_new (guint, nv + 2);
+
+  heap = heap_mb ();
+  ch->analyzer = sonar_spectrum_new (ch->band);
+  ch->spectra = g_new (SonarComplex, (gsize) n_mics * ch->band->n_bins);
+  r->mb[STAGE_SPECTRA] = heap_mb () - heap;
+
+  heap = heap_mb ();
+  ch->imager = sonar_imager_new (b->setup, ch->band, &c->imager, error);
+  if (!ch->imager)
+    return FALSE;
+  ch->grid = sonar_imager_grid (ch->imager);
+  r->range_step = ch->grid->range_step;
+  r->n_range = ch->grid->n_range;
+  if (c->method == METHOD_DATACUBE) {
+    ch->n_templates = nv;
+    for (guint i = 0; i < nv; i++)
+      indices[i] = i;
+  } else {
+    ch->n_templates = sonar_doppler_bank_hypotheses (bank,
+        c->hypothesis_spacing, indices);
+  }
+  ch->hypotheses = g_new (SonarHypothesis, ch->n_templates);
+  for (guint h = 0; h < ch->n_templates; h++)
+    ch->hypotheses[h] = sonar_doppler_bank_hypothesis (bank, indices[h]);
+  ch->image = g_new (float, sonar_image_grid_size (ch->grid));
+  if (c->method == METHOD_DATACUBE)
+    ch->cube = g_new (float, ch->n_templates *
+        sonar_image_grid_size (ch->grid));
+  r->mb[STAGE_IMAGING] = heap_mb () - heap;
+
+  heap = heap_mb ();
+  /* As wardcluster reads it from the energyscape's caps. */
+  cluster = c->cluster;
+  cluster.hypotheses = ch->n_templates;
+  ch->clusterer = sonar_clusterer_new (ch->grid, &cluster, error);
+  if (!ch->clusterer)
+    return FALSE;
+  r->mb[STAGE_CLUSTERING] = heap_mb () - heap;
+
+  heap = heap_mb ();
+  if (c->method == METHOD_DATACUBE) {
+    ch->curve = g_new (float, nv);
+  } else {
+    ch->workers = sonar_velocity_pool_new (bank, ch->grid, &c->velocity,
+        b->n_threads, error);
+    if (!ch->workers)
+      return FALSE;
+  }
+  r->mb[STAGE_VELOCITY] = heap_mb () - heap;
+  return TRUE;
+}
+
+void
+chain_spectra (Chain * ch, const float *samples, guint n_mics, gsize length)
+{
+  for (guint j = 0; j < n_mics; j++)
+    sonar_spectrum_process (ch->analyzer, samples + j, length, n_mics,
+        ch->spectra + (gsize) j * ch->band->n_bins, NULL);
+}
+
+void
+chain_imaging (Chain * ch)
+{
+  const gsize size = sonar_image_grid_size (ch->grid);
+
+  if (!ch->cube) {
+    sonar_imager_process (ch->imager, ch->spectra, ch->n_templates,
+        ch->hypotheses, -1, ch->image);
+    return;
+  }
+  sonar_imager_process_each (ch->imager, ch->spectra, ch->n_templates,
+      ch->hypotheses, -1, ch->cube, size);
+  /* What the datacube detects on: each pixel at its best velocity. */
+  memcpy (ch->image, ch->cube, size * sizeof (float));
+  for (guint h = 1; h < ch->n_templates; h++)
+    for (gsize i = 0; i < size; i++)
+      ch->image[i] = MAX (ch->image[i], ch->cube[h * size + i]);
+}
+
+/* The datacube's Doppler-ACF curve at pixel (@e, @a, @i): per velocity, the
+ * MIMO image's maximum over the velocity estimator's window (eq. 15). */
+static void
+cube_curve (Chain * ch, int e, int a, int i)
+{
+  const SonarImageGrid *g = ch->grid;
+  const SonarVelocityParams *p = &ch->config->velocity;
+  const int wd = p->window_directions, wr = p->window_ranges;
+  const int we = g->n_elevation > 1 ? wd : 0;
+  const gsize size = sonar_image_grid_size (g);
+
+  for (guint v = 0; v < ch->n_templates; v++) {
+    const float *image = ch->cube + v * size;
+    float best = 0.0f;
+
+    for (int ee = MAX (e - we, 0); ee <= MIN (e + we,
+            (int) g->n_elevation - 1); ee++)
+      for (int aa = MAX (a - wd, 0); aa <= MIN (a + wd,
+              (int) g->n_azimuth - 1); aa++)
+        for (int ii = MAX (i - wr, 0); ii <= MIN (i + wr,
+                (int) g->n_range - 1); ii++)
+          best = MAX (best, image[((gsize) ee * g->n_azimuth + aa) *
+                  g->n_range + ii]);
+    ch->curve[v] = best;
+  }
+}
+
+/* Grid index nearest @x on the axis first + k step, k < n. */
+static int
+nearest_index (double x, double first, double step, guint n)
+{
+  return n > 1 ? (int) CLAMP (round ((x - first) / step), 0, n - 1) : 0;
+}
+
+static void
+cube_curve_at (Chain * ch, double range, double azimuth, double elevation)
+{
+  const SonarImageGrid *g = ch->grid;
+
+  cube_curve (ch, nearest_index (elevation, g->elevation_first,
+          g->elevation_step, g->n_elevation), nearest_index (azimuth,
+          g->azimuth_first, g->azimuth_step, g->n_azimuth),
+      nearest_index (range, g->range_first, g->range_step, g->n_range));
+}
+
+/* The velocity of the datacube curve's peak, refined below the bank's step
+ * by a parabola through the log of its neighbours. */
+static double
+cube_curve_velocity (Chain * ch)
+{
+  SonarDopplerBank *bank = ch->bank->bank;
+  const float *curve = ch->curve;
+  guint p = 0;
+  double v;
+
+  for (guint i = 1; i < ch->n_templates; i++)
+    if (curve[i] > curve[p])
+      p = i;
+  v = sonar_doppler_bank_velocity (bank, p);
+  if (ch->config->velocity.refine && p > 0 && p + 1 < ch->n_templates
+      && curve[p - 1] > 0.0f && curve[p + 1] > 0.0f) {
+    const double a = log (curve[p - 1]), b = log (curve[p]);
+    const double c = log (curve[p + 1]), denom = a - 2.0 * b + c;
+
+    if (denom < 0.0)
+      v += sonar_doppler_bank_step (bank) * CLAMP (0.5 * (a - c) / denom,
+          -0.5, 0.5);
+  }
+  return v;
+}
+
+/* The ping's detections: the estimator's valid ones, or every datacube
+ * centroid at its curve's peak (the datacube has no false-positive test). */
+static void
+chain_velocity (Chain * ch, guint n_centroids)
+{
+  ch->n_detections = 0;
+  if (ch->cube) {
+    for (guint k = 0; k < n_centroids; k++) {
+      const SonarCentroid *c = &ch->centroids[k];
+
+      cube_curve (ch, c->peak_elevation_index, c->peak_azimuth_index,
+          c->peak_range_index);
+      ch->positions[ch->n_detections] = c->position;
+      ch->velocities[ch->n_detections++] = cube_curve_velocity (ch);
+    }
+    return;
+  }
+  sonar_velocity_pool_estimate (ch->workers, ch->spectra, ch->centroids,
+      n_centroids, ch->results, ch->counts);
+  ch->evaluated_velocities = 0;
+  for (guint k = 0; k < n_centroids; k++) {
+    const SonarVelocityEstimate *e = &ch->results[2 * k];
+
+    ch->evaluated_velocities += e[0].evaluated_velocities;
+    for (guint i = 0; i < ch->counts[k]; i++) {
+      if (!e[i].valid)
+        continue;
+      ch->positions[ch->n_detections] = sonar_vec3_scale
+          (sonar_vec3_from_direction (e[i].azimuth, e[i].elevation),
+          e[i].range);
+      ch->velocities[ch->n_detections++] = e[i].radial_velocity;
+    }
+  }
+}
+
+/* One ping through an initialised chain; returns the centroids. */
+guint
+chain_run_ping (Chain * ch, const float *samples, guint n_mics,
+    gsize length)
+{
+  guint n;
+
+  chain_spectra (ch, samples, n_mics, length);
+  chain_imaging (ch);
+  n = sonar_clusterer_process (ch->clusterer, ch->image, ch->centroids,
+      MAX_CENTROIDS);
+  chain_velocity (ch, n);
+  return n;
+}
+
+/* Peak-to-sidelobe ratio (dB) and -3 dB width (m/s) of a Doppler-ACF curve
+ * in dB over a bank of @step. The main lobe ends at the first minimum on
+ * either side; where it reaches the bank's edge instead, the edge stands
+ * for the sidelobe, and *bounded says the ratio is only a lower bound. */
+static void
+curve_shape (const float *db, guint n, double step, double *psr,
+    double *width, gboolean * bounded)
+{
+  float side = -INFINITY;
+  guint p = 0, lo, hi, w = 1;
+
+  *bounded = FALSE;
+  if (!isfinite (db[0])) {
+    *psr = *width = NAN;
+    return;
+  }
+  for (guint v = 1; v < n; v++)
+    if (db[v] > db[p])
+      p = v;
+  for (lo = p; lo > 0 && db[lo - 1] <= db[lo]; lo--);
+  for (hi = p; hi + 1 < n && db[hi + 1] <= db[hi]; hi++);
+  for (guint v = 0; v < n; v++)
+    if (v < lo || v > hi)
+      side = MAX (side, db[v]);
+  if ((lo == 0 && lo != p && db[0] > side) || (hi == n - 1 && hi != p
+          && db[n - 1] > side)) {
+    side = MAX (lo == 0 && lo != p ? db[0] : -INFINITY,
+        hi == n - 1 && hi != p ? db[n - 1] : -INFINITY);
+    *bounded = TRUE;
+  }
+  *psr = db[p] - side;
+  for (guint v = p; v > 0 && db[v - 1] >= db[p] - 3.0f; v--)
+    w++;
+  for (guint v = p; v + 1 < n && db[v + 1] >= db[p] - 3.0f; v++)
+    w++;
+  *width = w * step;
+}
+
+/* Fig. 11: the Doppler-ACF curve, in dB, at each of the ping's @n true
+ * reflectors: the product of the emitters' curves as
+ * sonar_velocity_estimate () gives it, or the MIMO image's across the
+ * datacube at the reflector's pixel. */
+static gboolean
+measure_curves (Chain * ch, const SonarTruth * truths, guint n, Result * r,
+    GError ** error)
+{
+  SonarDopplerBank *bank = ch->bank->bank;
+  const guint nv = sonar_doppler_bank_n_velocities (bank);
+  g_autoptr (SonarVelocityEstimator) est = NULL;
+  g_autofree float *curves = NULL;
+  g_autofree float *db = g_new (float, nv);
+
+  if (!ch->cube) {
+    est = sonar_velocity_estimator_new (bank, ch->grid,
+        &ch->config->velocity, error);
+    if (!est)
+      return FALSE;
+    curves = g_new (float, (gsize) (ch->n_emitters + 1) * nv);
+  }
+  r->n_curves = n;
+  r->psr_db = g_new (double, n);
+  r->width = g_new (double, n);
+  r->psr_bounded = g_new (gboolean, n);
+  for (guint k = 0; k < n; k++) {
+    const SonarTruth *t = &truths[k];
+
+    if (est) {
+      const SonarCentroid at = sonar_velocity_point (t->range, t->azimuth,
+          t->elevation);
+      SonarVelocityEstimate e[2];
+
+      sonar_velocity_estimate (est, ch->spectra, &at, e, curves);
+      /* The last curve is the product per emitter. */
+      for (guint v = 0; v < nv; v++)
+        db[v] = ch->n_emitters * curves[(gsize) ch->n_emitters * nv + v];
+    } else {
+      cube_curve_at (ch, t->range, t->azimuth, t->elevation);
+      for (guint v = 0; v < nv; v++)
+        db[v] = 20.0f * log10f (ch->curve[v] + 1e-30f);
+    }
+    curve_shape (db, nv, sonar_doppler_bank_step (bank), &r->psr_db[k],
+        &r->width[k], &r->psr_bounded[k]);
+  }
+  return TRUE;
+}
+
+/* Times a stage of a ping; on the warm-up ping charges what the heap grows
+ * by to the stage instead (buffers made on first use are part of what it
+ * holds). */
+typedef struct
+{
+  gboolean first;
+  double heap, start;
+} StageClock;
+
+static void
+stage_start (StageClock * clock)
+{
+  if (clock->first)
+    clock->heap = heap_mb ();
+  clock->start = now_ms ();
+}
+
+static double
+stage_stop (StageClock * clock, Result * r, guint stage)
+{
+  const double ms = now_ms () - clock->start;
+
+  if (clock->first)
+    r->mb[stage] += MAX (heap_mb () - clock->heap, 0.0);
+  return ms;
+}
+
+/* One configuration over the scene's pings: the stages of dopplerbank,
+ * mimobeamform (mode=detection, or datacube), wardcluster and
+ * velocityest. */
+gboolean
+run_config (Bench * b, const Config * c, Result * r, GError ** error)
+{
+  const BenchScene *s = c->scene;
+  const guint n_pings = c->n_pings;
+  const guint n_timed = MAX (n_pings, b->timed_pings);
+  const guint n_mics = b->setup->geometry.n_microphones;
+  const gsize length = b->setup->ping_length;
+  g_autofree Chain *ch = g_new0 (Chain, 1);
+  g_autofree double *times = NULL;
+  guint total_centroids = 0;
+  gboolean ok;
+
+  reset_peak_rss ();
+  ok = chain_init (ch, b, c, r, error);
+  /* Per ping: the stages, the total, its CPU time. */
+  times = g_new (double, (N_STAGES + 2) * n_timed);
+  /* Ping -1 is a warm-up on the first ping, neither timed nor scored: it
+   * takes the page faults of fresh buffers and ORC's first compilations,
+   * and its heap growth is the stages' working memory. */
+  for (int q = -1; ok && q < (int) n_timed; q++) {
+    const guint p = MAX (q, 0) % n_pings;
+    const float *samples = s->pings + p * length * n_mics;
+    const SonarTruth *truths = s->truths + p * s->n_reflectors;
+    const double cpu_start = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
+    StageClock clock = { q < 0 };
+    double t[N_STAGES], total = 0.0;
+    guint n_centroids, units, dense_units, passes, dense_passes;
+
+    stage_start (&clock);
+    chain_spectra (ch, samples, n_mics, length);
+    t[STAGE_SPECTRA] = stage_stop (&clock, r, STAGE_SPECTRA);
+    stage_start (&clock);
+    chain_imaging (ch);
+    t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
+    sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
+        &dense_passes);
+    stage_start (&clock);
+    n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,
+        ch->centroids, MAX_CENTROIDS);
+    t[STAGE_CLUSTERING] = stage_stop (&clock, r, STAGE_CLUSTERING);
+    stage_start (&clock);
+    chain_velocity (ch, n_centroids);
+    t[STAGE_VELOCITY] = stage_stop (&clock, r, STAGE_VELOCITY);
+    if (q < 0)
+      continue;
+
+    r->work_fraction += (double) passes / dense_passes / n_timed;
+    if (!ch->cube) {
+      double floor_ms[N_STAGES];
+      arithmetic_floors (b, ch, units, passes, n_centroids,
+          ch->evaluated_velocities, floor_ms);
+      for (guint k = 0; k < N_STAGES; k++)
+        r->floor_ms[k] += floor_ms[k] / n_timed;
+    }
+
+    times[(N_STAGES + 1) * n_timed + q] =
+        clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
+    for (guint k = 0; k < N_STAGES; k++) {
+      times[k * n_timed + q] = t[k];
+      total += t[k];
+    }
+    times[N_STAGES * n_timed + q] = total;
+    /* A ping timed again is not scored again. */
+    if ((guint) q >= n_pings)
+      continue;
+    total_centroids += n_centroids;
+    r->evaluated_velocities += (double) ch->evaluated_velocities / n_pings;
+    score_ping (r, truths, s->n_reflectors, ch->positions, ch->velocities,
+        ch->n_detections);
+    if (p == 0 && c->measure_curves)
+      ok = measure_curves (ch, truths, s->n_reflectors, r, error);
+  }
+  r->peak_rss_mb = peak_rss_mb ();
+  b->peak_rss_mb = MAX (b->peak_rss_mb, r->peak_rss_mb);
+  chain_clear (ch);
+  if (!ok)
+    return FALSE;
+
+  r->pings = n_pings;
+  r->centroids = (double) total_centroids / n_pings;
+  r->timed_pings = n_timed;
+  for (guint k = 0; k < N_STAGES; k++)
+    r->ms[k] = median (times + k * n_timed, n_timed);
+  r->ms_total = median (times + N_STAGES * n_timed, n_timed);
+  r->ms_total_low = percentile (times + N_STAGES * n_timed, n_timed, 0.1);
+  r->ms_total_high = percentile (times + N_STAGES * n_timed, n_timed, 0.9);
+  r->cpu_ms_total = median (times + (N_STAGES + 1) * n_timed, n_timed);
+  return TRUE;
+}

@@ -199,12 +199,15 @@ bank_entry_free (gpointer data)
   g_free (e);
 }
 
-/* Banks are set-up work: made once per velocity grid and shared. */
+/* Banks are set-up work: made once per sensor set-up and velocity grid
+ * and shared (the detection sweep's longer pings need a bank of their
+ * own: its band has another FFT size). */
 BankEntry *
 get_bank (Bench * b, const Config * c, GError ** error)
 {
-  g_autofree char *key = g_strdup_printf ("%.17g/%.17g/%.17g/%d", c->v_min,
-      c->v_max, c->v_step, c->template_interp);
+  g_autofree char *key = g_strdup_printf ("%p/%u/%.17g/%.17g/%.17g/%d",
+      (void *) b->setup, b->setup->ping_length, c->v_min, c->v_max,
+      c->v_step, c->template_interp);
   BankEntry *e = g_hash_table_lookup (b->banks, key);
   const SonarBand *band;
   double start, heap;

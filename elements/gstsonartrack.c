@@ -168,8 +168,8 @@ gst_sonar_track_start (GstBaseTransform * trans)
   GError *error = NULL;
 
   if (!build (self, &error)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS, ("sonartrack: %s",
-            error->message), (NULL));
+    g_prefix_error (&error, "sonartrack: ");
+    SONAR_ELEMENT_POST_ERROR (self, error, NULL);
     g_error_free (error);
     return FALSE;
   }
@@ -196,8 +196,8 @@ gst_sonar_track_sink_event (GstBaseTransform * trans, GstEvent * event)
     GError *error = NULL;
     SonarSetup *setup = sonar_setup_from_event (event, &error);
     if (!setup) {
-      GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("sonartrack: %s",
-              error->message), (NULL));
+      g_prefix_error (&error, "sonartrack: ");
+      SONAR_ELEMENT_POST_ERROR (self, error, NULL);
       g_error_free (error);
       gst_event_unref (event);
       return FALSE;
@@ -311,8 +311,8 @@ gst_sonar_track_generate_output (GstBaseTransform * trans,
     return GST_FLOW_ERROR;
   }
   if (self->rebuild && !build (self, &error)) {
-    GST_ELEMENT_ERROR (self, RESOURCE, SETTINGS, ("sonartrack: %s",
-            error->message), (NULL));
+    g_prefix_error (&error, "sonartrack: ");
+    SONAR_ELEMENT_POST_ERROR (self, error, NULL);
     g_error_free (error);
     gst_buffer_unref (in);
     return GST_FLOW_ERROR;

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "sonar-contracts.h"
+#include "sonar-error.h"
 #include "sonar-test-gst.h"
 
 #define FIG10_BANK "velocity-min=-0.4 velocity-max=0.4 velocity-step=0.02"
@@ -581,6 +582,13 @@ test_errors (void)
   g_assert_nonnull (settings);
   g_assert_true (g_str_has_prefix (settings, "sonartrack: tracks: "
           "dimensions must be 2 or 3, not 1"));
+  /* The core's error keeps its domain and code on the bus. */
+  {
+    g_autoptr (SonarTestRun) run = sonar_test_run ("sonarsrc num-buffers=1 "
+        "! dopplerbank ! mimobeamform ! wardcluster ! velocityest ! "
+        "sonartrack dimensions=1 ! fakesink");
+    g_assert_error (run->error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
+  }
 }
 
 int

@@ -320,6 +320,54 @@ find_text (const Frame * f, const char *text, guint scale, SonarRgb c,
   return found;
 }
 
+/* The track of true object @t in @f: a confirmed track within 0.1 m,
+ * drawn as a magenta square around it with its id beside it; for a mover
+ * (@arrow_time > 0), an arrow ending where the truth's velocity (relative
+ * to the still sensor: the world's) takes it in @arrow_time. */
+static void
+check_track (const Frame * f, SonarRenderer * r, const SonarTruth * t,
+    double arrow_time)
+{
+  const SonarRgb magenta = sonar_render_track_colour ();
+  const double half = SONAR_RENDER_TRACK_HALF_SIDE * sonar_renderer_scale
+      (r);
+  const double p[3] = { t->position.x, t->position.y, t->position.z };
+  const double tip[3] = { p[0] + t->velocity.x * arrow_time,
+    p[1] + t->velocity.y * arrow_time, p[2] + t->velocity.z * arrow_time
+  };
+  const SonarTrack *track = NULL;
+  char label[32];
+  double px, py, tx, ty, nearest = INFINITY;
+
+  for (guint q = 0; q < f->n_tracks; q++) {
+    const double d = sonar_vec3_norm (sonar_vec3_sub (f->tracks[q].position,
+            t->position));
+    if (f->tracks[q].state == SONAR_TRACK_CONFIRMED && d < nearest) {
+      nearest = d;
+      track = &f->tracks[q];
+    }
+  }
+  g_assert_nonnull (track);
+  g_assert_cmpfloat (nearest, <, 0.1);
+  g_assert_true (sonar_renderer_project_position (r, p, &px, &py));
+  g_test_message ("track #%" G_GUINT64_FORMAT " %.3f m from its object, "
+      "drawn at (%.0f, %.0f)", track->id, nearest, px, py);
+  /* Its square (to a pixel or two: the track is within centimetres). */
+  g_assert_cmpuint (count_colour (f, px - half, py, 3, magenta), >, 0);
+  g_assert_cmpuint (count_colour (f, px + half, py, 3, magenta), >, 0);
+  sonar_render_track_label (track->id, label, sizeof label);
+  g_assert_true (find_text (f, label, sonar_renderer_scale (r), magenta,
+          px, py, 80));
+  if (arrow_time <= 0)
+    return;
+  /* The arrow's tip: 0.05 m/s of velocity error is 2 cm. */
+  sonar_renderer_project_position (r, tip, &tx, &ty);
+  g_test_message ("  mover at %.2f m/s: tip at (%.0f, %.0f)",
+      sonar_vec3_norm (t->velocity), tx, ty);
+  g_assert_cmpuint (count_colour (f, tx, ty, 4, magenta), >, 0);
+  g_assert_cmpfloat (hypot (tx - px, ty - py), >, 3 * half);
+}
+
 /* Tracks (sonartrack's output on the detections pad), Fig. 9 world after
  * 10 pings: each object has a confirmed track, drawn as a magenta square
  * at the object with its id beside it; each mover's arrow ends where the
@@ -337,54 +385,17 @@ test_tracks (void)
   GArray *frames = pull_frames (launch);
   const Frame *f;
   SonarRenderer *r;
-  const SonarRgb magenta = sonar_render_track_colour ();
   guint movers = 0;
-  double half;
 
   g_assert_cmpuint (frames->len, ==, 10);
   f = &g_array_index (frames, Frame, 9);
   r = sonar_renderer_new (&f->grid, f->width, f->height, NULL);
-  half = SONAR_RENDER_TRACK_HALF_SIDE * sonar_renderer_scale (r);
   g_assert_cmpuint (f->n_truths, ==, 6);
   g_assert_cmpuint (f->n_tracks, >=, 6);
   for (guint k = 0; k < f->n_truths; k++) {
-    const SonarTruth *t = &f->truths[k];
-    const double p[3] = { t->position.x, t->position.y, t->position.z };
-    const double tip[3] = { p[0] + t->velocity.x * arrow_time,
-      p[1] + t->velocity.y * arrow_time, p[2] + t->velocity.z * arrow_time
-    };
-    const SonarTrack *track = NULL;
-    char label[32];
-    double px, py, tx, ty, nearest = INFINITY;
-
-    for (guint q = 0; q < f->n_tracks; q++) {
-      const double d = sonar_vec3_norm (sonar_vec3_sub (f->tracks[q].position,
-              t->position));
-      if (f->tracks[q].state == SONAR_TRACK_CONFIRMED && d < nearest) {
-        nearest = d;
-        track = &f->tracks[q];
-      }
-    }
-    g_assert_nonnull (track);
-    g_assert_cmpfloat (nearest, <, 0.1);
-    g_assert_true (sonar_renderer_project_position (r, p, &px, &py));
-    g_test_message ("object %u: track #%" G_GUINT64_FORMAT " %.3f m away, "
-        "drawn at (%.0f, %.0f)", k, track->id, nearest, px, py);
-    /* Its square (to a pixel or two: the track is within centimetres). */
-    g_assert_cmpuint (count_colour (f, px - half, py, 3, magenta), >, 0);
-    g_assert_cmpuint (count_colour (f, px + half, py, 3, magenta), >, 0);
-    sonar_render_track_label (track->id, label, sizeof label);
-    g_assert_true (find_text (f, label, sonar_renderer_scale (r), magenta,
-            px, py, 80));
-    if (sonar_vec3_norm (t->velocity) < 0.5)
-      continue;
-    /* A mover's arrow tip: 0.05 m/s of velocity error is 2 cm. */
-    movers++;
-    sonar_renderer_project_position (r, tip, &tx, &ty);
-    g_test_message ("  mover at %.2f m/s: tip at (%.0f, %.0f)",
-        sonar_vec3_norm (t->velocity), tx, ty);
-    g_assert_cmpuint (count_colour (f, tx, ty, 4, magenta), >, 0);
-    g_assert_cmpfloat (hypot (tx - px, ty - py), >, 3 * half);
+    const gboolean mover = sonar_vec3_norm (f->truths[k].velocity) >= 0.5;
+    check_track (f, r, &f->truths[k], mover ? arrow_time : 0.0);
+    movers += mover;
   }
   g_assert_cmpuint (movers, ==, 2);
   sonar_renderer_free (r);
@@ -413,6 +424,38 @@ test_3d (void)
   g_assert_cmpuint (f->n_truths, ==, 4);
   g_assert_cmpuint (f->n_detections, ==, 4);
   check_objects (f, 0.75);
+  frames_free (frames);
+  g_free (launch);
+  g_free (scene);
+}
+
+/* Tracks in 3-D: the azimuth x elevation map, each object's confirmed
+ * track (3 hits confirm one) at its direction with its id; the
+ * approaching walker's arrow (mostly along its line of sight) is not
+ * checked: the map shows only the direction it turns to. */
+static void
+test_tracks_3d (void)
+{
+  char *scene = sonar_test_source_path ("pipelines/scenes/two-walkers-3d.json");
+  char *launch = g_strdup_printf ("sonarsrc scene-file=%s num-buffers=3 "
+      "! dopplerbank velocity-min=-2 velocity-max=2 velocity-step=0.02 "
+      "! mimobeamform ! wardcluster ! tee name=t "
+      "sonarviz name=viz width=960 height=540 ! appsink name=sink sync=false "
+      "t. ! queue ! viz.sink t. ! queue ! velocityest ! sonartrack "
+      "! viz.detections", scene);
+  GArray *frames = pull_frames (launch);
+  const Frame *f;
+  SonarRenderer *r;
+
+  g_assert_cmpuint (frames->len, ==, 3);
+  f = &g_array_index (frames, Frame, 2);
+  g_assert_cmpuint (f->grid.n_elevation, >, 1);
+  g_assert_cmpuint (f->n_truths, ==, 4);
+  r = sonar_renderer_new (&f->grid, f->width, f->height, NULL);
+  g_assert_false (sonar_renderer_is_fan (r));
+  for (guint k = 0; k < f->n_truths; k++)
+    check_track (f, r, &f->truths[k], 0.0);
+  sonar_renderer_free (r);
   frames_free (frames);
   g_free (launch);
   g_free (scene);
@@ -657,6 +700,7 @@ main (int argc, char **argv)
   g_test_add_func ("/sonarviz/fig9", test_fig9);
   g_test_add_func ("/sonarviz/3d", test_3d);
   g_test_add_func ("/sonarviz/tracks", test_tracks);
+  g_test_add_func ("/sonarviz/tracks-3d", test_tracks_3d);
   g_test_add_func ("/sonarviz/images-alone", test_images_alone);
   g_test_add_func ("/sonarviz/downstream-size", test_downstream_size);
   g_test_add_func ("/sonarviz/pngenc", test_pngenc);

@@ -97,6 +97,9 @@ struct _GstMimoBeamform
   double hypothesis_spacing;
   int emitter;
   guint64 max_memory;
+  gboolean retune;              /* refine-db, velocity or emitter changed
+                                 * while playing: at the next ping (object
+                                 * lock) */
 
   /* Configured state. */
   SonarImager *imager;
@@ -118,6 +121,40 @@ static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
     GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_SPECTRA_CAPS));
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_ENERGYSCAPE_CAPS));
+
+/* The bank velocity nearest @velocity, for mode=fixed; FALSE with @error
+ * when it lies outside the bank. */
+static gboolean
+fixed_velocity_index (SonarDopplerBank * bank, double velocity, guint * index,
+    GError ** error)
+{
+  const guint n_bank = sonar_doppler_bank_n_velocities (bank);
+  const guint i = sonar_doppler_bank_nearest (bank, velocity);
+
+  if (fabs (sonar_doppler_bank_velocity (bank, i) - velocity) >
+      0.5 * sonar_doppler_bank_step (bank) + 1e-9) {
+    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+        "mimobeamform: velocity %g m/s is outside the Doppler bank "
+        "(%g to %g m/s)", velocity, sonar_doppler_bank_velocity (bank, 0),
+        sonar_doppler_bank_velocity (bank, n_bank - 1));
+    return FALSE;
+  }
+  *index = i;
+  return TRUE;
+}
+
+/* An emitter the sensor has, or -1; FALSE with @error otherwise. */
+static gboolean
+emitter_exists (const SonarSetup * setup, int emitter, GError ** error)
+{
+  if (emitter < (int) setup->geometry.n_emitters)
+    return TRUE;
+  g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
+      "mimobeamform: emitter %d does not exist (the sensor has %u: 0 to "
+      "%u, or -1 for all)", emitter, setup->geometry.n_emitters,
+      setup->geometry.n_emitters - 1);
+  return FALSE;
+}
 
 static GstCaps *
 gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
@@ -165,13 +202,8 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   max_memory = self->max_memory;
   GST_OBJECT_UNLOCK (self);
 
-  if (self->active_emitter >= (int) setup->geometry.n_emitters) {
-    g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
-        "mimobeamform: emitter %d does not exist (the sensor has %u: 0 to "
-        "%u, or -1 for all)", self->active_emitter,
-        setup->geometry.n_emitters, setup->geometry.n_emitters - 1);
+  if (!emitter_exists (setup, self->active_emitter, error))
     return NULL;
-  }
   self->imager = sonar_imager_new (setup, &band, &params, error);
   if (!self->imager)
     return NULL;
@@ -189,15 +221,9 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
           self->indices);
       break;
     case IMAGE_MODE_FIXED:{
-      const guint i = sonar_doppler_bank_nearest (bank, velocity);
-      if (fabs (sonar_doppler_bank_velocity (bank, i) - velocity) >
-          0.5 * sonar_doppler_bank_step (bank) + 1e-9) {
-        g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
-            "mimobeamform: velocity %g m/s is outside the Doppler bank "
-            "(%g to %g m/s)", velocity, sonar_doppler_bank_velocity (bank, 0),
-            sonar_doppler_bank_velocity (bank, n_bank - 1));
+      guint i;
+      if (!fixed_velocity_index (bank, velocity, &i, error))
         return NULL;
-      }
       self->indices[0] = i;
       self->n_hypotheses = 1;
       break;
@@ -247,6 +273,47 @@ gst_mimo_beamform_unconfigure (GstSonarFilter * filter)
   g_clear_pointer (&self->hypotheses, g_free);
 }
 
+/* refine-db, velocity (mode=fixed) and emitter set while playing take
+ * effect at the next ping; a value the sensor or bank cannot take is a
+ * warning, and the image stays as it was. */
+static void
+retune (GstMimoBeamform * self)
+{
+  GstSonarFilter *filter = GST_SONAR_FILTER (self);
+  SonarDopplerBank *bank = gst_sonar_filter_get_bank (filter);
+  double refine_db, velocity;
+  int emitter;
+  GError *error = NULL;
+  guint i;
+
+  GST_OBJECT_LOCK (self);
+  if (!self->retune) {
+    GST_OBJECT_UNLOCK (self);
+    return;
+  }
+  self->retune = FALSE;
+  refine_db = self->params.refine_db;
+  velocity = self->velocity;
+  emitter = self->emitter;
+  GST_OBJECT_UNLOCK (self);
+
+  if (!sonar_imager_set_refine_db (self->imager, refine_db, &error)
+      || !emitter_exists (gst_sonar_filter_get_setup (filter), emitter,
+          &error)
+      || (self->active_mode == IMAGE_MODE_FIXED
+          && !fixed_velocity_index (bank, velocity, &i, &error))) {
+    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s: the image stays as "
+            "it was", error->message), (NULL));
+    g_error_free (error);
+    return;
+  }
+  self->active_emitter = emitter;
+  if (self->active_mode == IMAGE_MODE_FIXED) {
+    self->indices[0] = i;
+    self->hypotheses[0] = sonar_doppler_bank_hypothesis (bank, i);
+  }
+}
+
 static GstFlowReturn
 gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
 {
@@ -269,6 +336,7 @@ gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
     gst_buffer_unref (buffer);
     return GST_FLOW_ERROR;
   }
+  retune (self);
   out = gst_sonar_filter_new_buffer (filter, record_size * records);
   if (!out) {
     gst_buffer_unref (buffer);
@@ -377,6 +445,8 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
   }
+  if (pspec->flags & GST_PARAM_MUTABLE_PLAYING)
+    self->retune = TRUE;
   GST_OBJECT_UNLOCK (self);
 }
 
@@ -469,6 +539,10 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
   GstSonarFilterClass *filter_class = GST_SONAR_FILTER_CLASS (klass);
   const GParamFlags flags = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
       | GST_PARAM_MUTABLE_READY;
+  /* What retune () takes: changed while playing, it holds from the next
+   * ping on. */
+  const GParamFlags tunable = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
+      | GST_PARAM_MUTABLE_PLAYING;
   SonarImagerParams d;
 
   sonar_imager_params_init_default (&d);
@@ -529,14 +603,15 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
       g_param_spec_double ("refine-db", "Refine level", "dB below the "
           "coarse image's maximum (weighted by range^2) down to which the "
           "directions around a coarse one are imaged in full (more: fewer "
-          "echoes missed, more work)", 0.1, 200.0, d.refine_db, flags));
+          "echoes missed, more work)", 0.1, 200.0, d.refine_db, tunable));
   g_object_class_install_property (gobject_class, PROP_MODE,
       g_param_spec_enum ("mode", "Mode", "Which Doppler hypotheses to image",
           GST_TYPE_SONAR_IMAGE_MODE, DEFAULT_MODE, flags));
   g_object_class_install_property (gobject_class, PROP_VELOCITY,
       g_param_spec_double ("velocity", "Velocity", "Radial velocity of the "
-          "image in mode=fixed, in m/s (the nearest bank velocity)", -80.0,
-          80.0, DEFAULT_VELOCITY, flags));
+          "image in mode=fixed, in m/s (the nearest bank velocity; set while "
+          "playing outside the bank, a warning and no change)", -80.0,
+          80.0, DEFAULT_VELOCITY, tunable));
   g_object_class_install_property (gobject_class, PROP_HYPOTHESIS_SPACING,
       g_param_spec_double ("hypothesis-spacing", "Hypothesis spacing",
           "Largest spacing of the Doppler hypotheses of mode=detection, in "
@@ -544,8 +619,9 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           0.001, 100.0, DEFAULT_HYPOTHESIS_SPACING, flags));
   g_object_class_install_property (gobject_class, PROP_EMITTER,
       g_param_spec_int ("emitter", "Emitter", "-1: the MIMO image of all "
-          "emitters; n: the image of emitter n alone", -1, 63,
-          DEFAULT_EMITTER, flags));
+          "emitters; n: the image of emitter n alone (set while playing to "
+          "one the sensor lacks, a warning and no change)", -1, 63,
+          DEFAULT_EMITTER, tunable));
 
   g_object_class_install_property (gobject_class, PROP_THREADS,
       g_param_spec_uint ("threads", "Threads", "Workers sharing the "

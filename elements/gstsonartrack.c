@@ -39,9 +39,6 @@ GST_DEBUG_CATEGORY_STATIC (sonar_track_debug);
 #define DEFAULT_DIMENSIONS 0
 #define DEFAULT_PRIOR_SIGMA 0.0
 #define DEFAULT_POST_MESSAGES TRUE
-/* An array whose elements all lie within this of z = 0 is planar: it
- * cannot tell front from back. */
-#define PLANAR_TOLERANCE 1e-6
 
 enum
 {
@@ -106,18 +103,6 @@ static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE ("sink",
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE ("src",
     GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS (SONAR_DETECTIONS_CAPS));
 
-static gboolean
-array_is_planar (const SonarGeometry * g)
-{
-  for (guint i = 0; i < g->n_microphones; i++)
-    if (fabs (g->microphones[i].z) > PLANAR_TOLERANCE)
-      return FALSE;
-  for (guint i = 0; i < g->n_emitters; i++)
-    if (fabs (g->emitters[i].z) > PLANAR_TOLERANCE)
-      return FALSE;
-  return TRUE;
-}
-
 /* (Re)makes the estimators from the properties and the set-up: every
  * track starts again. */
 static gboolean
@@ -145,7 +130,7 @@ build (GstSonarTrack * self, GError ** error)
   ego.dimensions = dimensions == 2 ? 2 : 0;
   tracker.dimensions = dimensions;
   ego.mirror_z = tracker.mirror_z = self->setup
-      && array_is_planar (&self->setup->geometry);
+      && sonar_geometry_is_planar (&self->setup->geometry);
 
   g_clear_pointer (&self->ego, sonar_ego_estimator_free);
   g_clear_pointer (&self->tracker, sonar_tracker_free);

@@ -13,6 +13,13 @@
  *       t. ! queue ! viz.sink \
  *       t. ! queue ! velocityest ! viz.detections
  *
+ * The detections pad takes sonartrack's output as well (it carries
+ * velocityest's SonarDetectionsMeta on): then each confirmed track of its
+ * SonarTracksMeta is drawn too, its id beside it and an arrow of its
+ * velocity in the world to where it goes in arrow-time seconds:
+ *
+ *       t. ! queue ! velocityest ! sonartrack ! viz.detections
+ *
  * Without a "detections" pad it draws the images alone. With one, each
  * image waits for its ping's detections (GstAggregator waits until both
  * pads hold data; detections of an older ping than the image are
@@ -45,6 +52,8 @@ GST_DEBUG_CATEGORY_STATIC (sonar_viz_debug);
 #define DEFAULT_RANGE_COMPENSATION TRUE
 #define DEFAULT_SHOW_TRUTH TRUE
 #define DEFAULT_SHOW_REJECTED FALSE
+#define DEFAULT_SHOW_TRACKS TRUE
+#define DEFAULT_ARROW_TIME SONAR_RENDER_DEFAULT_ARROW_TIME
 
 enum
 {
@@ -55,6 +64,8 @@ enum
   PROP_RANGE_COMPENSATION,
   PROP_SHOW_TRUTH,
   PROP_SHOW_REJECTED,
+  PROP_SHOW_TRACKS,
+  PROP_ARROW_TIME,
 };
 
 struct _GstSonarViz
@@ -70,6 +81,8 @@ struct _GstSonarViz
   gboolean range_compensation;
   gboolean show_truth;
   gboolean show_rejected;
+  gboolean show_tracks;
+  double arrow_time;
 
   /* Streaming state (the source pad's task). */
   gboolean have_grid;
@@ -80,6 +93,7 @@ struct _GstSonarViz
   gboolean negotiated;
   SonarRenderer *renderer;
   GArray *truths, *detections;  /* SonarRenderPoint, reused */
+  GArray *tracks;               /* SonarRenderTrack, reused */
 };
 
 G_DEFINE_TYPE (GstSonarViz, gst_sonar_viz, GST_TYPE_AGGREGATOR);
@@ -332,6 +346,21 @@ add_detections (GstSonarViz * self, const SonarDetectionsMeta * meta,
   }
 }
 
+/* The confirmed tracks (a tentative one may be noise that the next pings
+ * drop). */
+static void
+add_tracks (GstSonarViz * self, const SonarTracksMeta * meta)
+{
+  for (guint k = 0; meta && k < meta->n_tracks; k++) {
+    const SonarTrack *t = &meta->tracks[k];
+    SonarRenderTrack r = { t->id, {t->position.x, t->position.y,
+            t->position.z}, {t->velocity.x, t->velocity.y, t->velocity.z}
+    };
+    if (t->state == SONAR_TRACK_CONFIRMED)
+      g_array_append_val (self->tracks, r);
+  }
+}
+
 /* The energyscape's ping and records; FALSE (with an error posted) when
  * the buffer is not what its caps say. */
 static gboolean
@@ -365,6 +394,8 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
   GstAggregator *agg = GST_AGGREGATOR (self);
   SonarDetectionsMeta *dmeta = detections ?
       sonar_buffer_get_detections_meta (detections) : NULL;
+  SonarTracksMeta *track_meta = detections ?
+      sonar_buffer_get_tracks_meta (detections) : NULL;
   SonarRenderFrame frame = { 0 };
   GstBufferPool *pool;
   GstVideoFrame video;
@@ -372,13 +403,15 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
   GstFlowReturn ret;
   gsize stride;
   guint64 ping;
-  gboolean show_truth, show_rejected;
+  gboolean show_truth, show_rejected, show_tracks;
 
   GST_OBJECT_LOCK (self);
   frame.dynamic_range = self->dynamic_range;
   frame.range_compensation = self->range_compensation;
   show_truth = self->show_truth;
   show_rejected = self->show_rejected;
+  show_tracks = self->show_tracks;
+  frame.arrow_time = self->arrow_time;
   GST_OBJECT_UNLOCK (self);
 
   if (!self->renderer) {
@@ -416,6 +449,9 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
     add_truths (self, detections);
   }
   add_detections (self, dmeta, show_rejected);
+  g_array_set_size (self->tracks, 0);
+  if (show_tracks)
+    add_tracks (self, track_meta);
   frame.image = (const float *) (map.data + sizeof (SonarEnergyscapeHeader));
   frame.records = self->records;
   frame.record_stride = stride;
@@ -423,6 +459,8 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
   frame.n_truths = self->truths->len;
   frame.detections = (const SonarRenderPoint *) self->detections->data;
   frame.n_detections = self->detections->len;
+  frame.tracks = (const SonarRenderTrack *) self->tracks->data;
+  frame.n_tracks = self->tracks->len;
   frame.ping = (gint64) ping;
   frame.time = GST_BUFFER_PTS_IS_VALID (scape) ?
       (double) GST_BUFFER_PTS (scape) / GST_SECOND : NAN;
@@ -448,6 +486,9 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
     if (dmeta)
       sonar_buffer_add_detections_meta (*out, dmeta->ping_index,
           dmeta->detections, dmeta->n_detections);
+    if (track_meta && show_tracks)
+      sonar_buffer_add_tracks_meta (*out, track_meta->ping_index,
+          &track_meta->ego, track_meta->tracks, track_meta->n_tracks);
   }
   GST_BUFFER_PTS (*out) = GST_BUFFER_PTS (scape);
   GST_BUFFER_DURATION (*out) = GST_BUFFER_DURATION (scape);
@@ -481,8 +522,8 @@ detections_for_ping (GstSonarViz * self, GstAggregatorPad * pad,
       }
       GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("sonarviz: the detections "
               "pad takes velocityest's output, a SonarDetectionsMeta on "
-              "every buffer (... ! velocityest ! sonarviz.detections)"),
-          (NULL));
+              "every buffer (... ! velocityest ! sonarviz.detections), or "
+              "sonartrack's, which carries it on"), (NULL));
       return GST_FLOW_ERROR;
     }
     if (meta->ping_index < ping) {
@@ -617,6 +658,12 @@ gst_sonar_viz_set_property (GObject * object, guint prop_id,
     case PROP_SHOW_REJECTED:
       self->show_rejected = g_value_get_boolean (value);
       break;
+    case PROP_SHOW_TRACKS:
+      self->show_tracks = g_value_get_boolean (value);
+      break;
+    case PROP_ARROW_TIME:
+      self->arrow_time = g_value_get_double (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -653,6 +700,12 @@ gst_sonar_viz_get_property (GObject * object, guint prop_id, GValue * value,
     case PROP_SHOW_REJECTED:
       g_value_set_boolean (value, self->show_rejected);
       break;
+    case PROP_SHOW_TRACKS:
+      g_value_set_boolean (value, self->show_tracks);
+      break;
+    case PROP_ARROW_TIME:
+      g_value_set_double (value, self->arrow_time);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -668,6 +721,7 @@ gst_sonar_viz_finalize (GObject * object)
   sonar_renderer_free (self->renderer);
   g_array_unref (self->truths);
   g_array_unref (self->detections);
+  g_array_unref (self->tracks);
   G_OBJECT_CLASS (gst_sonar_viz_parent_class)->finalize (object);
 }
 
@@ -687,10 +741,13 @@ gst_sonar_viz_init (GstSonarViz * self)
   self->range_compensation = DEFAULT_RANGE_COMPENSATION;
   self->show_truth = DEFAULT_SHOW_TRUTH;
   self->show_rejected = DEFAULT_SHOW_REJECTED;
+  self->show_tracks = DEFAULT_SHOW_TRACKS;
+  self->arrow_time = DEFAULT_ARROW_TIME;
   self->fps_n = 0;
   self->fps_d = 1;
   self->truths = g_array_new (FALSE, FALSE, sizeof (SonarRenderPoint));
   self->detections = g_array_new (FALSE, FALSE, sizeof (SonarRenderPoint));
+  self->tracks = g_array_new (FALSE, FALSE, sizeof (SonarRenderTrack));
 }
 
 static void
@@ -734,6 +791,18 @@ gst_sonar_viz_class_init (GstSonarVizClass * klass)
       g_param_spec_boolean ("show-rejected", "Show rejected", "Draw the "
           "detections velocityest rejected as false positives too, in grey "
           "(with its keep-rejected=true)", DEFAULT_SHOW_REJECTED, flags));
+  g_object_class_install_property (gobject_class, PROP_SHOW_TRACKS,
+      g_param_spec_boolean ("show-tracks", "Show tracks", "Draw the "
+          "confirmed tracks in magenta when the detections pad takes "
+          "sonartrack's output: a square labelled with the track's id and "
+          "an arrow of its velocity in the world", DEFAULT_SHOW_TRACKS,
+          flags));
+  g_object_class_install_property (gobject_class, PROP_ARROW_TIME,
+      g_param_spec_double ("arrow-time", "Arrow time", "Seconds of motion "
+          "a track's arrow shows: it ends where the track's world velocity "
+          "takes it in this long (0.5: an arrow of 1.5 m at 3 m/s; in the "
+          "3-D map, the direction it turns to)", 0.01, 60.0,
+          DEFAULT_ARROW_TIME, flags));
 
   gst_element_class_add_static_pad_template_with_gtype (element_class,
       &sink_template, GST_TYPE_AGGREGATOR_PAD);
@@ -746,7 +815,8 @@ gst_sonar_viz_class_init (GstSonarVizClass * klass)
       "Draws each ping's energyscape (a fan in metres, or azimuth x "
       "elevation in 3-D) on a dB colour scale with a legend, each detection "
       "labelled with its radial velocity (red approaching, green receding "
-      "or still) and the ground truth ringed, as RGB video",
+      "or still), the ground truth ringed and sonartrack's tracks with "
+      "their ids and velocity arrows, as RGB video",
       "gst-sonar-velocity developers");
 
   element_class->release_pad = GST_DEBUG_FUNCPTR (gst_sonar_viz_release_pad);

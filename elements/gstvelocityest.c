@@ -68,6 +68,8 @@ struct _GstVelocityEst
   gboolean min_agreeing_set;
   gboolean keep_rejected;
   gboolean post_messages;
+  gboolean retune;              /* thresholds changed while playing: at
+                                 * the next ping (object lock) */
 
   guint threads;
 
@@ -142,6 +144,39 @@ gst_velocity_est_unconfigure (GstSonarFilter * filter)
       sonar_velocity_pool_free);
 }
 
+/* Thresholds set while playing take effect at the next ping
+ * (sonar_velocity_pool_retune ()). */
+static void
+retune (GstVelocityEst * self)
+{
+  SonarVelocityParams params;
+  gboolean min_agreeing_set;
+  GError *error = NULL;
+
+  GST_OBJECT_LOCK (self);
+  params = self->params;
+  min_agreeing_set = self->min_agreeing_set;
+  if (!self->retune) {
+    GST_OBJECT_UNLOCK (self);
+    return;
+  }
+  self->retune = FALSE;
+  GST_OBJECT_UNLOCK (self);
+  if (min_agreeing_set && params.min_agreeing_emitters > self->n_emitters) {
+    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("velocityest: "
+            "min-agreeing-emitters is %u, but only %u emitters enter the "
+            "product: the thresholds stay as they were",
+            params.min_agreeing_emitters, self->n_emitters), (NULL));
+    return;
+  }
+  if (!sonar_velocity_pool_retune (self->pool, &params, &error)) {
+    /* The properties' ranges keep the values valid: this would be a bug. */
+    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s", error->message),
+        (NULL));
+    g_error_free (error);
+  }
+}
+
 static void
 add_detection (GstVelocityEst * self, guint centroid,
     const SonarVelocityEstimate * e, GstClockTime ping_time)
@@ -192,6 +227,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   GstMapInfo map;
   char *json;
   guint64 ping;
+  gboolean keep_rejected;
 
   if (!centroids || !spectra || !sonar_band_equal (&spectra->band, band)) {
     GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("An energyscape without "
@@ -201,6 +237,10 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
     return GST_FLOW_ERROR;
   }
   ping = centroids->ping_index;
+  retune (self);
+  GST_OBJECT_LOCK (self);
+  keep_rejected = self->keep_rejected;
+  GST_OBJECT_UNLOCK (self);
   g_array_set_size (self->detections, 0);
   if (centroids->n_centroids > self->capacity) {
     self->capacity = centroids->n_centroids;
@@ -215,7 +255,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   gst_buffer_unmap (spectra->spectra, &map);
   for (guint k = 0; k < centroids->n_centroids; k++)
     for (guint i = 0; i < self->counts[k]; i++)
-      if (self->results[2 * k + i].valid || self->keep_rejected)
+      if (self->results[2 * k + i].valid || keep_rejected)
         add_detection (self, k, &self->results[2 * k + i],
             GST_BUFFER_PTS (buffer));
 
@@ -287,6 +327,8 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
   }
+  if (pspec->flags & GST_PARAM_MUTABLE_PLAYING)
+    self->retune = TRUE;
   GST_OBJECT_UNLOCK (self);
 }
 
@@ -368,6 +410,10 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
   GstSonarFilterClass *filter_class = GST_SONAR_FILTER_CLASS (klass);
   const GParamFlags flags = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
       | GST_PARAM_MUTABLE_READY;
+  /* What sonar_velocity_pool_retune () takes, and keep-rejected: changed
+   * while playing, it holds from the next ping on. */
+  const GParamFlags tunable = G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS
+      | GST_PARAM_MUTABLE_PLAYING;
   SonarVelocityParams d;
 
   sonar_velocity_params_init_default (&d);
@@ -394,20 +440,21 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
       g_param_spec_double ("min-variance", "Minimum variance", "The paper's "
           "false-positive test: a centroid whose normalised Doppler-ACF "
           "product varies less than this is not a reflector", 0.0, 1.0,
-          d.min_variance, flags));
+          d.min_variance, tunable));
   g_object_class_install_property (gobject_class, PROP_MIN_AGREEING_EMITTERS,
       g_param_spec_uint ("min-agreeing-emitters", "Minimum agreeing "
           "emitters", "A reflector needs at least this many emitters whose "
           "own Doppler-ACF curve comes within 3 dB of its maximum within half "
           "a Doppler main lobe of the product's peak; set above the emitters "
           "entering the product, an error at start (the default is lowered "
-          "to their number)", 0, 64, d.min_agreeing_emitters, flags));
+          "to their number; set so while playing, a warning and no "
+          "change)", 0, 64, d.min_agreeing_emitters, tunable));
   g_object_class_install_property (gobject_class, PROP_MIN_COHERENCE,
       g_param_spec_double ("min-coherence", "Minimum coherence", "A "
           "reflector's emitters add up coherently at its velocity: coherence "
           "factor |sum|^2 / (N sum of powers) at least this (true echoes "
           "score above 0.9, cross-talk ridges 0.4-0.7)", 0.0, 1.0,
-          d.min_coherence, flags));
+          d.min_coherence, tunable));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "
           "Doppler-ACF product peak, more than half a Doppler main lobe "
@@ -415,7 +462,7 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "second reflector in the centroid when it stands out of the "
           "product's floor (4 interquartile ranges above its median) and "
           "passes the same tests; each then reports its own range",
-          0.01, 100.0, d.second_peak_db, flags));
+          0.01, 100.0, d.second_peak_db, tunable));
   g_object_class_install_property (gobject_class, PROP_EMITTERS,
       g_param_spec_uint ("emitters", "Emitters", "Only the first this many "
           "emitters' Doppler-ACF curves enter the product and the "
@@ -425,7 +472,7 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
   g_object_class_install_property (gobject_class, PROP_KEEP_REJECTED,
       g_param_spec_boolean ("keep-rejected", "Keep rejected", "Report the "
           "centroids that fail the false-positive tests too, with "
-          "\"valid\": false", DEFAULT_KEEP_REJECTED, flags));
+          "\"valid\": false", DEFAULT_KEEP_REJECTED, tunable));
   g_object_class_install_property (gobject_class, PROP_THREADS,
       g_param_spec_uint ("threads", "Threads", "Workers sharing the "
           "centroids of a ping (0: one per processor); the results do not "

@@ -718,6 +718,19 @@ sonar_imager_process_each (SonarImager * im,
       images, stride);
 }
 
+gboolean
+sonar_imager_set_refine_db (SonarImager * im, double refine_db,
+    GError ** error)
+{
+  if (!(refine_db > 0.0 && refine_db <= 200.0)) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
+        "imager: refine-db must be in (0, 200] dB");
+    return FALSE;
+  }
+  im->refine_ratio = (float) pow (10.0, -refine_db / 20.0);
+  return TRUE;
+}
+
 void
 sonar_imager_last_work (const SonarImager * im, guint * units,
     guint * dense_units, guint * passes, guint * dense_passes)

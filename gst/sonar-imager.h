@@ -92,6 +92,13 @@ void sonar_imager_process_each (SonarImager * imager,
     const SonarHypothesis * hypotheses, int emitter, float *images,
     gsize stride);
 
+/* Takes a new refine level (SonarImagerParams.refine_db) for the next
+ * process (): what can change between pings without allocating. FALSE
+ * with @error (SONAR_ERROR_SETTINGS) when it is out of range, and
+ * @imager is left as it was. */
+gboolean sonar_imager_set_refine_db (SonarImager * imager, double refine_db,
+    GError ** error);
+
 /* The work of the last process () against the dense image's: direction
  * x zone units imaged in full (each a receive sum), and unit x hypothesis
  * passes (each a transmit sum and an inverse transform). */

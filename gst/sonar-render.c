@@ -5,6 +5,7 @@
 
 #include "sonar-render.h"
 #include "sonar-error.h"
+#include "sonar-vec3.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -38,6 +39,7 @@ static const Glyph font[] = {
   {'%', "##... ##..# ...#. ..#.. .#... #..## ...## ....."},
   {'_', "..... ..... ..... ..... ..... ..... ##### ....."},
   {'?', ".###. #...# ....# ...#. ..#.. ..... ..#.. ....."},
+  {'#', ".#.#. .#.#. ##### .#.#. ##### .#.#. .#.#. ....."},
   {'0', ".###. #...# #..## #.#.# ##..# #...# .###. ....."},
   {'1', "..#.. .##.. ..#.. ..#.. ..#.. ..#.. .###. ....."},
   {'2', ".###. #...# ....# ...#. ..#.. .#... ##### ....."},
@@ -129,6 +131,7 @@ static const SonarRgb receding_colour = { 40, 235, 60 };
 static const SonarRgb unknown_colour = { 160, 160, 160 };
 static const SonarRgb truth_colour = { 255, 255, 255 };
 static const SonarRgb background_colour = { 18, 18, 22 };
+static const SonarRgb track_colour = { 255, 60, 255 };
 static const SonarRgb text_colour = { 225, 225, 225 };
 static const SonarRgb axis_colour = { 150, 150, 150 };
 static const SonarRgb label_box_colour = { 0, 0, 0 };
@@ -222,6 +225,38 @@ draw_circle (guint8 * pixels, gsize stride, guint width, guint height,
     }
 }
 
+/* A square outline of half side @half and @thickness (inwards), centred
+ * at (cx, cy). */
+static void
+draw_square (guint8 * pixels, gsize stride, guint width, guint height,
+    double cx, double cy, double half, double thickness, SonarRgb c)
+{
+  const int x0 = (int) lround (cx - half), y0 = (int) lround (cy - half);
+  const int side = (int) lround (2 * half) + 1;
+  const int t = MAX (1, (int) lround (thickness));
+
+  fill_rect (pixels, stride, width, height, x0, y0, side, t, c);
+  fill_rect (pixels, stride, width, height, x0, y0 + side - t, side, t, c);
+  fill_rect (pixels, stride, width, height, x0, y0, t, side, c);
+  fill_rect (pixels, stride, width, height, x0 + side - t, y0, t, side, c);
+}
+
+/* A line @thickness wide from (x0, y0) to (x1, y1), round ends. */
+static void
+draw_line (guint8 * pixels, gsize stride, guint width, guint height,
+    double x0, double y0, double x1, double y1, double thickness,
+    SonarRgb c)
+{
+  const double length = hypot (x1 - x0, y1 - y0);
+  const guint steps = (guint) ceil (2.0 * length);
+
+  for (guint k = 0; k <= steps; k++) {
+    const double t = steps ? (double) k / steps : 0.0;
+    draw_circle (pixels, stride, width, height, x0 + t * (x1 - x0),
+        y0 + t * (y1 - y0), thickness / 2, 0.0, c);
+  }
+}
+
 static const char *
 glyph_rows (char c)
 {
@@ -313,6 +348,18 @@ SonarRgb
 sonar_render_background_colour (void)
 {
   return background_colour;
+}
+
+SonarRgb
+sonar_render_track_colour (void)
+{
+  return track_colour;
+}
+
+void
+sonar_render_track_label (guint64 id, char *text, gsize size)
+{
+  g_snprintf (text, size, "#%" G_GUINT64_FORMAT, id);
 }
 
 SonarRgb
@@ -658,6 +705,20 @@ sonar_renderer_project (const SonarRenderer * r, double range,
       && *py >= r->plot_y && *py < r->plot_y + r->plot_h;
 }
 
+gboolean
+sonar_renderer_project_position (const SonarRenderer * r,
+    const double position[3], double *px, double *py)
+{
+  const SonarVec3 p = sonar_vec3 (position[0], position[1], position[2]);
+  const double range = sonar_vec3_norm (p);
+  double azimuth, elevation;
+
+  if (!(range > 0.0) || !isfinite (range))
+    return FALSE;
+  sonar_vec3_to_direction (p, &azimuth, &elevation);
+  return sonar_renderer_project (r, range, azimuth, elevation, px, py);
+}
+
 /* Drawing ----------------------------------------------------------------*/
 
 /* The cells' amplitudes: the maximum over the records, the cell's image
@@ -833,10 +894,12 @@ draw_title (SonarRenderer * r, const SonarRenderFrame * f, guint8 * pixels,
     const char *text;
     SonarRgb colour;
     gboolean ring;
+    gboolean track;
   } keys[] = {
-    {"approaching", approaching_colour, FALSE},
-    {"receding or still", receding_colour, FALSE},
-    {"truth", truth_colour, TRUE},
+    {"approaching", approaching_colour, FALSE, FALSE},
+    {"receding or still", receding_colour, FALSE, FALSE},
+    {"truth", truth_colour, TRUE, FALSE},
+    {"track", track_colour, FALSE, TRUE},
   };
   int x;
 
@@ -851,20 +914,31 @@ draw_title (SonarRenderer * r, const SonarRenderFrame * f, guint8 * pixels,
   g_snprintf (part, sizeof part, "%u detection%s", f->n_detections,
       f->n_detections == 1 ? "" : "s");
   g_strlcat (title, part, sizeof title);
+  if (f->n_tracks > 0) {
+    g_snprintf (part, sizeof part, "  %u track%s", f->n_tracks,
+        f->n_tracks == 1 ? "" : "s");
+    g_strlcat (title, part, sizeof title);
+  }
   sonar_render_text (pixels, stride, W, H, 4 * (int) s, y, s, text_colour,
       title);
 
   x = (int) W - 4 * (int) s;
   for (int k = G_N_ELEMENTS (keys) - 1; k >= 0; k--) {
-    if (keys[k].ring && f->n_truths == 0)
+    if ((keys[k].ring && f->n_truths == 0)
+        || (keys[k].track && f->n_tracks == 0))
       continue;
     x -= (int) sonar_render_text_width (keys[k].text, s);
     sonar_render_text (pixels, stride, W, H, x, y, s, keys[k].colour,
         keys[k].text);
     x -= 6 * (int) s;
-    /* As drawn on the image: detections in a thick ring, truth thin. */
-    draw_circle (pixels, stride, W, H, x, y + 3.5 * s, 3.0 * s,
-        keys[k].ring ? s : 1.5 * s, keys[k].colour);
+    /* As drawn on the image: detections in a thick ring, truth thin,
+     * tracks in a square. */
+    if (keys[k].track)
+      draw_square (pixels, stride, W, H, x, y + 3.5 * s, 3.0 * s, s,
+          keys[k].colour);
+    else
+      draw_circle (pixels, stride, W, H, x, y + 3.5 * s, 3.0 * s,
+          keys[k].ring ? s : 1.5 * s, keys[k].colour);
     x -= 10 * (int) s;
   }
 }
@@ -893,36 +967,83 @@ take_mark (SonarRenderer * r, const SonarRenderPoint * p)
   g_array_append_val (r->taken, box);
 }
 
-/* A detection's label: right of its marker, else left, above or below,
- * wherever it covers no other label or mark (else right, or left at the
- * frame's edge). */
+/* A track's arrow, pixels: from (sx, sy) on its square's edge to the
+ * tip (tx, ty), the pixel of position + velocity x arrow_time (beyond the
+ * plot too: it is clipped at the frame). FALSE when it has none: it
+ * would end inside the square. */
+static gboolean
+track_arrow (const SonarRenderer * r, const SonarRenderTrack * t,
+    double arrow_time, double *sx, double *sy, double *tx, double *ty)
+{
+  const double s = r->scale, half = SONAR_RENDER_TRACK_HALF_SIDE * s;
+  double tip[3], px, py, length, ux, uy, edge;
+
+  *tx = *ty = NAN;
+  if (!sonar_renderer_project_position (r, t->position, &px, &py))
+    return FALSE;
+  for (guint i = 0; i < 3; i++)
+    tip[i] = t->position[i] + t->velocity[i] * arrow_time;
+  sonar_renderer_project_position (r, tip, tx, ty);
+  length = hypot (*tx - px, *ty - py);
+  if (!isfinite (length) || length == 0.0)
+    return FALSE;
+  ux = (*tx - px) / length;
+  uy = (*ty - py) / length;
+  /* The square's edge is 1 to sqrt 2 half sides away, as the direction
+   * goes. */
+  edge = half / MAX (fabs (ux), fabs (uy));
+  if (length <= edge + s)
+    return FALSE;
+  *sx = px + ux * edge;
+  *sy = py + uy * edge;
+  return TRUE;
+}
+
+/* What a track's mark covers (as take_mark's), and its arrow, so that no
+ * label hides it. */
 static void
-draw_label (SonarRenderer * r, const SonarRenderPoint * d, guint8 * pixels,
-    gsize stride)
+take_track (SonarRenderer * r, const SonarRenderTrack * t, double arrow_time)
+{
+  const int half = (int) ((SONAR_RENDER_TRUTH_RADIUS + 1.0) * r->scale);
+  const int s = (int) r->scale;
+  double px, py, sx, sy, tx, ty;
+  Box box;
+
+  if (!sonar_renderer_project_position (r, t->position, &px, &py))
+    return;
+  box.x = (int) px - half;
+  box.y = (int) py - half;
+  box.w = box.h = 2 * half + 1;
+  g_array_append_val (r->taken, box);
+  if (track_arrow (r, t, arrow_time, &sx, &sy, &tx, &ty)) {
+    /* Small boxes along the shaft, the head's around the tip. */
+    const double length = hypot (tx - sx, ty - sy);
+    const guint n = (guint) ceil (length / (4.0 * s));
+    for (guint k = 0; k <= n; k++) {
+      const double f = (double) k / n;
+      const int w = k == n ? 12 * s : 4 * s;
+      box.x = (int) (sx + f * (tx - sx)) - w / 2;
+      box.y = (int) (sy + f * (ty - sy)) - w / 2;
+      box.w = box.h = w + 1;
+      g_array_append_val (r->taken, box);
+    }
+  }
+}
+
+/* A label at (px, py) (a mark's centre): right of the mark, else left,
+ * above or below, wherever it covers no other label or mark (else right,
+ * or left at the frame's edge), in a black box. */
+static void
+place_label (SonarRenderer * r, double px, double py, const char *label,
+    SonarRgb colour, guint8 * pixels, gsize stride)
 {
   const int s = (int) r->scale, W = (int) r->width, H = (int) r->height;
   const int offset = (int) ((SONAR_RENDER_TRUTH_RADIUS + 2.0) * s);
-  char label[64], range_text[32];
-  SonarRgb colour;
-  double px, py;
   Box candidates[6], box;
   guint chosen = 0;
-  int w;
-
-  if (!sonar_renderer_project (r, d->range, d->azimuth, d->elevation, &px,
-          &py))
-    return;
-  colour = sonar_render_velocity_label (d->radial_velocity, label,
-      sizeof label);
-  if (d->rejected)
-    colour = unknown_colour;
-  if (!r->fan) {
-    /* The map hides the range: say it. */
-    g_snprintf (range_text, sizeof range_text, ", %.2f m", d->range);
-    g_strlcat (label, range_text, sizeof label);
-  }
   /* The box: the text with a margin of one unit. */
-  w = (int) sonar_render_text_width (label, r->scale) + 2 * s;
+  const int w = (int) sonar_render_text_width (label, r->scale) + 2 * s;
+
   {
     const int x = (int) px, y = (int) py, h = 10 * s;
     const Box c[6] = {
@@ -952,6 +1073,77 @@ draw_label (SonarRenderer * r, const SonarRenderPoint * d, guint8 * pixels,
       label_box_colour);
   sonar_render_text (pixels, stride, r->width, r->height, box.x + s,
       box.y + s, r->scale, colour, label);
+}
+
+/* A detection's label: its radial velocity, and its range in the map. */
+static void
+draw_label (SonarRenderer * r, const SonarRenderPoint * d, guint8 * pixels,
+    gsize stride)
+{
+  char label[64], range_text[32];
+  SonarRgb colour;
+  double px, py;
+
+  if (!sonar_renderer_project (r, d->range, d->azimuth, d->elevation, &px,
+          &py))
+    return;
+  colour = sonar_render_velocity_label (d->radial_velocity, label,
+      sizeof label);
+  if (d->rejected)
+    colour = unknown_colour;
+  if (!r->fan) {
+    /* The map hides the range: say it. */
+    g_snprintf (range_text, sizeof range_text, ", %.2f m", d->range);
+    g_strlcat (label, range_text, sizeof label);
+  }
+  place_label (r, px, py, label, colour, pixels, stride);
+}
+
+/* A track's label: its id. */
+static void
+draw_track_label (SonarRenderer * r, const SonarRenderTrack * t,
+    guint8 * pixels, gsize stride)
+{
+  char label[32];
+  double px, py;
+
+  if (!sonar_renderer_project_position (r, t->position, &px, &py))
+    return;
+  sonar_render_track_label (t->id, label, sizeof label);
+  place_label (r, px, py, label, track_colour, pixels, stride);
+}
+
+/* A track's square and its arrow: from the square's edge to the pixel of
+ * position + velocity x arrow_time, a head of two strokes at the tip; all
+ * outlined in black to stand out on the image. */
+static void
+draw_track (SonarRenderer * r, const SonarRenderTrack * t, double arrow_time,
+    guint8 * pixels, gsize stride)
+{
+  const double s = r->scale, half = SONAR_RENDER_TRACK_HALF_SIDE * s;
+  const double head = 5.0 * s, spread = 25.0 * M_PI / 180.0;
+  double px, py, sx, sy, tx, ty;
+
+  if (!sonar_renderer_project_position (r, t->position, &px, &py))
+    return;
+  if (track_arrow (r, t, arrow_time, &sx, &sy, &tx, &ty)) {
+    const double a = atan2 (ty - sy, tx - sx);
+    const double line[3][4] = {
+      {sx, sy, tx, ty},
+      {tx, ty, tx - head * cos (a - spread), ty - head * sin (a - spread)},
+      {tx, ty, tx - head * cos (a + spread), ty - head * sin (a + spread)},
+    };
+    /* Black under magenta, to stand out on the image. */
+    for (guint pass = 0; pass < 2; pass++)
+      for (guint k = 0; k < 3; k++)
+        draw_line (pixels, stride, r->width, r->height, line[k][0],
+            line[k][1], line[k][2], line[k][3], pass ? s : s + 2.0,
+            pass ? track_colour : label_box_colour);
+  }
+  draw_square (pixels, stride, r->width, r->height, px, py, half + 1.0,
+      s + 2.0, label_box_colour);
+  draw_square (pixels, stride, r->width, r->height, px, py, half, s,
+      track_colour);
 }
 
 /* A detection's marker: a ring in its label's colour, outlined in black,
@@ -985,6 +1177,8 @@ sonar_renderer_draw (SonarRenderer * r, const SonarRenderFrame * f,
   const guint s = r->scale;
   const double dynamic_range = f->dynamic_range > 0 ? f->dynamic_range :
       40.0;
+  const double arrow_time = f->arrow_time > 0 ? f->arrow_time :
+      SONAR_RENDER_DEFAULT_ARROW_TIME;
 
   fill_rect (pixels, stride, r->width, r->height, 0, 0, r->width, r->height,
       background_colour);
@@ -1011,8 +1205,14 @@ sonar_renderer_draw (SonarRenderer * r, const SonarRenderFrame * f,
     take_mark (r, &f->truths[k]);
   for (guint k = 0; k < f->n_detections; k++)
     take_mark (r, &f->detections[k]);
+  for (guint k = 0; k < f->n_tracks; k++)
+    take_track (r, &f->tracks[k], arrow_time);
   for (guint k = 0; k < f->n_detections; k++)
     draw_label (r, &f->detections[k], pixels, stride);
+  for (guint k = 0; k < f->n_tracks; k++)
+    draw_track_label (r, &f->tracks[k], pixels, stride);
   for (guint k = 0; k < f->n_detections; k++)
     draw_marker (r, &f->detections[k], pixels, stride);
+  for (guint k = 0; k < f->n_tracks; k++)
+    draw_track (r, &f->tracks[k], arrow_time, pixels, stride);
 }

@@ -16,6 +16,14 @@
  * the printed value, so a red label is always negative and a speed that
  * rounds to zero is printed "0.00" in green, never "-0.00" in red.
  *
+ * Tracks (sonartrack's) in magenta: a square around the track's position
+ * labelled with its id ("#7"), and an arrow of its velocity in the world
+ * from the square to where the track would be arrow_time seconds later
+ * (position + velocity x arrow_time, drawn in the sensor frame): in the
+ * fan an arrow of that many metres, in the map the change of direction
+ * it makes (an object moving along its line of sight has no arrow
+ * there). A still track's arrow is shorter than its square: none.
+ *
  * Frames are packed RGB, 3 bytes a pixel, rows @stride bytes apart (what
  * GStreamer's video/x-raw format=RGB holds). Every layout computation
  * (the projection, the per-pixel look-up into the image) is made once in
@@ -55,6 +63,22 @@ typedef struct
   gboolean rejected;
 } SonarRenderPoint;
 
+/* A track to draw: its identity, the position it refers to (m, sensor
+ * frame: x right, y up, z forward) and its velocity in the world (m/s, on
+ * the sensor's axes). */
+typedef struct
+{
+  guint64 id;
+  double position[3];
+  double velocity[3];
+} SonarRenderTrack;
+
+/* The arrows' default: the way a track goes in this long, s. */
+#define SONAR_RENDER_DEFAULT_ARROW_TIME 0.5
+/* The half side of a track's square, units of sonar_renderer_scale ():
+ * between a detection's ring and the truth's. */
+#define SONAR_RENDER_TRACK_HALF_SIDE 7.0
+
 /* Everything one frame shows. */
 typedef struct
 {
@@ -71,6 +95,10 @@ typedef struct
   guint n_truths;
   const SonarRenderPoint *detections;
   guint n_detections;
+  const SonarRenderTrack *tracks;
+  guint n_tracks;
+  double arrow_time;            /* s, arrows' length in time; <= 0 or NaN:
+                                 * SONAR_RENDER_DEFAULT_ARROW_TIME */
   gint64 ping;                  /* printed in the title; < 0: none */
   double time;                  /* s, printed in the title; NaN: none */
 } SonarRenderFrame;
@@ -84,7 +112,7 @@ SonarRenderer *sonar_renderer_new (const SonarImageGrid * grid, guint width,
 void sonar_renderer_free (SonarRenderer * renderer);
 
 /* Draws the whole frame: background, image, axes, legend, title, truth
- * rings, detections and their labels. @pixels: width x height RGB. */
+ * rings, detections and their labels, tracks with their ids and arrows. @pixels: width x height RGB. */
 void sonar_renderer_draw (SonarRenderer * renderer,
     const SonarRenderFrame * frame, guint8 * pixels, gsize stride);
 
@@ -93,6 +121,14 @@ void sonar_renderer_draw (SonarRenderer * renderer,
  * falls outside the image's area (then it is not marked). */
 gboolean sonar_renderer_project (const SonarRenderer * renderer,
     double range, double azimuth, double elevation, double *px, double *py);
+
+/* Where a track at @position (m, sensor frame) is drawn, as
+ * sonar_renderer_project () says for its range and direction. */
+gboolean sonar_renderer_project_position (const SonarRenderer * renderer,
+    const double position[3], double *px, double *py);
+
+/* The label of a track ("#7") into @text. */
+void sonar_render_track_label (guint64 id, char *text, gsize size);
 
 /* The size of text and marks: 1 up to 1119 x 639 pixels, 2 from
  * 1120 x 640 (1280 x 720), and so on. */
@@ -116,6 +152,7 @@ SonarRgb sonar_render_receding_colour (void);
 SonarRgb sonar_render_truth_colour (void);
 SonarRgb sonar_render_rejected_colour (void);
 SonarRgb sonar_render_background_colour (void);
+SonarRgb sonar_render_track_colour (void);
 
 /* The colour map: level 0 (the bottom of the dynamic range) to 1 (the
  * maximum). */
@@ -123,7 +160,7 @@ SonarRgb sonar_render_colour_map (double level);
 
 /* Text in the built-in 5 x 8 pixel font, @scale times larger, top-left
  * corner at (x, y), clipped to the frame: letters, digits, space and
- * + - . , / : ( ) = % _ ?; any other character is drawn as a box.
+ * + - . , / : ( ) = % _ ? #; any other character is drawn as a box.
  * Returns the width drawn, pixels. */
 guint sonar_render_text (guint8 * pixels, gsize stride, guint width,
     guint height, int x, int y, guint scale, SonarRgb colour,

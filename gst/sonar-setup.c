@@ -92,6 +92,20 @@ sonar_geometry_field_of_view (const SonarGeometry * geometry)
       : SONAR_FIELD_OF_VIEW_FAN;
 }
 
+gboolean
+sonar_geometry_is_planar (const SonarGeometry * g)
+{
+  const double tolerance = 1e-6;
+
+  for (guint i = 0; i < g->n_microphones; i++)
+    if (fabs (g->microphones[i].z) > tolerance)
+      return FALSE;
+  for (guint i = 0; i < g->n_emitters; i++)
+    if (fabs (g->emitters[i].z) > tolerance)
+      return FALSE;
+  return TRUE;
+}
+
 static const char *const field_of_view_names[] = { "fan", "hemisphere" };
 
 const char *

@@ -113,6 +113,11 @@ gboolean sonar_geometry_validate (const SonarGeometry * geometry,
 SonarFieldOfView sonar_geometry_field_of_view (const SonarGeometry *
     geometry);
 
+/* TRUE when every element lies in the x-y plane (within 1 um): such an
+ * array cannot tell a direction in front from its mirror image behind
+ * (sonar-egomotion.h, sonar-track.h). */
+gboolean sonar_geometry_is_planar (const SonarGeometry * geometry);
+
 const char *sonar_field_of_view_to_string (SonarFieldOfView view);
 /* FALSE for a name that is not "fan" or "hemisphere". */
 gboolean sonar_field_of_view_from_string (const char *name,

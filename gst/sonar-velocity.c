@@ -87,6 +87,22 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->emitters = 0;
 }
 
+static gboolean
+params_valid (const SonarVelocityParams * params, GError ** error)
+{
+  if (params->window_directions > 32
+      || params->window_ranges > MAX_WINDOW_RANGES
+      || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)
+      || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
+        "velocity: window half-widths must be at most 32 directions and 256 "
+        "range steps, second-peak-db positive, min-variance >= 0 and "
+        "min-coherence in [0, 1]");
+    return FALSE;
+  }
+  return TRUE;
+}
+
 SonarVelocityEstimator *
 sonar_velocity_estimator_new (SonarDopplerBank * bank,
     const SonarImageGrid * grid, const SonarVelocityParams * params,
@@ -101,16 +117,8 @@ sonar_velocity_estimator_new (SonarDopplerBank * bank,
         "velocity: the Doppler bank has no band spectra");
     return NULL;
   }
-  if (params->window_directions > 32
-      || params->window_ranges > MAX_WINDOW_RANGES
-      || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)
-      || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)) {
-    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
-        "velocity: window half-widths must be at most 32 directions and 256 "
-        "range steps, second-peak-db positive, min-variance >= 0 and "
-        "min-coherence in [0, 1]");
+  if (!params_valid (params, error))
     return NULL;
-  }
   setup = sonar_doppler_bank_get_setup (bank);
   if (params->emitters > setup->geometry.n_emitters) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
@@ -924,6 +932,46 @@ sonar_velocity_pool_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
 failed:
   sonar_velocity_pool_free (pool);
   return NULL;
+}
+
+gboolean
+sonar_velocity_estimator_retune (SonarVelocityEstimator * est,
+    const SonarVelocityParams * params, GError ** error)
+{
+  SonarVelocityParams tuned = est->params;
+
+  g_return_val_if_fail (est && params, FALSE);
+  if (params->window_directions != est->params.window_directions
+      || params->window_ranges != est->params.window_ranges
+      || !params->refine != !est->params.refine
+      || params->emitters != est->params.emitters) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, "velocity: "
+        "window-directions, window-ranges, refine and emitters are set when "
+        "the estimator is made, not between pings");
+    return FALSE;
+  }
+  tuned.min_variance = params->min_variance;
+  tuned.min_agreeing_emitters = params->min_agreeing_emitters;
+  tuned.min_coherence = params->min_coherence;
+  tuned.second_peak_db = params->second_peak_db;
+  if (!params_valid (&tuned, error))
+    return FALSE;
+  est->params = tuned;
+  return TRUE;
+}
+
+gboolean
+sonar_velocity_pool_retune (SonarVelocityPool * pool,
+    const SonarVelocityParams * params, GError ** error)
+{
+  const guint n = sonar_workers_count (pool->workers);
+
+  /* All or none: the first estimator checks for every one. */
+  if (!sonar_velocity_estimator_retune (pool->estimators[0], params, error))
+    return FALSE;
+  for (guint w = 1; w < n; w++)
+    sonar_velocity_estimator_retune (pool->estimators[w], params, NULL);
+  return TRUE;
 }
 
 void

@@ -82,6 +82,14 @@ SonarVelocityEstimator *sonar_velocity_estimator_new (SonarDopplerBank * bank,
     GError ** error);
 void sonar_velocity_estimator_free (SonarVelocityEstimator * est);
 
+/* Takes @params' thresholds (min_variance, min_agreeing_emitters,
+ * min_coherence, second_peak_db) for the next estimate: what can change
+ * between pings without allocating. The other fields must be those @est
+ * was made with; FALSE with @error (SONAR_ERROR_SETTINGS) when they are
+ * not, or when a value is out of range, and @est is left as it was. */
+gboolean sonar_velocity_estimator_retune (SonarVelocityEstimator * est,
+    const SonarVelocityParams * params, GError ** error);
+
 /* Estimates at @centroid (its range, direction and members' span of
  * ranges; for a point, range_min = range_max = range) from @mic_spectra
  * (n_microphones x n_bins on the bank's band). Writes 1 or 2 estimates (2
@@ -111,6 +119,10 @@ SonarVelocityPool *sonar_velocity_pool_new (SonarDopplerBank * bank,
     const SonarImageGrid * grid, const SonarVelocityParams * params,
     guint n_threads, GError ** error);
 void sonar_velocity_pool_free (SonarVelocityPool * pool);
+/* sonar_velocity_estimator_retune () on every worker's estimator, between
+ * estimates (not while one runs). */
+gboolean sonar_velocity_pool_retune (SonarVelocityPool * pool,
+    const SonarVelocityParams * params, GError ** error);
 
 /* Estimates at every centroid: results[2 k ..] receive counts[k] (0 to 2)
  * estimates of centroid k; an echo that an earlier centroid already

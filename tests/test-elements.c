@@ -1150,6 +1150,220 @@ test_tune_while_playing (void)
   g_assert_true (visible);
 }
 
+/* The checksum of each output buffer of @launch (with "%s" for the
+ * properties of its element "e", given @props, and ending in "appsink
+ * name=sink"): TUNE_PINGS of them. With @tune ("name=value ..."), those
+ * properties are set on "e" once the first ping is out. */
+static void
+output_sums (const char *launch_format, const char *props, const char *tune,
+    char *sums[TUNE_PINGS])
+{
+  GError *error = NULL;
+  g_autofree char *launch = g_strdup_printf (launch_format, props);
+  GstElement *pipeline = gst_parse_launch (launch, &error);
+  GstElement *sink, *element;
+  GstSample *sample;
+  guint pings = 0;
+
+  g_assert_no_error (error);
+  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  element = gst_bin_get_by_name (GST_BIN (pipeline), "e");
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    GstMapInfo map;
+
+    g_assert_cmpuint (pings, <, TUNE_PINGS);
+    gst_buffer_map (gst_sample_get_buffer (sample), &map, GST_MAP_READ);
+    sums[pings++] = g_compute_checksum_for_data (G_CHECKSUM_SHA256,
+        map.data, map.size);
+    gst_buffer_unmap (gst_sample_get_buffer (sample), &map);
+    gst_sample_unref (sample);
+    if (tune && pings == 1) {
+      g_auto (GStrv) settings = g_strsplit (tune, " ", -1);
+      for (guint k = 0; settings[k]; k++) {
+        g_auto (GStrv) pair = g_strsplit (settings[k], "=", 2);
+        gst_util_set_object_arg (G_OBJECT (element), pair[0], pair[1]);
+      }
+    }
+  }
+  g_assert_cmpuint (pings, ==, TUNE_PINGS);
+  {
+    GstBus *bus = gst_element_get_bus (pipeline);
+    GstMessage *msg = gst_bus_pop_filtered (bus, GST_MESSAGE_ERROR |
+        GST_MESSAGE_WARNING);
+    if (msg) {
+      gst_message_parse_warning (msg, &error, NULL);
+      g_test_message ("%s", error->message);
+      g_assert_no_error (error);
+    }
+    gst_object_unref (bus);
+  }
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (element);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
+/* As wardcluster's: @tune set on element "e" of @launch_format while
+ * playing gives, from the next ping on (a ping or two in flight aside),
+ * the very output of a run started with it, and an output other than the
+ * defaults'. */
+static void
+check_tunable (const char *launch_format, const char *base,
+    const char *tune)
+{
+  g_autofree char *started = g_strdup_printf ("%s %s", base, tune);
+  char *tuned[TUNE_PINGS], *at_default[TUNE_PINGS], *reference[TUNE_PINGS];
+  gboolean visible = FALSE;
+
+  g_test_message ("%s: %s", base, tune);
+  output_sums (launch_format, base, tune, tuned);
+  output_sums (launch_format, base, NULL, at_default);
+  output_sums (launch_format, started, NULL, reference);
+  g_assert_cmpstr (tuned[0], ==, at_default[0]);
+  for (guint p = 3; p < TUNE_PINGS; p++) {
+    g_assert_cmpstr (tuned[p], ==, reference[p]);
+    visible |= g_strcmp0 (reference[p], at_default[p]) != 0;
+  }
+  g_assert_true (visible);
+  for (guint p = 0; p < TUNE_PINGS; p++) {
+    g_free (tuned[p]);
+    g_free (at_default[p]);
+    g_free (reference[p]);
+  }
+}
+
+#define TUNE_CHAIN "sonarsrc num-buffers=6 ! dopplerbank velocity-min=-1.5 " \
+  "velocity-max=1.5 ! mimobeamform "
+
+/* velocityest's thresholds and keep-rejected: the JSON lines (detections,
+ * their velocities and "valid") of a run started with them. min-variance
+ * 0.9 rejects the default scene's three objects, min-coherence 0.999
+ * too; kept, they are reported with "valid": false. */
+static void
+test_tune_velocityest (void)
+{
+  const char *launch = TUNE_CHAIN "! wardcluster ! velocityest name=e %s "
+      "! appsink name=sink sync=false max-buffers=1";
+
+  check_tunable (launch, "", "min-variance=0.9");
+  check_tunable (launch, "", "min-coherence=0.999");
+  check_tunable (launch, "", "min-variance=0.9 keep-rejected=true");
+  check_tunable (launch, "min-variance=0.9", "keep-rejected=true");
+}
+
+/* velocityest: min-agreeing-emitters above the emitters while playing is a
+ * warning, and the thresholds stay. */
+static void
+test_tune_velocityest_refused (void)
+{
+  GstElement *pipeline = gst_parse_launch (TUNE_CHAIN "! wardcluster "
+      "! velocityest name=e ! appsink name=sink sync=false max-buffers=1",
+      NULL);
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstElement *e = gst_bin_get_by_name (GST_BIN (pipeline), "e");
+  GstBus *bus = gst_element_get_bus (pipeline);
+  GstSample *sample;
+  GstMessage *msg;
+  GError *error = NULL;
+  guint pings = 0, valid = 0;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    SonarDetectionsMeta *meta = sonar_buffer_get_detections_meta
+        (gst_sample_get_buffer (sample));
+    for (guint k = 0; k < meta->n_detections; k++)
+      valid += meta->detections[k].valid;
+    if (pings++ == 0)
+      g_object_set (e, "min-agreeing-emitters", 9, NULL);
+    gst_sample_unref (sample);
+  }
+  g_assert_cmpuint (pings, ==, TUNE_PINGS);
+  g_assert_cmpuint (valid, ==, 3 * TUNE_PINGS);
+  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING);
+  g_assert_nonnull (msg);
+  gst_message_parse_warning (msg, &error, NULL);
+  g_assert_cmpstr (error->message, ==, "velocityest: min-agreeing-emitters "
+      "is 9, but only 8 emitters enter the product: the thresholds stay as "
+      "they were");
+  g_error_free (error);
+  gst_message_unref (msg);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (e);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
+/* mimobeamform's refine-db, velocity (mode=fixed) and emitter: the
+ * images of a run started with them. */
+static void
+test_tune_mimobeamform (void)
+{
+  const char *launch = "sonarsrc num-buffers=6 ! dopplerbank "
+      "velocity-min=-1.5 velocity-max=1.5 ! mimobeamform name=e %s "
+      "! appsink name=sink sync=false max-buffers=1";
+
+  check_tunable (launch, "", "refine-db=5");
+  check_tunable (launch, "mode=fixed", "velocity=-1");
+  check_tunable (launch, "", "emitter=3");
+}
+
+/* mimobeamform: a velocity outside the bank (mode=fixed) while playing is
+ * a warning, and the image stays at the velocity it had. */
+static void
+test_tune_mimobeamform_refused (void)
+{
+  GstElement *pipeline = gst_parse_launch ("sonarsrc num-buffers=4 "
+      "! dopplerbank velocity-min=-1.5 velocity-max=1.5 ! mimobeamform "
+      "name=e mode=fixed velocity=0.5 ! appsink name=sink sync=false "
+      "max-buffers=1", NULL);
+  GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  GstElement *e = gst_bin_get_by_name (GST_BIN (pipeline), "e");
+  GstBus *bus = gst_element_get_bus (pipeline);
+  GstSample *sample;
+  GstMessage *msg;
+  GError *error = NULL;
+  guint pings = 0;
+
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
+    SonarEnergyscapeHeader header;
+    gst_buffer_extract (gst_sample_get_buffer (sample), 0, &header,
+        sizeof header);
+    g_assert_cmpfloat (fabs (header.velocity - 0.5), <, 1e-9);
+    if (pings++ == 0)
+      g_object_set (e, "velocity", 9.0, NULL);
+    gst_sample_unref (sample);
+  }
+  g_assert_cmpuint (pings, ==, 4);
+  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING);
+  g_assert_nonnull (msg);
+  gst_message_parse_warning (msg, &error, NULL);
+  g_assert_cmpstr (error->message, ==, "mimobeamform: velocity 9 m/s is "
+      "outside the Doppler bank (-1.5 to 1.5 m/s): the image stays as it "
+      "was");
+  g_error_free (error);
+  gst_message_unref (msg);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (e);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+}
+
+/* sonarviz's display settings: the frames of a run started with them. */
+static void
+test_tune_sonarviz (void)
+{
+  const char *launch = TUNE_CHAIN "! sonarviz name=e width=320 height=180 "
+      "%s ! appsink name=sink sync=false max-buffers=1";
+
+  check_tunable (launch, "", "dynamic-range=10");
+  check_tunable (launch, "", "range-compensation=false");
+  check_tunable (launch, "", "show-truth=false");
+}
+
 int
 main (int argc, char **argv)
 {
@@ -1165,6 +1379,13 @@ main (int argc, char **argv)
   g_test_add_func ("/elements/recording-formats", test_recording_formats);
   g_test_add_func ("/elements/datacube", test_datacube);
   g_test_add_func ("/elements/tune-while-playing", test_tune_while_playing);
+  g_test_add_func ("/elements/tune-velocityest", test_tune_velocityest);
+  g_test_add_func ("/elements/tune-velocityest-refused",
+      test_tune_velocityest_refused);
+  g_test_add_func ("/elements/tune-mimobeamform", test_tune_mimobeamform);
+  g_test_add_func ("/elements/tune-mimobeamform-refused",
+      test_tune_mimobeamform_refused);
+  g_test_add_func ("/elements/tune-sonarviz", test_tune_sonarviz);
   g_test_add_func ("/elements/allocation-from-downstream",
       test_allocation_from_downstream);
   return g_test_run ();

@@ -126,7 +126,7 @@ test_mark_colours (void)
   const SonarRgb marks[] = {
     sonar_render_approaching_colour (), sonar_render_receding_colour (),
     sonar_render_truth_colour (), sonar_render_background_colour (),
-    sonar_render_rejected_colour (),
+    sonar_render_rejected_colour (), sonar_render_track_colour (),
   };
 
   for (guint k = 0; k < G_N_ELEMENTS (marks); k++) {
@@ -302,6 +302,154 @@ test_marks (void)
   sonar_renderer_free (r);
 }
 
+/* Does @text appear in @c at scale @scale, its top-left corner within
+ * @radius pixels of (cx, cy)? Its ink in @c, the paper between in
+ * another colour. */
+static gboolean
+find_text (const guint8 * pixels, gsize stride, guint width, guint height,
+    const char *text, guint scale, SonarRgb c, double cx, double cy,
+    int radius)
+{
+  const guint tw = sonar_render_text_width (text, scale), th = 8 * scale;
+  guint8 *ink = g_new0 (guint8, (gsize) tw * th * 3);
+  const SonarRgb white = { 255, 255, 255 };
+  gboolean found = FALSE;
+
+  sonar_render_text (ink, tw * 3, tw, th, 0, 0, scale, white, text);
+  for (int y0 = (int) cy - radius; !found && y0 <= (int) cy + radius; y0++)
+    for (int x0 = (int) cx - radius; !found && x0 <= (int) cx + radius;
+        x0++) {
+      gboolean match = x0 >= 0 && y0 >= 0 && x0 + tw <= width
+          && y0 + th <= height;
+      for (guint j = 0; match && j < th; j++)
+        for (guint i = 0; match && i < tw; i++) {
+          const gboolean is_ink = ink[((gsize) j * tw + i) * 3] == 255;
+          match = rgb_equal (pixel_at (pixels, stride, x0 + i, y0 + j), c)
+              == is_ink;
+        }
+      found = match;
+    }
+  g_free (ink);
+  return found;
+}
+
+/* Tracks: a magenta square at the track's position, its id beside it, an
+ * arrow to where it goes in arrow_time seconds (in the fan, metres; in
+ * the map, the direction it turns to); a still track has no arrow. */
+static void
+test_tracks (void)
+{
+  SonarImageGrid g = fan_grid ();
+  SonarRenderer *r = sonar_renderer_new (&g, W, H, NULL);
+  const SonarRgb magenta = sonar_render_track_colour ();
+  const SonarRenderTrack tracks[] = {
+    {7, {1.0, 0.0, 2.0}, {1.0, 0.0, -1.0}},
+    {12, {-1.5, 0.0, 3.0}, {0.0, 0.0, 0.0}},
+  };
+  SonarRenderFrame f = {
+    .records = 1,.dynamic_range = 40.0,.ping = 4,.time = NAN,
+    .tracks = tracks,.n_tracks = 2,.arrow_time = 0.5,
+  };
+  guint8 *pixels = g_new (guint8, (gsize) W * H * 3);
+  const double s = sonar_renderer_scale (r);
+  const double half = SONAR_RENDER_TRACK_HALF_SIDE * s;
+  const double tip_half[3] = { 1.5, 0.0, 1.5 }, tip_one[3] = { 2.0, 0.0,
+    1.0
+  }, mid[3] = { 1.25, 0.0, 1.75 };
+  double px, py, x, y;
+
+  g_assert_false (in_colour_map (magenta));
+  sonar_renderer_draw (r, &f, pixels, (gsize) W * 3);
+  for (guint k = 0; k < 2; k++) {
+    g_assert_true (sonar_renderer_project_position (r, tracks[k].position,
+            &px, &py));
+    /* The square's four sides; the track's own pixel is the image's. */
+    g_assert_true (near_colour (pixels, W * 3, px - half, py, magenta));
+    g_assert_true (near_colour (pixels, W * 3, px + half, py, magenta));
+    g_assert_true (near_colour (pixels, W * 3, px, py - half, magenta));
+    g_assert_true (near_colour (pixels, W * 3, px, py + half, magenta));
+    g_assert_false (near_colour (pixels, W * 3, px, py, magenta));
+    /* The id beside it, and no other. */
+    g_assert_true (find_text (pixels, W * 3, W, H, k ? "#12" : "#7", s,
+            magenta, px, py, 60));
+    g_assert_false (find_text (pixels, W * 3, W, H, k ? "#13" : "#8", s,
+            magenta, px, py, 60));
+  }
+  /* Track 7's arrow: 0.5 s at (1, 0, -1) m/s ends 0.5 m right, 0.5 m
+   * nearer; halfway the shaft; the way to 1 s is not drawn. */
+  g_assert_true (sonar_renderer_project_position (r, tip_half, &x, &y));
+  g_assert_true (near_colour (pixels, W * 3, x, y, magenta));
+  g_assert_true (sonar_renderer_project_position (r, mid, &x, &y));
+  g_assert_true (near_colour (pixels, W * 3, x, y, magenta));
+  g_assert_true (sonar_renderer_project_position (r, tip_one, &x, &y));
+  g_assert_false (near_colour (pixels, W * 3, x, y, magenta));
+  /* Twice the time, twice the arrow. */
+  f.arrow_time = 1.0;
+  sonar_renderer_draw (r, &f, pixels, (gsize) W * 3);
+  g_assert_true (near_colour (pixels, W * 3, x, y, magenta));
+  /* The still track: nothing magenta outside its square but its label. */
+  {
+    guint magenta_below = 0;
+    g_assert_true (sonar_renderer_project_position (r, tracks[1].position,
+            &px, &py));
+    /* Its label is placed to the right; left, above and below are
+     * clear. */
+    for (int d = (int) half + 3; d < 60; d++)
+      magenta_below += rgb_equal (pixel_at (pixels, W * 3, px, py + d),
+          magenta) + rgb_equal (pixel_at (pixels, W * 3, px - d, py),
+          magenta);
+    g_assert_cmpuint (magenta_below, ==, 0);
+  }
+  sonar_renderer_free (r);
+
+  /* The map: a track at 20 degrees moving to +x turns right (azimuth
+   * grows), one moving along its line of sight has no arrow. */
+  {
+    SonarImageGrid m = {
+      .n_azimuth = 91,.azimuth_first = -90,.azimuth_step = 2,
+      .n_elevation = 91,.elevation_first = -90,.elevation_step = 2,
+      .n_range = 300,.range_first = 0.3,.range_step = 0.01,
+    };
+    const double az = 20.0 * M_PI / 180, el = -10.0 * M_PI / 180;
+    const double u[3] = { cos (el) * sin (az), sin (el), cos (el) * cos (az) };
+    SonarRenderTrack map_tracks[2] = {
+      {3, {1.5 * u[0], 1.5 * u[1], 1.5 * u[2]}, {1.0, 0.0, 0.0}},
+      {4, {2.5 * u[0] * -1, 2.5 * u[1], 2.5 * u[2]},
+          {-1.0 * u[0], 1.0 * u[1], 1.0 * u[2]}},
+    };
+    double tip[3];
+
+    r = sonar_renderer_new (&m, W, H, NULL);
+    f.tracks = map_tracks;
+    f.arrow_time = 0.5;
+    sonar_renderer_draw (r, &f, pixels, (gsize) W * 3);
+    g_assert_true (sonar_renderer_project_position (r,
+            map_tracks[0].position, &px, &py));
+    g_assert_true (near_colour (pixels, W * 3, px + half, py, magenta));
+    g_assert_true (find_text (pixels, W * 3, W, H, "#3", s, magenta, px,
+            py, 60));
+    for (guint i = 0; i < 3; i++)
+      tip[i] = map_tracks[0].position[i] + 0.5 * map_tracks[0].velocity[i];
+    g_assert_true (sonar_renderer_project_position (r, tip, &x, &y));
+    /* 0.5 m across at 1.5 m: about 18 degrees to the right. */
+    g_assert_cmpfloat (x - px, >, 30);
+    g_assert_true (near_colour (pixels, W * 3, x, y, magenta));
+    /* Track 4 moves away along its line of sight: no arrow below or
+     * left of its square (its label goes right). */
+    g_assert_true (sonar_renderer_project_position (r,
+            map_tracks[1].position, &px, &py));
+    g_assert_true (near_colour (pixels, W * 3, px - half, py, magenta));
+    for (int d = (int) half + 3; d < 40; d++) {
+      g_assert_false (rgb_equal (pixel_at (pixels, W * 3, px - d, py),
+              magenta));
+      g_assert_false (rgb_equal (pixel_at (pixels, W * 3, px, py + d),
+              magenta));
+    }
+    sonar_renderer_free (r);
+  }
+  g_free (pixels);
+}
+
 /* 3-D: azimuth x elevation, elevation up, the maximum over range. */
 static void
 test_map (void)
@@ -440,6 +588,7 @@ main (int argc, char **argv)
   g_test_add_func ("/render/fan-image", test_fan_image);
   g_test_add_func ("/render/marks", test_marks);
   g_test_add_func ("/render/map", test_map);
+  g_test_add_func ("/render/tracks", test_tracks);
   g_test_add_func ("/render/text", test_text);
   g_test_add_func ("/render/errors", test_errors);
   g_test_add_func ("/render/odd-images", test_odd_images);

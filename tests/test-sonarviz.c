@@ -41,6 +41,8 @@ typedef struct
   SonarTruth *truths;
   guint n_truths;
   guint n_detections;
+  SonarTrack *tracks;
+  guint n_tracks;
   guint64 ping;
   GstClockTime pts;
   SonarImageGrid grid;
@@ -51,6 +53,7 @@ frame_clear (Frame * f)
 {
   g_free (f->pixels);
   g_free (f->truths);
+  g_free (f->tracks);
 }
 
 /* Runs @launch (ending in "appsink name=sink") and keeps its frames. */
@@ -78,6 +81,7 @@ pull_frames (const char *launch)
     GstCaps *scape_caps = gst_pad_get_current_caps (pad);
     SonarTruthMeta *truth = sonar_buffer_get_truth_meta (buffer);
     SonarDetectionsMeta *dets = sonar_buffer_get_detections_meta (buffer);
+    SonarTracksMeta *tracks = sonar_buffer_get_tracks_meta (buffer);
     GstStructure *s = gst_caps_get_structure (caps, 0);
     Frame f = { 0 };
     GstMapInfo map;
@@ -103,6 +107,11 @@ pull_frames (const char *launch)
       f.n_truths = truth->n_truths;
     }
     f.n_detections = dets ? dets->n_detections : 0;
+    if (tracks) {
+      f.tracks = g_memdup2 (tracks->tracks, sizeof (SonarTrack) *
+          tracks->n_tracks);
+      f.n_tracks = tracks->n_tracks;
+    }
     f.ping = GST_BUFFER_OFFSET (buffer);
     f.pts = GST_BUFFER_PTS (buffer);
     g_array_append_val (frames, f);
@@ -284,6 +293,116 @@ test_fig9 (void)
   g_free (launch);
 }
 
+/* Does @text appear in @c, its top-left corner within @radius pixels of
+ * (cx, cy)? Its ink in @c, the paper between in another colour. */
+static gboolean
+find_text (const Frame * f, const char *text, guint scale, SonarRgb c,
+    double cx, double cy, int radius)
+{
+  const guint tw = sonar_render_text_width (text, scale), th = 8 * scale;
+  guint8 *ink = g_new0 (guint8, (gsize) tw * th * 3);
+  const SonarRgb white = { 255, 255, 255 };
+  gboolean found = FALSE;
+
+  sonar_render_text (ink, tw * 3, tw, th, 0, 0, scale, white, text);
+  for (int y0 = (int) cy - radius; !found && y0 <= (int) cy + radius; y0++)
+    for (int x0 = (int) cx - radius; !found && x0 <= (int) cx + radius;
+        x0++) {
+      gboolean match = x0 >= 0 && y0 >= 0 && x0 + tw <= f->width
+          && y0 + th <= f->height;
+      for (guint j = 0; match && j < th; j++)
+        for (guint i = 0; match && i < tw; i++)
+          match = rgb_equal (pixel (f, x0 + i, y0 + j), c) ==
+              (ink[((gsize) j * tw + i) * 3] == 255);
+      found = match;
+    }
+  g_free (ink);
+  return found;
+}
+
+/* The track of true object @t in @f: a confirmed track within 0.1 m,
+ * drawn as a magenta square around it with its id beside it; for a mover
+ * (@arrow_time > 0), an arrow ending where the truth's velocity (relative
+ * to the still sensor: the world's) takes it in @arrow_time. */
+static void
+check_track (const Frame * f, SonarRenderer * r, const SonarTruth * t,
+    double arrow_time)
+{
+  const SonarRgb magenta = sonar_render_track_colour ();
+  const double half = SONAR_RENDER_TRACK_HALF_SIDE * sonar_renderer_scale
+      (r);
+  const double p[3] = { t->position.x, t->position.y, t->position.z };
+  const double tip[3] = { p[0] + t->velocity.x * arrow_time,
+    p[1] + t->velocity.y * arrow_time, p[2] + t->velocity.z * arrow_time
+  };
+  const SonarTrack *track = NULL;
+  char label[32];
+  double px, py, tx, ty, nearest = INFINITY;
+
+  for (guint q = 0; q < f->n_tracks; q++) {
+    const double d = sonar_vec3_norm (sonar_vec3_sub (f->tracks[q].position,
+            t->position));
+    if (f->tracks[q].state == SONAR_TRACK_CONFIRMED && d < nearest) {
+      nearest = d;
+      track = &f->tracks[q];
+    }
+  }
+  g_assert_nonnull (track);
+  g_assert_cmpfloat (nearest, <, 0.1);
+  g_assert_true (sonar_renderer_project_position (r, p, &px, &py));
+  g_test_message ("track #%" G_GUINT64_FORMAT " %.3f m from its object, "
+      "drawn at (%.0f, %.0f)", track->id, nearest, px, py);
+  /* Its square (to a pixel or two: the track is within centimetres). */
+  g_assert_cmpuint (count_colour (f, px - half, py, 3, magenta), >, 0);
+  g_assert_cmpuint (count_colour (f, px + half, py, 3, magenta), >, 0);
+  sonar_render_track_label (track->id, label, sizeof label);
+  g_assert_true (find_text (f, label, sonar_renderer_scale (r), magenta,
+          px, py, 80));
+  if (arrow_time <= 0)
+    return;
+  /* The arrow's tip: 0.05 m/s of velocity error is 2 cm. */
+  sonar_renderer_project_position (r, tip, &tx, &ty);
+  g_test_message ("  mover at %.2f m/s: tip at (%.0f, %.0f)",
+      sonar_vec3_norm (t->velocity), tx, ty);
+  g_assert_cmpuint (count_colour (f, tx, ty, 4, magenta), >, 0);
+  g_assert_cmpfloat (hypot (tx - px, ty - py), >, 3 * half);
+}
+
+/* Tracks (sonartrack's output on the detections pad), Fig. 9 world after
+ * 10 pings: each object has a confirmed track, drawn as a magenta square
+ * at the object with its id beside it; each mover's arrow ends where the
+ * truth's velocity takes it in arrow-time (the still sensor's relative
+ * velocity is the world's). */
+static void
+test_tracks (void)
+{
+  const double arrow_time = 0.4;
+  char *launch = g_strdup_printf ("sonarsrc scene=fig9 num-buffers=10 "
+      "! dopplerbank " SMALL_FIG9_BANK " ! mimobeamform ! wardcluster "
+      "! tee name=t sonarviz name=viz width=960 height=540 arrow-time=%g "
+      "! appsink name=sink sync=false t. ! queue ! viz.sink "
+      "t. ! queue ! velocityest ! sonartrack ! viz.detections", arrow_time);
+  GArray *frames = pull_frames (launch);
+  const Frame *f;
+  SonarRenderer *r;
+  guint movers = 0;
+
+  g_assert_cmpuint (frames->len, ==, 10);
+  f = &g_array_index (frames, Frame, 9);
+  r = sonar_renderer_new (&f->grid, f->width, f->height, NULL);
+  g_assert_cmpuint (f->n_truths, ==, 6);
+  g_assert_cmpuint (f->n_tracks, >=, 6);
+  for (guint k = 0; k < f->n_truths; k++) {
+    const gboolean mover = sonar_vec3_norm (f->truths[k].velocity) >= 0.5;
+    check_track (f, r, &f->truths[k], mover ? arrow_time : 0.0);
+    movers += mover;
+  }
+  g_assert_cmpuint (movers, ==, 2);
+  sonar_renderer_free (r);
+  frames_free (frames);
+  g_free (launch);
+}
+
 /* A 3-D scene: the azimuth x elevation map, each object at its
  * direction. */
 static void
@@ -305,6 +424,38 @@ test_3d (void)
   g_assert_cmpuint (f->n_truths, ==, 4);
   g_assert_cmpuint (f->n_detections, ==, 4);
   check_objects (f, 0.75);
+  frames_free (frames);
+  g_free (launch);
+  g_free (scene);
+}
+
+/* Tracks in 3-D: the azimuth x elevation map, each object's confirmed
+ * track (3 hits confirm one) at its direction with its id; the
+ * approaching walker's arrow (mostly along its line of sight) is not
+ * checked: the map shows only the direction it turns to. */
+static void
+test_tracks_3d (void)
+{
+  char *scene = sonar_test_source_path ("pipelines/scenes/two-walkers-3d.json");
+  char *launch = g_strdup_printf ("sonarsrc scene-file=%s num-buffers=3 "
+      "! dopplerbank velocity-min=-2 velocity-max=2 velocity-step=0.02 "
+      "! mimobeamform ! wardcluster ! tee name=t "
+      "sonarviz name=viz width=960 height=540 ! appsink name=sink sync=false "
+      "t. ! queue ! viz.sink t. ! queue ! velocityest ! sonartrack "
+      "! viz.detections", scene);
+  GArray *frames = pull_frames (launch);
+  const Frame *f;
+  SonarRenderer *r;
+
+  g_assert_cmpuint (frames->len, ==, 3);
+  f = &g_array_index (frames, Frame, 2);
+  g_assert_cmpuint (f->grid.n_elevation, >, 1);
+  g_assert_cmpuint (f->n_truths, ==, 4);
+  r = sonar_renderer_new (&f->grid, f->width, f->height, NULL);
+  g_assert_false (sonar_renderer_is_fan (r));
+  for (guint k = 0; k < f->n_truths; k++)
+    check_track (f, r, &f->truths[k], 0.0);
+  sonar_renderer_free (r);
   frames_free (frames);
   g_free (launch);
   g_free (scene);
@@ -528,7 +679,8 @@ test_properties (void)
 {
   GstElement *viz = gst_element_factory_make ("sonarviz", NULL);
   const char *mutable[] = { "width", "height", "dynamic-range",
-    "range-compensation", "show-truth", "show-rejected"
+    "range-compensation", "show-truth", "show-rejected", "show-tracks",
+    "arrow-time"
   };
 
   g_assert_nonnull (viz);
@@ -547,6 +699,8 @@ main (int argc, char **argv)
   sonar_test_init_gst (&argc, &argv);
   g_test_add_func ("/sonarviz/fig9", test_fig9);
   g_test_add_func ("/sonarviz/3d", test_3d);
+  g_test_add_func ("/sonarviz/tracks", test_tracks);
+  g_test_add_func ("/sonarviz/tracks-3d", test_tracks_3d);
   g_test_add_func ("/sonarviz/images-alone", test_images_alone);
   g_test_add_func ("/sonarviz/downstream-size", test_downstream_size);
   g_test_add_func ("/sonarviz/pngenc", test_pngenc);

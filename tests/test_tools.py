@@ -425,6 +425,10 @@ def bench_emitters_sweep():
         for stage in ("spectra", "imaging", "clustering", "velocity"):
             floor = float(r["floor_ms_" + stage])
             assert 0 < floor < 1e3 * float(r["ms_" + stage]), (stage, r)
+        # The tracking stage (sonartrack's core) is timed, part of the
+        # chain, and has no floor.
+        assert 0 < float(r["ms_tracking"]) < float(r["ms_total"]), r
+        assert float(r["floor_ms_tracking"]) == 0, r
     png = TMP / "bench.png"
     run(PYTHON, TOOLS / "plot-bench.py", path, "-o", png)
     assert_png(png)

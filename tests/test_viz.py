@@ -27,6 +27,7 @@ RECIPE = SOURCE_DIR / "pipelines" / "video.sh"
 APPROACHING = (240, 40, 40)
 RECEDING = (40, 235, 60)
 TRUTH = (255, 255, 255)
+TRACK = (255, 60, 255)
 
 
 def run(args, timeout=300):
@@ -64,6 +65,25 @@ def recipe_png_frames():
         assert red > 150, red
         assert green > 5 * 150, green
         assert count(image, TRUTH) > 6 * 100
+        # No tracks without sonartrack.
+        assert count(image, TRACK) == 0
+
+
+@test
+def recipe_tracks():
+    """pipelines/video.sh ... tracks draws sonartrack's tracks: six magenta
+    squares with their ids, arrows on the two movers; a bad fourth argument
+    is refused"""
+    frame = TMP / "tracks.png"
+    run([RECIPE, 6, frame, "fig9", "tracks"])
+    image = matplotlib.image.imread(frame)
+    # A square of half side 14 px (2 px thick) is ~220 pixels, an arrow of
+    # ~1 m over 100 px a few hundred.
+    assert count(image, TRACK) > 6 * 200 + 2 * 150, count(image, TRACK)
+    result = subprocess.run([str(RECIPE), "1", str(frame), "fig9", "trakcs"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert 'the fourth argument is "tracks" or nothing' in result.stderr
 
 
 @test

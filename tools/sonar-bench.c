@@ -1,13 +1,13 @@
 /* sonar-bench: the project's benchmark.
  *
- * Processes a fixed set of pings of the fig10 and fig9 presets (and of
- * seeded random scenes) through the DSP core the way the elements do
- * (dopplerbank ! mimobeamform ! wardcluster ! velocityest, with their
- * defaults), scores the detections against the simulator's ground truth,
+ * Processes a fixed set of pings of the fig10, fig9 and crossing presets
+ * (and of seeded random scenes) through the DSP core the way the elements
+ * do (dopplerbank ! mimobeamform ! wardcluster ! velocityest ! sonartrack,
+ * with their defaults), scores the detections against the simulator's ground truth,
  * times every stage and measures the memory it holds. Each sweep changes
  * one setting; each row is one configuration.
  *
- *   sonar-bench                         the elements' defaults, both scenes
+ *   sonar-bench                         the elements' defaults, three presets
  *   sonar-bench --sweep linkage         Ward vs SLINK (paper Fig. 10) and more
  *   sonar-bench --all --csv bench.csv   every sweep, rows appended to a CSV
  *   sonar-bench --quick                 fig10, 2 pings: linkage and refine
@@ -143,11 +143,12 @@ parse_options (Options * o, int *argc, char ***argv)
   entries[0].description = sweep_help->str;
   context = g_option_context_new ("- time and score the sonar's DSP chain");
   g_option_context_set_summary (context, "Processes fixed pings of the "
-      "fig10 and fig9 presets (and of random scenes) through the DSP core "
-      "as the elements do and prints, per configuration, the objects found, "
+      "fig10, fig9 and crossing presets (and of random scenes) through the "
+      "DSP core as the elements do (sonartrack's ego-motion and tracker "
+      "the last stage) and prints, per configuration, the objects found, "
       "false positives, velocity errors against the truth, the median time "
       "per ping of each stage and the memory each holds. Without a sweep: "
-      "the elements' defaults on both scenes.");
+      "the elements' defaults on the three presets.");
   g_option_context_set_description (context, "Sweeps, each on fig10 unless "
       "said:\n"
       "  linkage, refine, window   clustering linkage, peak refinement, "

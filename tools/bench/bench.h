@@ -21,9 +21,11 @@
 
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
+#include "sonar-egomotion.h"
 #include "sonar-imager.h"
 #include "sonar-simulator.h"
 #include "sonar-spectrum.h"
+#include "sonar-track.h"
 #include "sonar-velocity.h"
 
 G_BEGIN_DECLS
@@ -68,6 +70,7 @@ enum
 {
   SCENE_FIG10,
   SCENE_FIG9,
+  SCENE_CROSSING,
   SCENE_RANDOM_FIRST,
   N_SCENES = SCENE_RANDOM_FIRST + 5,
 };
@@ -78,6 +81,8 @@ enum
   STAGE_IMAGING,
   STAGE_CLUSTERING,
   STAGE_VELOCITY,
+  /* sonartrack: the ping's ego-motion and the tracker. */
+  STAGE_TRACKING,
   N_STAGES,
 };
 
@@ -195,6 +200,12 @@ typedef struct
   SonarImager *imager;
   SonarClusterer *clusterer;
   SonarVelocityPool *workers;   /* METHOD_PROPOSED */
+  SonarEgoEstimator *ego;
+  SonarTracker *tracker;
+  SonarSigmaModel sigma;
+  SonarMeasurement measurements[2 * MAX_CENTROIDS];
+  SonarEgoLabel labels[2 * MAX_CENTROIDS];
+  SonarEgoMotion ego_motion;
   /* The images' Doppler hypotheses: the detection's, or every bank
    * velocity for the datacube. */
   guint n_templates;
@@ -240,6 +251,7 @@ void chain_spectra (Chain * ch, const float *samples, guint n_mics,
 void chain_imaging (Chain * ch);
 guint chain_run_ping (Chain * ch, const float *samples, guint n_mics,
     gsize length);
+void chain_tracking (Chain * ch, double ping_time);
 gboolean run_config (Bench * b, const Config * c, Result * r,
     GError ** error);
 

@@ -1,8 +1,15 @@
 /* sonar-bench's chain: per configuration, the DSP core run the way the
- * elements run it (dopplerbank ! mimobeamform ! wardcluster ! velocityest,
- * with their defaults), each ping's detections scored against the
- * simulator's ground truth, every stage timed, the memory it holds
- * measured and its arithmetic floor computed.
+ * elements run it (dopplerbank ! mimobeamform ! wardcluster ! velocityest
+ * ! sonartrack, with their defaults), each ping's detections scored
+ * against the simulator's ground truth, every stage timed, the memory it
+ * holds measured and its arithmetic floor computed.
+ *
+ * The tracking stage is sonartrack's work per ping: the detections read
+ * as measurements with the nominal sigmas, the ping's ego-motion and the
+ * tracker's update (gst/sonar-egomotion.h, gst/sonar-track.h), at the
+ * ping's time p / 12 Hz. Tracks need pings in order: the tracker starts
+ * again (untimed) whenever the scene's pings start again (the warm-up,
+ * and scenes with fewer pings than --timed-pings).
  *
  * The velocity stage shares the centroids between worker threads as
  * velocityest does (--threads). Every ping is rendered before anything
@@ -284,7 +291,7 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   const double lags = 2.0 * vp->window_ranges + 1;
   const double cores = g_get_num_processors ();
   const double per_core_ms = 1.0 / (b->peak_gflops * 1e6);
-  double flops[N_STAGES];
+  double flops[STAGE_VELOCITY + 1];
 
   flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
   flops[STAGE_IMAGING] = units * 8.0 * J * K + passes * (8.0 * N * K +
@@ -298,6 +305,8 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
       sizeof (float) / (b->read_gbs * 1e6);
   floor_ms[STAGE_VELOCITY] = flops[STAGE_VELOCITY] * per_core_ms /
       MIN (cores, b->n_threads);
+  /* Tracking's is a few small matrices per track: none is counted. */
+  floor_ms[STAGE_TRACKING] = 0.0;
 }
 
 /* The chain --------------------------------------------------------------*/
@@ -309,6 +318,8 @@ chain_clear (Chain * ch)
   g_clear_pointer (&ch->imager, sonar_imager_free);
   g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
   g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
+  g_clear_pointer (&ch->ego, sonar_ego_estimator_free);
+  g_clear_pointer (&ch->tracker, sonar_tracker_free);
   g_clear_pointer (&ch->hypotheses, g_free);
   g_clear_pointer (&ch->spectra, g_free);
   g_clear_pointer (&ch->image, g_free);
@@ -391,6 +402,29 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
       return FALSE;
   }
   r->mb[STAGE_VELOCITY] = heap_mb () - heap;
+
+  /* sonartrack's defaults, its dimensions and mirror from the sensor. */
+  heap = heap_mb ();
+  {
+    SonarEgoParams ego;
+    SonarTrackerParams tracker;
+    const gboolean fan = b->setup->field_of_view == SONAR_FIELD_OF_VIEW_FAN;
+
+    sonar_ego_params_init_default (&ego);
+    sonar_tracker_params_init_default (&tracker);
+    sonar_sigma_model_init_default (&ch->sigma);
+    ego.dimensions = fan ? 2 : 0;
+    tracker.dimensions = fan ? 2 : 3;
+    ego.mirror_z = tracker.mirror_z =
+        sonar_geometry_is_planar (&b->setup->geometry);
+    ch->ego = sonar_ego_estimator_new (&ego, error);
+    if (!ch->ego)
+      return FALSE;
+    ch->tracker = sonar_tracker_new (&tracker, error);
+    if (!ch->tracker)
+      return FALSE;
+  }
+  r->mb[STAGE_TRACKING] = heap_mb () - heap;
   return TRUE;
 }
 
@@ -524,6 +558,32 @@ chain_velocity (Chain * ch, guint n_centroids)
           e[i].range);
       ch->velocities[ch->n_detections++] = e[i].radial_velocity;
     }
+  }
+}
+
+/* sonartrack's work on the ping's detections at @ping_time (s): its
+ * ego-motion, then the tracks. */
+void
+chain_tracking (Chain * ch, double ping_time)
+{
+  GError *error = NULL;
+
+  for (guint d = 0; d < ch->n_detections; d++) {
+    SonarMeasurement *m = &ch->measurements[d];
+
+    m->instant = ping_time;
+    m->range = sonar_vec3_norm (ch->positions[d]);
+    sonar_vec3_to_direction (ch->positions[d], &m->azimuth, &m->elevation);
+    m->radial_velocity = ch->velocities[d];
+    sonar_measurement_set_nominal_sigma (m, &ch->sigma);
+  }
+  sonar_ego_estimate (ch->ego, ch->measurements, ch->n_detections,
+      &ch->ego_motion, ch->labels);
+  if (!sonar_tracker_process (ch->tracker, ping_time, ch->measurements,
+          ch->n_detections, &ch->ego_motion, ch->labels, &error)) {
+    /* Pings in time order (run_config) cannot fail. */
+    g_warning ("sonar-bench: tracking: %s", error->message);
+    g_error_free (error);
   }
 }
 
@@ -702,6 +762,11 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     stage_start (&clock);
     chain_velocity (ch, n_centroids);
     t[STAGE_VELOCITY] = stage_stop (&clock, r, STAGE_VELOCITY);
+    if (p == 0)
+      sonar_tracker_reset (ch->tracker);
+    stage_start (&clock);
+    chain_tracking (ch, p / PING_RATE);
+    t[STAGE_TRACKING] = stage_stop (&clock, r, STAGE_TRACKING);
     if (q < 0)
       continue;
 

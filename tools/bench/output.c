@@ -7,7 +7,7 @@
 #include "bench.h"
 
 static const char *const stage_names[N_STAGES] = {
-  "spectra", "imaging", "cluster", "velocity"
+  "spectra", "imaging", "cluster", "velocity", "tracking"
 };
 
 static double
@@ -55,14 +55,24 @@ us_per_evaluation (const Result * r)
       r->evaluated_velocities : NAN;
 }
 
+/* The tracking stage's share of the chain's time per ping, %: its median
+ * over the chain's. */
+static double
+tracking_share (const Result * r)
+{
+  return r->ms_total > 0.0 ? 100.0 * r->ms[STAGE_TRACKING] / r->ms_total :
+      NAN;
+}
+
 #define CSV_HEADER "sweep,value,scene,pings,found,total,false_positives," \
   "mean_error,max_error,ms_spectra,ms_imaging,ms_clustering,ms_velocity," \
-  "ms_total,pings_per_second,cpu_ms_total,mb_bank,mb_spectra,mb_imaging," \
-  "mb_clustering,mb_velocity,mb_chain,peak_rss_mb,centroids," \
+  "ms_tracking,ms_total,pings_per_second,cpu_ms_total,mb_bank,mb_spectra," \
+  "mb_imaging,mb_clustering,mb_velocity,mb_tracking,mb_chain,peak_rss_mb,centroids," \
   "bank_velocities,ms_velocity_per_centroid,template_error_db,psr_db," \
   "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
   "us_velocity_per_evaluation,timed_pings,ms_total_p10,ms_total_p90," \
-  "floor_ms_spectra,floor_ms_imaging,floor_ms_clustering,floor_ms_velocity"
+  "floor_ms_spectra,floor_ms_imaging,floor_ms_clustering,floor_ms_velocity," \
+  "floor_ms_tracking"
 
 /* A row of a sensitivity sweep (noise, detection, split): the columns up
  * to max_error, the timing and memory ones empty. */
@@ -84,10 +94,11 @@ void
 print_header (const Sweep * sweep)
 {
   g_print ("\n%s\n", sweep->name);
-  g_print ("  %-9s %-6s %5s %7s %3s %9s %9s %5s %8s %8s %5s %8s %9s %9s "
-      "%11s %8s %9s %5s\n", "value", "scene", "pings", "found", "FP",
+  g_print ("  %-9s %-8s %5s %7s %3s %9s %9s %5s %8s %8s %5s %8s %9s %8s "
+      "%6s %9s %11s %8s %9s %5s\n", "value", "scene", "pings", "found", "FP",
       "mean m/s", "max m/s", "cent", "spectra", "imaging", "work", "cluster",
-      "velocity", "total ms", "p10-p90", "pings/s", "cpu ms", "timed");
+      "velocity", "tracking", "track%", "total ms", "p10-p90", "pings/s",
+      "cpu ms", "timed");
 }
 
 void
@@ -99,13 +110,13 @@ print_row (const char *value, const Config * c, const Result * r,
   g_autofree char *spread = g_strdup_printf ("%.1f-%.1f", r->ms_total_low,
       r->ms_total_high);
 
-  g_print ("  %-9s %-6s %5u %7s %3u %9.4f %9.4f %5.1f %8.1f %8.1f %5.2f "
-      "%8.1f %9.1f %9.1f %11s %8.3f %9.1f %5u", value, c->scene->name,
-      r->pings, found, r->false_positives, mean_error (r), r->max_error,
-      r->centroids, r->ms[STAGE_SPECTRA], r->ms[STAGE_IMAGING],
+  g_print ("  %-9s %-8s %5u %7s %3u %9.4f %9.4f %5.1f %8.1f %8.1f %5.2f "
+      "%8.1f %9.1f %8.3f %6.2f %9.1f %11s %8.3f %9.1f %5u", value,
+      c->scene->name, r->pings, found, r->false_positives, mean_error (r),
+      r->max_error, r->centroids, r->ms[STAGE_SPECTRA], r->ms[STAGE_IMAGING],
       r->work_fraction, r->ms[STAGE_CLUSTERING], r->ms[STAGE_VELOCITY],
-      r->ms_total, spread, 1e3 / r->ms_total, r->cpu_ms_total,
-      r->timed_pings);
+      r->ms[STAGE_TRACKING], tracking_share (r), r->ms_total, spread,
+      1e3 / r->ms_total, r->cpu_ms_total, r->timed_pings);
   if (same_as)
     g_print ("  (the %s run)", same_as);
   g_print ("\n");
@@ -126,18 +137,18 @@ print_memory_header (void)
 {
   g_print ("  memory held (MB; bank: dopplerbank's templates and spectra) "
       "and growth\n");
-  g_print ("  %-9s %-6s %7s %7s %7s %7s %8s %7s %7s %6s %9s %6s %7s %8s "
+  g_print ("  %-9s %-8s %7s %7s %7s %7s %8s %8s %7s %7s %6s %9s %6s %7s %8s "
       "%7s %7s %6s %6s\n", "value", "scene", "bank", "spectra", "imaging",
-      "cluster", "velocity", "chain", "RSS", "bank v", "ms/cent", "evals",
+      "cluster", "velocity", "tracking", "chain", "RSS", "bank v", "ms/cent", "evals",
       "us/eval", "tmpl dB", "PSR dB", "3dB m/s", "ranges", "dr mm");
 }
 
 void
 print_memory_row (const char *value, const Config * c, const Result * r)
 {
-  g_print ("  %-9s %-6s %7.1f", value, c->scene->name, r->bank_mb);
+  g_print ("  %-9s %-8s %7.1f", value, c->scene->name, r->bank_mb);
   for (guint k = 0; k < N_STAGES; k++)
-    print_number (r->mb[k], k == STAGE_VELOCITY ? 8 : 7, 1);
+    print_number (r->mb[k], k >= STAGE_VELOCITY ? 8 : 7, 1);
   g_print (" %7.1f %7.0f %6u", chain_mb (r), r->peak_rss_mb,
       r->bank_velocities);
   print_number (ms_per_centroid (r), 9, 2);
@@ -155,7 +166,7 @@ print_efficiency_header (const Bench * b)
   g_print ("  arithmetic floor (ms per ping at this CPU's %.1f GFLOP/s per "
       "core and %.1f GB/s read, on the cores each stage uses) and time "
       "over floor\n", b->peak_gflops, b->read_gbs);
-  g_print ("  %-9s %-6s", "value", "scene");
+  g_print ("  %-9s %-8s", "value", "scene");
   for (guint k = 0; k < N_STAGES; k++)
     g_print (" %9s %6s", stage_names[k], "x");
   g_print ("\n");
@@ -164,7 +175,7 @@ print_efficiency_header (const Bench * b)
 void
 print_efficiency_row (const char *value, const Config * c, const Result * r)
 {
-  g_print ("  %-9s %-6s", value, c->scene->name);
+  g_print ("  %-9s %-8s", value, c->scene->name);
   for (guint k = 0; k < N_STAGES; k++) {
     print_number (r->floor_ms[k] > 0.0 ? r->floor_ms[k] : NAN, 9, 2);
     print_number (r->floor_ms[k] > 0.0 ? r->ms[k] / r->floor_ms[k] : NAN,

@@ -1,4 +1,4 @@
-/* sonar-bench's scenes: the fig10 and fig9 presets and seeded random
+/* sonar-bench's scenes: the fig10, fig9 and crossing presets and seeded random
  * scenes, their pings rendered once, before anything is timed; the
  * sensor; the Doppler banks, made once per velocity grid and shared by
  * the configurations.
@@ -25,6 +25,9 @@
 BenchScene scenes[N_SCENES] = {
   {"fig10", SONAR_SCENE_PRESET_FIG10, 0, -0.4, 0.4, 0.02, 9},
   {"fig9", SONAR_SCENE_PRESET_FIG9, 0, -7.0, 7.0, 0.05, 5},
+  /* sonartrack's test: its bank and 30 pings (tests/test-sonartrack.c),
+   * the walkers crossing at ping 15. */
+  {"crossing", SONAR_SCENE_PRESET_CROSSING, 0, -1.5, 1.5, 0.02, 30},
   {"empty", SONAR_SCENE_PRESET_EMPTY, 0, -0.4, 0.4, 0.02, 2},
   {"rand1", SONAR_SCENE_PRESET_EMPTY, 1, -0.4, 0.4, 0.02, 2},
   {"rand5", SONAR_SCENE_PRESET_EMPTY, 5, -0.4, 0.4, 0.02, 2},

@@ -219,7 +219,7 @@ apply_datacube (Config * c, guint i, char *label, gsize size)
 }
 
 const Sweep sweeps[] = {
-  {"baseline", SCENE_FIG10, SCENE_FIG9 + 1, apply_baseline},
+  {"baseline", SCENE_FIG10, SCENE_CROSSING + 1, apply_baseline},
   {"linkage", SCENE_FIG10, SONAR_LINKAGE_CENTROID + 1, apply_linkage},
   {"refine", SCENE_FIG10, 2, apply_refine},
   {"window", SCENE_FIG10, 9, apply_window},

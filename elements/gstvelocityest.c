@@ -31,6 +31,7 @@
 
 #include <string.h>
 
+#include "sonar-uncertainty.h"
 #include "sonar-velocity.h"
 
 GST_DEBUG_CATEGORY_STATIC (velocity_est_debug);
@@ -74,6 +75,8 @@ struct _GstVelocityEst
   /* Configured state. */
   SonarVelocityPool *pool;
   SonarImageGrid grid;
+  guint hypotheses;             /* Doppler hypotheses each pixel is the maximum of */
+  double velocity_step;         /* the bank's, m/s */
   guint n_emitters;
   double emission_centre;       /* s after the trigger */
   GArray *detections;           /* SonarDetection, reused every ping */
@@ -103,7 +106,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   guint records, threads;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
-          &records, NULL) || records != 1) {
+          &records, &self->hypotheses) || records != 1) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
         "velocityest: it needs one energyscape per ping with centroids "
         "(mimobeamform ! wardcluster ! velocityest)");
@@ -118,6 +121,8 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
       &self->grid, &params, threads, error);
   if (!self->pool)
     return NULL;
+  self->velocity_step =
+      sonar_doppler_bank_step (gst_sonar_filter_get_bank (filter));
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
       gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
@@ -142,17 +147,22 @@ gst_velocity_est_unconfigure (GstSonarFilter * filter)
       sonar_velocity_pool_free);
 }
 
+/* @image: the ping's energyscape (its pixels); @noise_power: its noise at
+ * the centroid's range (sonar-uncertainty.h). */
 static void
-add_detection (GstVelocityEst * self, guint centroid,
-    const SonarVelocityEstimate * e, GstClockTime ping_time)
+add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
+    guint index, const SonarVelocityEstimate * e, GstClockTime ping_time,
+    const float *image, double noise_power)
 {
-  const double c = gst_sonar_filter_get_setup (GST_SONAR_FILTER
-      (self))->speed_of_sound;
+  const SonarSetup *setup = gst_sonar_filter_get_setup (GST_SONAR_FILTER
+      (self));
+  const double c = setup->speed_of_sound;
   SonarDetection d;
+  SonarUncertainty u;
   double delay;
 
   /* Position and velocity at one instant: the velocity's. */
-  d.centroid = centroid;
+  d.centroid = index;
   d.range = sonar_velocity_centre_range (e->range, e->radial_velocity, c,
       self->emission_centre, &delay);
   d.azimuth = e->azimuth;
@@ -168,6 +178,15 @@ add_detection (GstVelocityEst * self, guint centroid,
   d.valid = e->valid;
   d.peak_db = e->peak_db;
   d.variance = e->variance;
+  sonar_uncertainty_measure (image, &self->grid, noise_power, centroid, e,
+      self->n_emitters, self->velocity_step, &u);
+  d.amplitude = u.amplitude_db;
+  d.snr = u.snr_db;
+  d.range_sigma = u.range_sigma;
+  d.azimuth_sigma = u.azimuth_sigma;
+  d.elevation_sigma = u.elevation_sigma;
+  d.radial_velocity_sigma = u.radial_velocity_sigma;
+  g_strlcpy (d.frame_id, setup->frame_id, sizeof d.frame_id);
   g_array_append_val (self->detections, d);
 }
 
@@ -189,7 +208,8 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   SonarSpectraMeta *spectra = sonar_buffer_get_spectra_meta (buffer);
   const SonarBand *band = gst_sonar_filter_get_band (filter);
   GstBuffer *out;
-  GstMapInfo map;
+  GstMapInfo map, image_map;
+  const float *image;
   char *json;
   guint64 ping;
 
@@ -213,11 +233,29 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
       centroids->centroids, centroids->n_centroids, self->results,
       self->counts);
   gst_buffer_unmap (spectra->spectra, &map);
-  for (guint k = 0; k < centroids->n_centroids; k++)
-    for (guint i = 0; i < self->counts[k]; i++)
-      if (self->results[2 * k + i].valid || self->keep_rejected)
-        add_detection (self, k, &self->results[2 * k + i],
-            GST_BUFFER_PTS (buffer));
+  if (!gst_buffer_map (buffer, &image_map, GST_MAP_READ)
+      || image_map.size < sizeof (SonarEnergyscapeHeader) +
+      sizeof (float) * sonar_image_grid_size (&self->grid)) {
+    GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("An energyscape smaller than "
+            "its caps say"), (NULL));
+    gst_buffer_unref (buffer);
+    return GST_FLOW_ERROR;
+  }
+  image = (const float *) (image_map.data + sizeof (SonarEnergyscapeHeader));
+  for (guint k = 0; k < centroids->n_centroids; k++) {
+    const SonarCentroid *centroid = &centroids->centroids[k];
+    double noise_power = -1.0;
+    for (guint i = 0; i < self->counts[k]; i++) {
+      if (!self->results[2 * k + i].valid && !self->keep_rejected)
+        continue;
+      if (noise_power < 0.0)
+        noise_power = sonar_uncertainty_noise_power (image, &self->grid,
+            self->hypotheses, centroid->peak_range_index);
+      add_detection (self, centroid, k, &self->results[2 * k + i],
+          GST_BUFFER_PTS (buffer), image, noise_power);
+    }
+  }
+  gst_buffer_unmap (buffer, &image_map);
 
   json = sonar_detections_to_json (ping, GST_BUFFER_PTS (buffer),
       (SonarDetection *) self->detections->data, self->detections->len);

@@ -26,9 +26,11 @@
  * whole 0-225 kHz band). The sensor records to 8.5 m for it. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "bench.h"
 #include "sonar-rng.h"
+#include "sonar-uncertainty.h"
 
 #define NOISE_PINGS 1000
 #define NOISE_DENSE_PINGS 100
@@ -746,4 +748,180 @@ run_split (Bench * b)
       scenes_tally.duplicates);
   chain_clear (ch);
   return TRUE;
+}
+
+/* The uncertainty sweep (issue 14): one point reflector at a fixed place
+ * and radial velocity (UNCERTAINTY_RANGE m, UNCERTAINTY_AZIMUTH degrees,
+ * UNCERTAINTY_SPEED m/s), rendered UNCERTAINTY_PINGS times with a new
+ * noise seed each (the ping index), at each per-channel SNR (as the
+ * detection sweep's). Per SNR: the scatter (standard deviation) of the
+ * valid detection's range, azimuth and radial velocity over the pings,
+ * against the median of the 1-sigma each ping reported
+ * (sonar_uncertainty_measure (), as velocityest fills the detections); a
+ * ratio of 1 is a calibrated sigma. The scatter's own uncertainty from N
+ * pings is about 1 / sqrt (2 (N - 1)): 10 % at 50 pings. */
+#define UNCERTAINTY_PINGS 50
+#define UNCERTAINTY_RANGE 3.0
+#define UNCERTAINTY_AZIMUTH 17.3
+#define UNCERTAINTY_SPEED -0.62
+
+guint uncertainty_pings = UNCERTAINTY_PINGS;
+static const double uncertainty_snrs_db[] = { -30, -24, -15, -5 };
+
+typedef struct
+{
+  guint n;
+  double sum[3], sum2[3];       /* range, azimuth, velocity */
+  double *sigmas[3];            /* reported, per found ping */
+  double snr_db;                /* median reported */
+  double *snrs;
+} UncertaintyTally;
+
+static double
+tally_scatter (const UncertaintyTally * t, guint i)
+{
+  const double mean = t->sum[i] / t->n;
+  return t->n > 1 ? sqrt (MAX (t->sum2[i] / t->n - mean * mean, 0.0) *
+      t->n / (t->n - 1)) : NAN;
+}
+
+/* One SNR's pings into @t. */
+static void
+uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
+    const SonarSetup * setup, double snr_db, guint n_pings,
+    UncertaintyTally * t)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  const double strength = NOISE_AMPLITUDE * pow (10.0, snr_db / 20.0) *
+      4.0 * UNCERTAINTY_RANGE * UNCERTAINTY_RANGE /
+      sqrt (emission_power (setup));
+  const SonarVec3 u = sonar_vec3_from_direction (UNCERTAINTY_AZIMUTH, 0.0);
+  SonarReflector reflector = {
+    .kind = SONAR_REFLECTOR_POINT,
+    .position = sonar_vec3_scale (u, UNCERTAINTY_RANGE),
+    .velocity = sonar_vec3_scale (u, UNCERTAINTY_SPEED),
+    .strength = strength,
+  };
+  SonarScene scene;
+
+  sonar_scene_init_preset (&scene, SONAR_SCENE_PRESET_EMPTY);
+  scene.reflectors = &reflector;
+  scene.n_reflectors = 1;
+  memset (t, 0, sizeof *t);
+  for (guint i = 0; i < 3; i++)
+    t->sigmas[i] = g_new (double, n_pings);
+  t->snrs = g_new (double, n_pings);
+  for (guint p = 0; p < n_pings; p++) {
+    SonarTruth truth;
+    guint n;
+    gboolean hit = FALSE;
+
+    sonar_simulator_render (sim, &scene, 7000 + p, 0.0, planar, &truth);
+    interleave (planar, n_mics, length, samples);
+    n = chain_run_ping (ch, samples, n_mics, length);
+    for (guint k = 0; k < n && !hit; k++) {
+      for (guint j = 0; j < ch->counts[k] && !hit; j++) {
+        const SonarVelocityEstimate *e = &ch->results[2 * k + j];
+        SonarUncertainty s;
+        double values[3];
+        if (!e->valid || fabs (e->range - truth.range) > MATCH_DISTANCE
+            || fabs (e->azimuth - truth.azimuth) > 3.0)
+          continue;
+        sonar_uncertainty_measure (ch->image, ch->grid,
+            sonar_uncertainty_noise_power (ch->image, ch->grid,
+                ch->n_templates, ch->centroids[k].peak_range_index),
+            &ch->centroids[k], e, ch->n_emitters,
+            sonar_doppler_bank_step (ch->bank->bank), &s);
+        values[0] = e->range;
+        values[1] = e->azimuth;
+        values[2] = e->radial_velocity;
+        t->sigmas[0][t->n] = s.range_sigma;
+        t->sigmas[1][t->n] = s.azimuth_sigma;
+        t->sigmas[2][t->n] = s.radial_velocity_sigma;
+        t->snrs[t->n] = s.snr_db;
+        for (guint i = 0; i < 3; i++) {
+          t->sum[i] += values[i];
+          t->sum2[i] += values[i] * values[i];
+        }
+        t->n++;
+        hit = TRUE;
+      }
+    }
+  }
+  scene.reflectors = NULL;
+  scene.n_reflectors = 0;
+  sonar_scene_clear (&scene);
+}
+
+gboolean
+run_uncertainty (Bench * b)
+{
+  static const char *const names[3] = { "range", "azimuth", "velocity" };
+  static const char *const units[3] = { "mm", "mdeg", "mm/s" };
+  static const double scales[3] = { 1e3, 1e3, 1e3 };
+  g_autoptr (GError) error = NULL;
+  g_autoptr (SonarSetup) setup = make_setup (MAX_RANGE, &error);
+  g_autoptr (SonarSimulator) sim = NULL;
+  g_autofree Chain *ch = g_new0 (Chain, 1);
+  SonarSetup *saved = b->setup;
+  SonarSimulatorParams sp;
+  Result r = { 0 };
+  Config c;
+  gboolean ok;
+
+  if (!setup)
+    goto fail;
+  sonar_simulator_params_init_default (&sp);
+  sp.noise_amplitude = NOISE_AMPLITUDE;
+  sp.seed = NOISE_SEED;
+  sim = sonar_simulator_new (setup, &sp, &error);
+  if (!sim)
+    goto fail;
+  config_init (&c, &scenes[SCENE_FIG9]);
+  b->setup = setup;
+  ok = chain_init (ch, b, &c, &r, &error);
+  b->setup = saved;
+  if (!ok)
+    goto fail;
+  g_print ("\nuncertainty (one point reflector at %g m, %g deg, %+g m/s; "
+      "%u noise seeds per SNR; the elements' defaults)\nreported 1-sigma "
+      "(median) against the measured scatter (standard deviation) of the "
+      "estimates; ratio = reported / measured\n%8s %6s %9s", UNCERTAINTY_RANGE,
+      UNCERTAINTY_AZIMUTH, UNCERTAINTY_SPEED, uncertainty_pings, "SNR dB",
+      "found", "image SNR");
+  for (guint i = 0; i < 3; i++)
+    g_print ("  %-8s %4s: reported measured ratio", names[i], units[i]);
+  g_print ("\n");
+  for (guint s = 0; s < G_N_ELEMENTS (uncertainty_snrs_db); s++) {
+    UncertaintyTally t;
+    uncertainty_pings_at (ch, sim, setup, uncertainty_snrs_db[s],
+        uncertainty_pings, &t);
+    g_print ("%8.0f %3u/%-3u %8.1f", uncertainty_snrs_db[s], t.n,
+        uncertainty_pings, t.n ? median (t.snrs, t.n) : NAN);
+    for (guint i = 0; i < 3; i++) {
+      const double reported = t.n ? median (t.sigmas[i], t.n) : NAN;
+      const double measured = tally_scatter (&t, i);
+      g_print ("  %18.3f %8.3f %5.2f", reported * scales[i],
+          measured * scales[i], reported / measured);
+      if (b->csv) {
+        g_autofree char *value = g_strdup_printf ("%g dB %s",
+            uncertainty_snrs_db[s], names[i]);
+        write_sensitivity_row (b->csv, "uncertainty", value, "point",
+            uncertainty_pings, t.n, uncertainty_pings, 0, reported,
+            measured);
+      }
+      g_free (t.sigmas[i]);
+    }
+    g_free (t.snrs);
+    g_print ("\n");
+  }
+  chain_clear (ch);
+  return TRUE;
+fail:
+  g_printerr ("uncertainty: %s\n", error->message);
+  chain_clear (ch);
+  return FALSE;
 }

@@ -1,0 +1,148 @@
+/* sonar-uncertainty.c: see sonar-uncertainty.h. */
+#include "sonar-uncertainty.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+/* Pixels, at most, in the noise quartile: from a few thousand samples a
+ * quartile is steady to a few per cent. */
+#define NOISE_SAMPLES 4096
+
+static int
+compare_floats (const void *a, const void *b)
+{
+  const float x = *(const float *) a, y = *(const float *) b;
+  return (x > y) - (x < y);
+}
+
+double
+sonar_uncertainty_noise_power (const float *image,
+    const SonarImageGrid * grid, guint hypotheses, guint range_index)
+{
+  const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
+  const int span = (int) ceil (SONAR_UNCERTAINTY_NOISE_SPAN /
+      MAX (grid->range_step, 1e-9));
+  const int first = MAX ((int) range_index - span, 0);
+  const int last = MIN ((int) range_index + span, (int) grid->n_range - 1);
+  const gsize n_pixels = n_dirs * (gsize) (last - first + 1);
+  /* An odd stride, so that the samples walk over directions and ranges
+   * alike. */
+  const gsize stride = ((n_pixels + NOISE_SAMPLES - 1) / NOISE_SAMPLES) | 1;
+  const double k = sonar_cluster_effective_hypotheses (hypotheses);
+  g_autofree float *values = g_new (float, n_pixels / stride + 1);
+  gsize n = 0;
+  double q;
+
+  for (gsize j = 0; j < n_pixels; j += stride) {
+    const gsize d = j / (last - first + 1);
+    const gsize i = first + j % (last - first + 1);
+    const float v = image[d * grid->n_range + i];
+    if (isfinite (v))
+      values[n++] = v;
+  }
+  if (n < 4)
+    return 0.0;
+  qsort (values, n, sizeof (float), compare_floats);
+  q = values[n / 4];
+  /* The quartile of the maximum of K Rayleigh envelopes of scale s:
+   * q^2 = -2 s^2 ln (1 - 4^(-1/K)); E|n|^2 = 2 s^2. */
+  return q * q / -log (-expm1 (log (0.25) / k));
+}
+
+double
+sonar_uncertainty_curvature (const double *values, guint n, guint p,
+    guint half)
+{
+  const int lo = -(int) MIN (half, p);
+  const int hi = (int) MIN (half, n - 1 - p);
+  double s[5] = { 0 }, t[3] = { 0 }, det, c;
+
+  if (hi - lo < 2)
+    return NAN;
+  /* Normal equations of y = a + b x + c x^2. */
+  for (int x = lo; x <= hi; x++) {
+    double xp = 1.0;
+    for (int k = 0; k < 5; k++) {
+      s[k] += xp;
+      if (k < 3)
+        t[k] += xp * values[p + x];
+      xp *= x;
+    }
+  }
+  det = s[0] * (s[2] * s[4] - s[3] * s[3]) - s[1] * (s[1] * s[4] - s[3] *
+      s[2]) + s[2] * (s[1] * s[3] - s[2] * s[2]);
+  if (fabs (det) < 1e-12)
+    return NAN;
+  c = (s[0] * (s[2] * t[2] - t[1] * s[3]) - s[1] * (s[1] * t[2] - t[1] *
+          s[2]) + t[0] * (s[1] * s[3] - s[2] * s[2])) / det;
+  return 2.0 * c;
+}
+
+/* Second derivative of ln (image) at pixel @p along an axis of @stride
+ * (index @i of @n along it), per step^2; NaN at an edge or where the
+ * samples are no peak. */
+static double
+log_curvature (const float *image, gsize p, gsize stride, guint i, guint n)
+{
+  double k;
+
+  if (i == 0 || i + 1 >= n || !(image[p - stride] > 0.0f)
+      || !(image[p] > 0.0f) || !(image[p + stride] > 0.0f))
+    return NAN;
+  k = log (image[p - stride]) - 2.0 * log (image[p]) +
+      log (image[p + stride]);
+  return k < 0.0 ? k : NAN;
+}
+
+/* sqrt (1 / (2 snr |kappa|) + floor^2), NaN without a curvature. */
+static double
+sigma (double snr, double kappa, double floor)
+{
+  if (!(kappa < 0.0) || !(snr > 0.0))
+    return NAN;
+  return sqrt (1.0 / (2.0 * snr * -kappa) + floor * floor);
+}
+
+void
+sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
+    double noise_power, const SonarCentroid * centroid,
+    const SonarVelocityEstimate * e, guint n_emitters, double velocity_step,
+    SonarUncertainty * out)
+{
+  const gsize stride_e = (gsize) grid->n_azimuth * grid->n_range;
+  const guint a = MIN (centroid->peak_azimuth_index, grid->n_azimuth - 1);
+  const guint el = MIN (centroid->peak_elevation_index,
+      grid->n_elevation - 1);
+  const gsize row = ((gsize) el * grid->n_azimuth + a) * grid->n_range;
+  const double nearest = (e->range - grid->range_first) /
+      MAX (grid->range_step, 1e-12);
+  guint i = (guint) CLAMP (lround (nearest), 0, (long) grid->n_range - 1);
+  double amplitude, snr;
+  gsize p;
+
+  /* The echo's own peak along range (a second reflector in the centroid
+   * lies off the strongest member's). */
+  for (guint j = (guint) MAX ((long) i - 2, 0); j <= MIN (i + 2,
+          grid->n_range - 1); j++)
+    if (image[row + j] > image[row + i])
+      i = j;
+  p = row + i;
+  amplitude = image[p];
+  snr = noise_power > 0.0 ? amplitude * amplitude / noise_power : NAN;
+  out->amplitude_db = amplitude > 0.0f ? 20.0 * log10 (amplitude) : NAN;
+  out->snr_db = 10.0 * log10 (snr);
+  out->range_sigma = grid->range_step * sigma (snr, log_curvature (image,
+          p, 1, i, grid->n_range), SONAR_UNCERTAINTY_GRID_FLOOR);
+  out->azimuth_sigma = fabs (grid->azimuth_step) * sigma (snr,
+      log_curvature (image, p, grid->n_range, a, grid->n_azimuth),
+      SONAR_UNCERTAINTY_GRID_FLOOR);
+  out->elevation_sigma = grid->n_elevation > 1 ?
+      fabs (grid->elevation_step) * sigma (snr, log_curvature (image, p,
+          stride_e, el, grid->n_elevation), SONAR_UNCERTAINTY_GRID_FLOOR) :
+      NAN;
+  /* Each emitter's curve carries g / N of the MIMO image's SNR. */
+  out->radial_velocity_sigma = n_emitters > 0 ? sigma (snr *
+      SONAR_UNCERTAINTY_EMITTER_SNR_GAIN / n_emitters,
+      e->velocity_curvature, SONAR_UNCERTAINTY_GRID_FLOOR * velocity_step) :
+      NAN;
+}

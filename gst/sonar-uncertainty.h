@@ -1,0 +1,89 @@
+/* sonar-uncertainty.h: how well a detection is known, from the ping's own
+ * data: the echo's amplitude, its signal-to-noise ratio, and the 1-sigma
+ * uncertainty of its range, direction and radial velocity.
+ *
+ * Each coordinate is the peak of a curve (the image's envelope along range,
+ * azimuth and elevation; the Doppler-ACF product along velocity). For a
+ * peak of shape A rho(x - x0) in noise whose correlation has the same
+ * shape (the matched filter's, the delay-and-sum beam's), linearising
+ * the peak condition gives the Cramér-Rao bound
+ *
+ *   sigma_x^2 = 1 / (2 SNR |kappa|),
+ *
+ * SNR = A^2 / E|n|^2 (noise power per pixel, one hypothesis), kappa the
+ * second derivative of ln |rho| at the peak, both measured on the data:
+ * kappa from the three log samples around the image's peak (per m^2, per
+ * degree^2) and from a least-squares parabola through the log product
+ * (per (m/s)^2, summed over the N emitters' curves, each with 1/N of the
+ * MIMO image's SNR: sigma_v^2 = N / (2 SNR |K|)).
+ *
+ * The noise: the lower quartile of the pixels (every direction) within
+ * SONAR_UNCERTAINTY_NOISE_SPAN of the echo's range (wardcluster's CFAR
+ * takes the quartile of the echo's own range bin, which at high SNR holds
+ * its own sidelobes; the noise is flat over range), read as the quartile
+ * of the maximum of K_eff Rayleigh envelopes (sonar-cluster.h):
+ * E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)).
+ *
+ * Floor: the estimators read the peak off sampled curves (the image's grid,
+ * a parabola through three samples), whose bias varies with where the
+ * true peak falls between samples; its spread is a small fraction of a
+ * step, SONAR_UNCERTAINTY_GRID_FLOOR steps (measured: sonar-bench --sweep
+ * uncertainty), added in quadrature. */
+#ifndef SONAR_UNCERTAINTY_H
+#define SONAR_UNCERTAINTY_H
+
+#include <glib.h>
+
+#include "sonar-cluster.h"
+#include "sonar-image-grid.h"
+#include "sonar-velocity.h"
+
+G_BEGIN_DECLS
+
+typedef struct
+{
+  double amplitude_db;          /* 20 log10 of the image's envelope at the peak */
+  double snr_db;                /* 10 log10 (A^2 / E|n|^2) */
+  double range_sigma;           /* m */
+  double azimuth_sigma;         /* degrees */
+  double elevation_sigma;       /* degrees; NaN on a 2-D image (one elevation) */
+  double radial_velocity_sigma; /* m/s; NaN without a velocity curvature */
+} SonarUncertainty;
+
+/* Spread of the grid's interpolation bias, in grid steps (1-sigma). */
+#define SONAR_UNCERTAINTY_GRID_FLOOR 0.0
+
+/* m either side of the echo over which the noise is read. */
+#define SONAR_UNCERTAINTY_NOISE_SPAN 0.5
+
+/* g: each emitter's Doppler-ACF curve carries g / N of the MIMO image's
+ * SNR (g = 1 if the N emitters' noises added up independently in the
+ * image). Measured: with g = 1 the reported velocity sigma was 1.52-1.56
+ * times the scatter over 50 noise seeds at -30, -24 and -15 dB per
+ * channel, while range and azimuth were within 8-24 % (sonar-bench
+ * --sweep uncertainty): 1.54^2. */
+#define SONAR_UNCERTAINTY_EMITTER_SNR_GAIN 2.4
+
+/* Noise power E|n|^2 per pixel of one hypothesis' envelope at range bin
+ * @range_index of @image (laid out as @grid says; the maximum of
+ * @hypotheses Doppler hypotheses). 0 when nothing is there to read. */
+double sonar_uncertainty_noise_power (const float *image,
+    const SonarImageGrid * grid, guint hypotheses, guint range_index);
+
+/* Second derivative, per step^2, of the least-squares parabola through
+ * @values[p - half .. p + half] (clipped to 0 .. @n - 1); NaN with fewer
+ * than three values. */
+double sonar_uncertainty_curvature (const double *values, guint n, guint p,
+    guint half);
+
+/* Fills @out for an estimate @e at @centroid of @image: @noise_power from
+ * sonar_uncertainty_noise_power (), @n_emitters the curves in e's
+ * product. */
+void sonar_uncertainty_measure (const float *image,
+    const SonarImageGrid * grid, double noise_power,
+    const SonarCentroid * centroid, const SonarVelocityEstimate * e,
+    guint n_emitters, double velocity_step, SonarUncertainty * out);
+
+G_END_DECLS
+
+#endif

@@ -264,14 +264,18 @@ read_detections (GstSonarTrack * self, const SonarDetectionsMeta * meta)
     /* A speed at the bank's edge may lie beyond it: position only. */
     m.radial_velocity = d->out_of_range ? NAN : d->radial_velocity;
     sonar_measurement_set_nominal_sigma (&m, &sigma);
-    /* The detection's own uncertainty, where velocityest measured it. */
-    if (d->range_sigma > 0.0)
+    /* The detection's own uncertainty (velocityest's, from the ping's
+     * noise) where it is larger: a weak echo. The model stays the floor:
+     * it covers what the noise does not (the presets' measured biases,
+     * extended objects, the array's calibration), which at high SNR is
+     * most of the error. */
+    if (d->range_sigma > m.sigma_range)
       m.sigma_range = d->range_sigma;
-    if (d->azimuth_sigma > 0.0)
+    if (d->azimuth_sigma * G_PI / 180.0 > m.sigma_azimuth)
       m.sigma_azimuth = d->azimuth_sigma * G_PI / 180.0;
-    if (d->elevation_sigma > 0.0)
+    if (d->elevation_sigma * G_PI / 180.0 > m.sigma_elevation)
       m.sigma_elevation = d->elevation_sigma * G_PI / 180.0;
-    if (d->radial_velocity_sigma > 0.0)
+    if (d->radial_velocity_sigma > m.sigma_radial_velocity)
       m.sigma_radial_velocity = d->radial_velocity_sigma;
     g_array_append_val (self->measurements, m);
     g_array_append_val (self->indices, k);

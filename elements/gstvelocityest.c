@@ -29,6 +29,7 @@
 
 #include "gstvelocityest.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "sonar-uncertainty.h"
@@ -182,7 +183,10 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
       self->n_emitters, self->velocity_step, &u);
   d.amplitude = u.amplitude_db;
   d.snr = u.snr_db;
-  d.range_sigma = u.range_sigma;
+  /* The range is moved on to the instant at the estimated velocity
+   * (over delay - range / c): its error adds to the range's. */
+  d.range_sigma = isfinite (u.radial_velocity_sigma) ? hypot (u.range_sigma,
+      (delay - e->range / c) * u.radial_velocity_sigma) : u.range_sigma;
   d.azimuth_sigma = u.azimuth_sigma;
   d.elevation_sigma = u.elevation_sigma;
   d.radial_velocity_sigma = u.radial_velocity_sigma;

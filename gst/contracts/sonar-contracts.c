@@ -1,6 +1,7 @@
 /* sonar-contracts.c: see sonar-contracts.h and docs/CONTRACTS.md. */
 #include "sonar-contracts.h"
 #include "sonar-error.h"
+#include "sonar-json.h"
 
 #include <gio/gio.h>
 #include <json-glib/json-glib.h>
@@ -793,9 +794,10 @@ sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
       "detections", &array);
 }
 
-/* JSON through json-glib. Its generator writes a double with 17
- * significant digits; each number is first rounded to what it means (a
- * micrometre, a millidegree...), and a non-finite one is null. */
+/* JSON built with json-glib's JsonBuilder, written by sonar_json_to_line
+ * () (json-glib's generator, but numbers at their shortest). Each number
+ * is rounded to what it means (a micrometre, a ten-thousandth of a
+ * degree...); a non-finite one is null. */
 static void
 add_number (JsonBuilder * b, const char *name, double value, int decimals)
 {
@@ -843,15 +845,13 @@ begin_ping (guint64 ping_index, GstClockTime timestamp)
 static char *
 end_ping (JsonBuilder * b)
 {
-  g_autoptr (JsonGenerator) generator = json_generator_new ();
   g_autoptr (JsonNode) root = NULL;
   char *text, *line;
 
   json_builder_end_object (b);
   root = json_builder_get_root (b);
   g_object_unref (b);
-  json_generator_set_root (generator, root);
-  text = json_generator_to_data (generator, NULL);
+  text = sonar_json_to_line (root);
   line = g_strconcat (text, "\n", NULL);
   g_free (text);
   return line;

@@ -214,6 +214,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   GstBuffer *out;
   GstMapInfo map, image_map;
   const float *image;
+  double noise_power;
   char *json;
   guint64 ping;
 
@@ -246,17 +247,18 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
     return GST_FLOW_ERROR;
   }
   image = (const float *) (image_map.data + sizeof (SonarEnergyscapeHeader));
+  noise_power = -1.0;
   for (guint k = 0; k < centroids->n_centroids; k++) {
-    const SonarCentroid *centroid = &centroids->centroids[k];
-    double noise_power = -1.0;
     for (guint i = 0; i < self->counts[k]; i++) {
       if (!self->results[2 * k + i].valid && !self->keep_rejected)
         continue;
+      /* Once per ping, and only with something to report. */
       if (noise_power < 0.0)
         noise_power = sonar_uncertainty_noise_power (image, &self->grid,
-            self->hypotheses, centroid->peak_range_index);
-      add_detection (self, centroid, k, &self->results[2 * k + i],
-          GST_BUFFER_PTS (buffer), image, noise_power);
+            self->hypotheses);
+      add_detection (self, &centroids->centroids[k], k,
+          &self->results[2 * k + i], GST_BUFFER_PTS (buffer), image,
+          noise_power);
     }
   }
   gst_buffer_unmap (buffer, &image_map);

@@ -17,33 +17,41 @@ compare_floats (const void *a, const void *b)
 
 double
 sonar_uncertainty_noise_power (const float *image,
-    const SonarImageGrid * grid, guint hypotheses, guint range_index)
+    const SonarImageGrid * grid, guint hypotheses)
 {
   const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
-  const int span = (int) ceil (SONAR_UNCERTAINTY_NOISE_SPAN /
-      MAX (grid->range_step, 1e-9));
-  const int first = MAX ((int) range_index - span, 0);
-  const int last = MIN ((int) range_index + span, (int) grid->n_range - 1);
-  const gsize n_pixels = n_dirs * (gsize) (last - first + 1);
+  const guint block = MAX (1, (guint) ceil (SONAR_UNCERTAINTY_NOISE_BLOCK /
+          MAX (grid->range_step, 1e-9)));
+  const guint n_blocks = (grid->n_range + block - 1) / block;
+  const gsize per_block = n_dirs * block;
   /* An odd stride, so that the samples walk over directions and ranges
    * alike. */
-  const gsize stride = ((n_pixels + NOISE_SAMPLES - 1) / NOISE_SAMPLES) | 1;
-  const double k = sonar_cluster_effective_hypotheses (hypotheses);
-  g_autofree float *values = g_new (float, n_pixels / stride + 1);
-  gsize n = 0;
+  const gsize stride = ((per_block + NOISE_SAMPLES - 1) / NOISE_SAMPLES) | 1;
+  const double k = 1.0 + (MAX (hypotheses, 1) - 1.0) *
+      SONAR_UNCERTAINTY_QUARTILE_SHARE;
+  g_autofree float *values = g_new (float, per_block / stride + 1);
+  g_autofree float *quartiles = g_new (float, n_blocks);
+  guint n_quartiles = 0;
   double q;
 
-  for (gsize j = 0; j < n_pixels; j += stride) {
-    const gsize d = j / (last - first + 1);
-    const gsize i = first + j % (last - first + 1);
-    const float v = image[d * grid->n_range + i];
-    if (isfinite (v))
-      values[n++] = v;
+  for (guint b = 0; b < n_blocks; b++) {
+    const guint first = b * block;
+    const guint rows = MIN (block, grid->n_range - first);
+    gsize n = 0;
+    for (gsize j = 0; j < n_dirs * rows; j += stride) {
+      const float v = image[(j / rows) * grid->n_range + first + j % rows];
+      if (isfinite (v))
+        values[n++] = v;
+    }
+    if (n < 4)
+      continue;
+    qsort (values, n, sizeof (float), compare_floats);
+    quartiles[n_quartiles++] = values[n / 4];
   }
-  if (n < 4)
+  if (n_quartiles == 0)
     return 0.0;
-  qsort (values, n, sizeof (float), compare_floats);
-  q = values[n / 4];
+  qsort (quartiles, n_quartiles, sizeof (float), compare_floats);
+  q = quartiles[n_quartiles / 2];
   /* The quartile of the maximum of K Rayleigh envelopes of scale s:
    * q^2 = -2 s^2 ln (1 - 4^(-1/K)); E|n|^2 = 2 s^2. */
   return q * q / -log (-expm1 (log (0.25) / k));

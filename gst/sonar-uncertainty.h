@@ -17,12 +17,18 @@
  * (per (m/s)^2, summed over the N emitters' curves, each with 1/N of the
  * MIMO image's SNR: sigma_v^2 = N / (2 SNR |K|)).
  *
- * The noise: the lower quartile of the pixels (every direction) within
- * SONAR_UNCERTAINTY_NOISE_SPAN of the echo's range (wardcluster's CFAR
- * takes the quartile of the echo's own range bin, which at high SNR holds
- * its own sidelobes; the noise is flat over range), read as the quartile
- * of the maximum of K_eff Rayleigh envelopes (sonar-cluster.h):
- * E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)).
+ * The noise: the image's noise is flat over range (white noise at the
+ * microphones, through the same filters everywhere), and echoes fill few
+ * pixels: per block of SONAR_UNCERTAINTY_NOISE_BLOCK of range, the lower
+ * quartile over its pixels (every direction); the median over the blocks
+ * (a block holding a strong echo's sidelobes stands out and is left
+ * out), read as the quartile of the maximum of K_eff independent
+ * Rayleigh envelopes: E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)), with
+ * K_eff = 1 + (K - 1) SONAR_UNCERTAINTY_QUARTILE_SHARE for an image over
+ * K Doppler hypotheses (neighbouring hypotheses are correlated: fewer
+ * count at the quartile than at wardcluster's 1e-10 tail). Not the
+ * range bin's own quartile, as wardcluster's CFAR takes: at high SNR it
+ * holds the echo's own sidelobes.
  *
  * Floor: the estimators read the peak off sampled curves (the image's grid,
  * a parabola through three samples), whose bias varies with where the
@@ -53,8 +59,16 @@ typedef struct
 /* Spread of the grid's interpolation bias, in grid steps (1-sigma). */
 #define SONAR_UNCERTAINTY_GRID_FLOOR 0.0
 
-/* m either side of the echo over which the noise is read. */
-#define SONAR_UNCERTAINTY_NOISE_SPAN 0.5
+/* m of range per block of the noise's quartiles. */
+#define SONAR_UNCERTAINTY_NOISE_BLOCK 0.25
+
+/* Effective independent hypotheses per further one at the noise's
+ * quartile: with wardcluster's tail value (0.87, sonar-cluster.h) every
+ * sigma came out 0.82-0.85 of the measured scatter at every SNR from -30
+ * to -20 dB per channel (sonar-bench --sweep uncertainty, 8 places x 12
+ * seeds, 47 hypotheses): the noise 1.45 times too low, which K_eff = 14
+ * (not 41) at the quartile gives: (14 - 1) / 46. */
+#define SONAR_UNCERTAINTY_QUARTILE_SHARE 0.28
 
 /* g: each emitter's Doppler-ACF curve carries g / N of the MIMO image's
  * SNR (g = 1 if the N emitters' noises added up independently in the
@@ -64,11 +78,11 @@ typedef struct
  * --sweep uncertainty): 1.54^2. */
 #define SONAR_UNCERTAINTY_EMITTER_SNR_GAIN 2.4
 
-/* Noise power E|n|^2 per pixel of one hypothesis' envelope at range bin
- * @range_index of @image (laid out as @grid says; the maximum of
- * @hypotheses Doppler hypotheses). 0 when nothing is there to read. */
+/* Noise power E|n|^2 per pixel of one hypothesis' envelope in @image
+ * (laid out as @grid says; each pixel the maximum of @hypotheses Doppler
+ * hypotheses), once per image. 0 when nothing is there to read. */
 double sonar_uncertainty_noise_power (const float *image,
-    const SonarImageGrid * grid, guint hypotheses, guint range_index);
+    const SonarImageGrid * grid, guint hypotheses);
 
 /* Second derivative, per step^2, of the least-squares parabola through
  * @values[p - half .. p + half] (clipped to 0 .. @n - 1); NaN with fewer

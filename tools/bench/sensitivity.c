@@ -750,104 +750,121 @@ run_split (Bench * b)
   return TRUE;
 }
 
-/* The uncertainty sweep (issue 14): one point reflector at a fixed place
- * and radial velocity (UNCERTAINTY_RANGE m, UNCERTAINTY_AZIMUTH degrees,
- * UNCERTAINTY_SPEED m/s), rendered UNCERTAINTY_PINGS times with a new
- * noise seed each (the ping index), at each per-channel SNR (as the
- * detection sweep's). Per SNR: the scatter (standard deviation) of the
- * valid detection's range, azimuth and radial velocity over the pings,
- * against the median of the 1-sigma each ping reported
- * (sonar_uncertainty_measure (), as velocityest fills the detections); a
- * ratio of 1 is a calibrated sigma. The scatter's own uncertainty from N
- * pings is about 1 / sqrt (2 (N - 1)): 10 % at 50 pings. */
-#define UNCERTAINTY_PINGS 50
-#define UNCERTAINTY_RANGE 3.0
-#define UNCERTAINTY_AZIMUTH 17.3
-#define UNCERTAINTY_SPEED -0.62
+/* The uncertainty sweep (issue 14): does the 1-sigma each detection
+ * reports (sonar_uncertainty_measure (), as velocityest fills the
+ * detections) match the scatter of its estimates? One point reflector per
+ * ping, at UNCERTAINTY_PLACES places (range 1.5-4 m, azimuth -50..50
+ * degrees, radial velocity -1..1 m/s, drawn from RANDOM_SCENE_SEED: the
+ * estimators' errors depend on where the peak falls between the grid's
+ * samples), each rendered UNCERTAINTY_SEEDS times with a new noise seed,
+ * at each per-channel SNR (as the detection sweep's). Per place, the
+ * deviations of the valid detection's range (imaged, before velocityest
+ * moves it to the velocity's instant), azimuth and radial velocity from
+ * their mean over the seeds, each over the sigma reported with it; pooled
+ * over the places (N - 1 degrees of freedom each), their rms is the
+ * measured scatter in units of the reported sigma: 1 is a calibrated
+ * sigma. Printed as reported / measured (the ratio of sigmas) beside the
+ * median reported sigma. The ratio's own uncertainty from M pooled
+ * degrees of freedom is about 1 / sqrt (2 M): 4 % at 300. */
+#define UNCERTAINTY_PLACES 8
+#define UNCERTAINTY_SEEDS 12
+#define UNCERTAINTY_RANGE_MIN 1.5
+#define UNCERTAINTY_RANGE_MAX 4.0
+#define UNCERTAINTY_AZIMUTH 50.0
+#define UNCERTAINTY_SPEED 1.0
 
-guint uncertainty_pings = UNCERTAINTY_PINGS;
-static const double uncertainty_snrs_db[] = { -30, -24, -15, -5 };
+guint uncertainty_seeds = UNCERTAINTY_SEEDS;
+static const double uncertainty_snrs_db[] = { -30, -27, -24, -20, -15, -10 };
 
 typedef struct
 {
-  guint n;
-  double sum[3], sum2[3];       /* range, azimuth, velocity */
-  double *sigmas[3];            /* reported, per found ping */
-  double snr_db;                /* median reported */
-  double *snrs;
+  guint found, dof;
+  double sum_z2[3];             /* range, azimuth, velocity */
+  GArray *sigmas[3];            /* reported, per found ping */
+  GArray *snrs;
 } UncertaintyTally;
-
-static double
-tally_scatter (const UncertaintyTally * t, guint i)
-{
-  const double mean = t->sum[i] / t->n;
-  return t->n > 1 ? sqrt (MAX (t->sum2[i] / t->n - mean * mean, 0.0) *
-      t->n / (t->n - 1)) : NAN;
-}
 
 /* One SNR's pings into @t. */
 static void
 uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
-    const SonarSetup * setup, double snr_db, guint n_pings,
-    UncertaintyTally * t)
+    const SonarSetup * setup, double snr_db, UncertaintyTally * t)
 {
   const guint n_mics = setup->geometry.n_microphones;
   const gsize length = setup->ping_length;
   g_autofree float *planar = g_new (float, length * n_mics);
   g_autofree float *samples = g_new (float, length * n_mics);
-  const double strength = NOISE_AMPLITUDE * pow (10.0, snr_db / 20.0) *
-      4.0 * UNCERTAINTY_RANGE * UNCERTAINTY_RANGE /
-      sqrt (emission_power (setup));
-  const SonarVec3 u = sonar_vec3_from_direction (UNCERTAINTY_AZIMUTH, 0.0);
-  SonarReflector reflector = {
-    .kind = SONAR_REFLECTOR_POINT,
-    .position = sonar_vec3_scale (u, UNCERTAINTY_RANGE),
-    .velocity = sonar_vec3_scale (u, UNCERTAINTY_SPEED),
-    .strength = strength,
-  };
+  g_autofree double *values = g_new (double, 3 * uncertainty_seeds);
+  g_autofree double *sigmas = g_new (double, 3 * uncertainty_seeds);
+  SonarReflector reflector = {.kind = SONAR_REFLECTOR_POINT };
   SonarScene scene;
+  SonarRng rng;
 
   sonar_scene_init_preset (&scene, SONAR_SCENE_PRESET_EMPTY);
   scene.reflectors = &reflector;
   scene.n_reflectors = 1;
-  memset (t, 0, sizeof *t);
-  for (guint i = 0; i < 3; i++)
-    t->sigmas[i] = g_new (double, n_pings);
-  t->snrs = g_new (double, n_pings);
-  for (guint p = 0; p < n_pings; p++) {
-    SonarTruth truth;
-    guint n;
-    gboolean hit = FALSE;
+  for (guint place = 0; place < UNCERTAINTY_PLACES; place++) {
+    double range, azimuth, speed;
+    SonarVec3 u;
+    guint n = 0;
 
-    sonar_simulator_render (sim, &scene, 7000 + p, 0.0, planar, &truth);
-    interleave (planar, n_mics, length, samples);
-    n = chain_run_ping (ch, samples, n_mics, length);
-    for (guint k = 0; k < n && !hit; k++) {
-      for (guint j = 0; j < ch->counts[k] && !hit; j++) {
-        const SonarVelocityEstimate *e = &ch->results[2 * k + j];
-        SonarUncertainty s;
-        double values[3];
-        if (!e->valid || fabs (e->range - truth.range) > MATCH_DISTANCE
-            || fabs (e->azimuth - truth.azimuth) > 3.0)
-          continue;
-        sonar_uncertainty_measure (ch->image, ch->grid,
-            sonar_uncertainty_noise_power (ch->image, ch->grid,
-                ch->n_templates, ch->centroids[k].peak_range_index),
-            &ch->centroids[k], e, ch->n_emitters,
-            sonar_doppler_bank_step (ch->bank->bank), &s);
-        values[0] = e->range;
-        values[1] = e->azimuth;
-        values[2] = e->radial_velocity;
-        t->sigmas[0][t->n] = s.range_sigma;
-        t->sigmas[1][t->n] = s.azimuth_sigma;
-        t->sigmas[2][t->n] = s.radial_velocity_sigma;
-        t->snrs[t->n] = s.snr_db;
-        for (guint i = 0; i < 3; i++) {
-          t->sum[i] += values[i];
-          t->sum2[i] += values[i] * values[i];
+    sonar_rng_init (&rng, RANDOM_SCENE_SEED, 5000 + place);
+    range = UNCERTAINTY_RANGE_MIN + (UNCERTAINTY_RANGE_MAX -
+        UNCERTAINTY_RANGE_MIN) * sonar_rng_uniform (&rng);
+    azimuth = UNCERTAINTY_AZIMUTH * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+    speed = UNCERTAINTY_SPEED * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+    u = sonar_vec3_from_direction (azimuth, 0.0);
+    reflector.position = sonar_vec3_scale (u, range);
+    reflector.velocity = sonar_vec3_scale (u, speed);
+    /* SNR = (s / (2 r)^2)^2 P_emitted / noise^2, solved for s. */
+    reflector.strength = NOISE_AMPLITUDE * pow (10.0, snr_db / 20.0) *
+        4.0 * range * range / sqrt (emission_power (setup));
+    for (guint seed = 0; seed < uncertainty_seeds; seed++) {
+      SonarTruth truth;
+      guint n_centroids;
+      gboolean hit = FALSE;
+
+      /* The same instant (t = 0) every time; only the noise changes. */
+      sonar_simulator_render (sim, &scene, 7000 + 100 * place + seed, 0.0,
+          planar, &truth);
+      interleave (planar, n_mics, length, samples);
+      n_centroids = chain_run_ping (ch, samples, n_mics, length);
+      for (guint k = 0; k < n_centroids && !hit; k++) {
+        for (guint j = 0; j < ch->counts[k] && !hit; j++) {
+          const SonarVelocityEstimate *e = &ch->results[2 * k + j];
+          SonarUncertainty s;
+          if (!e->valid || fabs (e->range - truth.range) > MATCH_DISTANCE
+              || fabs (e->azimuth - truth.azimuth) > 3.0)
+            continue;
+          sonar_uncertainty_measure (ch->image, ch->grid,
+              sonar_uncertainty_noise_power (ch->image, ch->grid,
+                  ch->n_templates),
+              &ch->centroids[k], e, ch->n_emitters,
+              sonar_doppler_bank_step (ch->bank->bank), &s);
+          values[3 * n] = e->range;
+          values[3 * n + 1] = e->azimuth;
+          values[3 * n + 2] = e->radial_velocity;
+          sigmas[3 * n] = s.range_sigma;
+          sigmas[3 * n + 1] = s.azimuth_sigma;
+          sigmas[3 * n + 2] = s.radial_velocity_sigma;
+          for (guint i = 0; i < 3; i++)
+            g_array_append_val (t->sigmas[i], sigmas[3 * n + i]);
+          g_array_append_val (t->snrs, s.snr_db);
+          n++;
+          hit = TRUE;
         }
-        t->n++;
-        hit = TRUE;
+      }
+    }
+    t->found += n;
+    if (n < 2)
+      continue;
+    t->dof += n - 1;
+    for (guint i = 0; i < 3; i++) {
+      double mean = 0.0;
+      for (guint m = 0; m < n; m++)
+        mean += values[3 * m + i] / n;
+      for (guint m = 0; m < n; m++) {
+        const double z = (values[3 * m + i] - mean) / sigmas[3 * m + i];
+        t->sum_z2[i] += z * z;
       }
     }
   }
@@ -856,12 +873,17 @@ uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
   sonar_scene_clear (&scene);
 }
 
+static double
+array_median (GArray * a)
+{
+  return a->len ? median ((double *) a->data, a->len) : NAN;
+}
+
 gboolean
 run_uncertainty (Bench * b)
 {
   static const char *const names[3] = { "range", "azimuth", "velocity" };
   static const char *const units[3] = { "mm", "mdeg", "mm/s" };
-  static const double scales[3] = { 1e3, 1e3, 1e3 };
   g_autoptr (GError) error = NULL;
   g_autoptr (SonarSetup) setup = make_setup (MAX_RANGE, &error);
   g_autoptr (SonarSimulator) sim = NULL;
@@ -886,38 +908,40 @@ run_uncertainty (Bench * b)
   b->setup = saved;
   if (!ok)
     goto fail;
-  g_print ("\nuncertainty (one point reflector at %g m, %g deg, %+g m/s; "
-      "%u noise seeds per SNR; the elements' defaults)\nreported 1-sigma "
-      "(median) against the measured scatter (standard deviation) of the "
-      "estimates; ratio = reported / measured\n%8s %6s %9s", UNCERTAINTY_RANGE,
-      UNCERTAINTY_AZIMUTH, UNCERTAINTY_SPEED, uncertainty_pings, "SNR dB",
-      "found", "image SNR");
+  g_print ("\nuncertainty (one point reflector at %u places, 1.5-4 m, "
+      "-50..50 deg, -1..1 m/s, %u noise seeds each; the elements' "
+      "defaults)\nratio = reported 1-sigma / measured scatter about each "
+      "place's mean (pooled rms of deviation / reported sigma); sigma: the "
+      "median reported\n%7s %7s %9s", UNCERTAINTY_PLACES, uncertainty_seeds,
+      "SNR dB", "found", "image SNR");
   for (guint i = 0; i < 3; i++)
-    g_print ("  %-8s %4s: reported measured ratio", names[i], units[i]);
+    g_print ("  %8s %4s ratio", names[i], units[i]);
   g_print ("\n");
   for (guint s = 0; s < G_N_ELEMENTS (uncertainty_snrs_db); s++) {
-    UncertaintyTally t;
-    uncertainty_pings_at (ch, sim, setup, uncertainty_snrs_db[s],
-        uncertainty_pings, &t);
-    g_print ("%8.0f %3u/%-3u %8.1f", uncertainty_snrs_db[s], t.n,
-        uncertainty_pings, t.n ? median (t.snrs, t.n) : NAN);
+    UncertaintyTally t = { 0 };
+    for (guint i = 0; i < 3; i++)
+      t.sigmas[i] = g_array_new (FALSE, FALSE, sizeof (double));
+    t.snrs = g_array_new (FALSE, FALSE, sizeof (double));
+    uncertainty_pings_at (ch, sim, setup, uncertainty_snrs_db[s], &t);
+    g_print ("%7.0f %3u/%-3u %9.1f", uncertainty_snrs_db[s], t.found,
+        UNCERTAINTY_PLACES * uncertainty_seeds, array_median (t.snrs));
     for (guint i = 0; i < 3; i++) {
-      const double reported = t.n ? median (t.sigmas[i], t.n) : NAN;
-      const double measured = tally_scatter (&t, i);
-      g_print ("  %18.3f %8.3f %5.2f", reported * scales[i],
-          measured * scales[i], reported / measured);
+      const double ratio = t.dof ? 1.0 / sqrt (t.sum_z2[i] / t.dof) : NAN;
+      g_print ("  %13.3f %5.2f", 1e3 * array_median (t.sigmas[i]), ratio);
       if (b->csv) {
         g_autofree char *value = g_strdup_printf ("%g dB %s",
             uncertainty_snrs_db[s], names[i]);
         write_sensitivity_row (b->csv, "uncertainty", value, "point",
-            uncertainty_pings, t.n, uncertainty_pings, 0, reported,
-            measured);
+            UNCERTAINTY_PLACES * uncertainty_seeds, t.found,
+            UNCERTAINTY_PLACES * uncertainty_seeds, 0,
+            array_median (t.sigmas[i]), ratio);
       }
-      g_free (t.sigmas[i]);
+      g_array_unref (t.sigmas[i]);
     }
-    g_free (t.snrs);
+    g_array_unref (t.snrs);
     g_print ("\n");
   }
+  (void) units;
   chain_clear (ch);
   return TRUE;
 fail:

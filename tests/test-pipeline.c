@@ -215,7 +215,7 @@ test_wav_recording_identical (void)
       REPLAY_CHAIN, live);
   recorded = collect_json (load);
   g_test_message ("%s", recorded);
-  g_assert_nonnull (strstr (live->str, "\"time\": 0.166666667,"));
+  g_assert_nonnull (strstr (live->str, "\"time\": 0.166667,"));
   g_assert_nonnull (strstr (live->str, "\"radial_velocity\""));
   g_assert_cmpstr (recorded, ==, live->str);
   g_unlink (wav);

@@ -796,8 +796,9 @@ sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
 
 /* JSON built with json-glib's JsonBuilder, written by sonar_json_to_line
  * () (json-glib's generator, but numbers at their shortest). Each number
- * is rounded to what it means (a micrometre, a ten-thousandth of a
- * degree...); a non-finite one is null. */
+ * is rounded as the lines always were (0.1 mm, 0.01 degree, 0.1 mm/s,
+ * 1 us: tests/data/golden-*.jsonl compare them to the last digit), an
+ * uncertainty to 3 significant digits; a non-finite one is null. */
 static void
 add_number (JsonBuilder * b, const char *name, double value, int decimals)
 {
@@ -806,6 +807,20 @@ add_number (JsonBuilder * b, const char *name, double value, int decimals)
   json_builder_set_member_name (b, name);
   if (isfinite (value))
     json_builder_add_double_value (b, round (value * scale) / scale);
+  else
+    json_builder_add_null_value (b);
+}
+
+static double significant (double value, int digits);
+
+/* A number that spans decades (an uncertainty) to @digits significant
+ * digits. */
+static void
+add_significant (JsonBuilder * b, const char *name, double value, int digits)
+{
+  json_builder_set_member_name (b, name);
+  if (isfinite (value))
+    json_builder_add_double_value (b, significant (value, digits));
   else
     json_builder_add_null_value (b);
 }
@@ -837,7 +852,7 @@ begin_ping (guint64 ping_index, GstClockTime timestamp)
   json_builder_set_member_name (b, "ping");
   json_builder_add_int_value (b, (gint64) ping_index);
   add_number (b, "time", GST_CLOCK_TIME_IS_VALID (timestamp) ?
-      timestamp / (double) GST_SECOND : NAN, 9);
+      timestamp / (double) GST_SECOND : NAN, 6);
   return b;
 }
 
@@ -868,24 +883,25 @@ sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
   for (guint k = 0; k < n; k++) {
     const SonarDetection *d = &detections[k];
     json_builder_begin_object (b);
-    add_number (b, "range", d->range, 6);
-    add_number (b, "azimuth", d->azimuth, 4);
-    add_number (b, "elevation", d->elevation, 4);
-    add_number (b, "x", d->position.x, 6);
-    add_number (b, "y", d->position.y, 6);
-    add_number (b, "z", d->position.z, 6);
-    add_number (b, "instant", d->instant, 9);
-    add_number (b, "radial_velocity", d->radial_velocity, 5);
+    add_number (b, "range", d->range, 4);
+    add_number (b, "azimuth", d->azimuth, 2);
+    add_number (b, "elevation", d->elevation, 2);
+    add_number (b, "x", d->position.x, 4);
+    add_number (b, "y", d->position.y, 4);
+    add_number (b, "z", d->position.z, 4);
+    add_number (b, "instant", d->instant, 7);
+    add_number (b, "radial_velocity", d->radial_velocity, 4);
     add_boolean (b, "approaching", d->approaching);
-    add_number (b, "confidence", d->confidence, 4);
+    add_number (b, "confidence", d->confidence, 3);
     add_boolean (b, "out_of_range", d->out_of_range);
     add_boolean (b, "valid", d->valid);
     add_number (b, "amplitude", d->amplitude, 2);
     add_number (b, "snr", d->snr, 2);
-    add_number (b, "range_sigma", d->range_sigma, 7);
-    add_number (b, "azimuth_sigma", d->azimuth_sigma, 5);
-    add_number (b, "elevation_sigma", d->elevation_sigma, 5);
-    add_number (b, "radial_velocity_sigma", d->radial_velocity_sigma, 6);
+    add_significant (b, "range_sigma", d->range_sigma, 3);
+    add_significant (b, "azimuth_sigma", d->azimuth_sigma, 3);
+    add_significant (b, "elevation_sigma", d->elevation_sigma, 3);
+    add_significant (b, "radial_velocity_sigma", d->radial_velocity_sigma,
+        3);
     add_string (b, "frame_id", d->frame_id);
     json_builder_end_object (b);
   }
@@ -1114,7 +1130,7 @@ sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
   add_string (b, "ego_status", observed ? "observed" : "unobservable");
   add_string (b, "ego_reason", ego_reason (ego));
   if (observed) {
-    add_vector (b, "ego_velocity", ego->velocity, 5);
+    add_vector (b, "ego_velocity", ego->velocity, 4);
     add_matrix (b, "ego_covariance", ego->covariance);
     json_builder_set_member_name (b, "ego_dimensions");
     json_builder_add_int_value (b, ego->dimensions);
@@ -1137,16 +1153,16 @@ sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
     json_builder_add_int_value (b, (gint64) t->id);
     add_string (b, "state", sonar_track_state_to_string (t->state));
     add_boolean (b, "moving", t->moving);
-    add_number (b, "instant", t->instant, 9);
-    add_number (b, "range", t->range, 6);
-    add_number (b, "azimuth", t->azimuth, 4);
-    add_number (b, "elevation", t->elevation, 4);
-    add_number (b, "x", t->position.x, 6);
-    add_number (b, "y", t->position.y, 6);
-    add_number (b, "z", t->position.z, 6);
-    add_number (b, "radial_velocity", t->radial_velocity, 5);
-    add_vector (b, "velocity", t->velocity, 5);
-    add_number (b, "radius", t->radius, 6);
+    add_number (b, "instant", t->instant, 7);
+    add_number (b, "range", t->range, 4);
+    add_number (b, "azimuth", t->azimuth, 2);
+    add_number (b, "elevation", t->elevation, 2);
+    add_number (b, "x", t->position.x, 4);
+    add_number (b, "y", t->position.y, 4);
+    add_number (b, "z", t->position.z, 4);
+    add_number (b, "radial_velocity", t->radial_velocity, 4);
+    add_vector (b, "velocity", t->velocity, 4);
+    add_number (b, "radius", t->radius, 4);
     add_matrix (b, "position_covariance", t->position_covariance);
     add_matrix (b, "velocity_covariance", t->velocity_covariance);
     json_builder_set_member_name (b, "hits");

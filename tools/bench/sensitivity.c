@@ -774,7 +774,8 @@ run_split (Bench * b)
 #define UNCERTAINTY_SPEED 1.0
 
 guint uncertainty_seeds = UNCERTAINTY_SEEDS;
-static const double uncertainty_snrs_db[] = { -30, -27, -24, -20, -15, -10 };
+static const double uncertainty_snrs_db[] =
+    { -30, -27, -24, -20, -15, -10, -5, 0 };
 
 typedef struct
 {

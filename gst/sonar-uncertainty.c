@@ -2,17 +2,45 @@
 #include "sonar-uncertainty.h"
 
 #include <math.h>
-#include <stdlib.h>
 
-/* Pixels, at most, in the noise quartile: from a few thousand samples a
- * quartile is steady to a few per cent. */
-#define NOISE_SAMPLES 4096
+/* Pixels, about, in each block's noise quartile: from a thousand samples
+ * a quartile is steady to a few per cent, the median over the blocks to
+ * less. */
+#define NOISE_SAMPLES 1024
 
-static int
-compare_floats (const void *a, const void *b)
+/* Element @k of @v (@n values) in ascending order; reorders them
+ * (Hoare's selection). */
+static float
+select_kth (float *v, gsize n, gsize k)
 {
-  const float x = *(const float *) a, y = *(const float *) b;
-  return (x > y) - (x < y);
+  gsize lo = 0, hi = n - 1;
+
+  while (lo < hi) {
+    const float pivot = v[lo + (hi - lo) / 2];
+    gsize i = lo, j = hi;
+    while (i <= j) {
+      while (v[i] < pivot)
+        i++;
+      while (v[j] > pivot)
+        j--;
+      if (i <= j) {
+        const float t = v[i];
+        v[i] = v[j];
+        v[j] = t;
+        i++;
+        if (j == 0)
+          break;
+        j--;
+      }
+    }
+    if (k <= j)
+      hi = j;
+    else if (k >= i)
+      lo = i;
+    else
+      break;
+  }
+  return v[k];
 }
 
 double
@@ -23,13 +51,12 @@ sonar_uncertainty_noise_power (const float *image,
   const guint block = MAX (1, (guint) ceil (SONAR_UNCERTAINTY_NOISE_BLOCK /
           MAX (grid->range_step, 1e-9)));
   const guint n_blocks = (grid->n_range + block - 1) / block;
-  const gsize per_block = n_dirs * block;
-  /* An odd stride, so that the samples walk over directions and ranges
-   * alike. */
-  const gsize stride = ((per_block + NOISE_SAMPLES - 1) / NOISE_SAMPLES) | 1;
+  /* Every block_rows-th direction, each one's run of range bins read in
+   * one go (a sample's worth of reads, in cache lines). */
+  const gsize stride = MAX (1, n_dirs * block / NOISE_SAMPLES);
   const double k = 1.0 + (MAX (hypotheses, 1) - 1.0) *
       SONAR_UNCERTAINTY_QUARTILE_SHARE;
-  g_autofree float *values = g_new (float, per_block / stride + 1);
+  g_autofree float *values = g_new (float, (n_dirs / stride + 1) * block);
   g_autofree float *quartiles = g_new (float, n_blocks);
   guint n_quartiles = 0;
   double q;
@@ -38,20 +65,20 @@ sonar_uncertainty_noise_power (const float *image,
     const guint first = b * block;
     const guint rows = MIN (block, grid->n_range - first);
     gsize n = 0;
-    for (gsize j = 0; j < n_dirs * rows; j += stride) {
-      const float v = image[(j / rows) * grid->n_range + first + j % rows];
-      if (isfinite (v))
-        values[n++] = v;
+    /* Offset by block, so that the blocks see different directions. */
+    for (gsize d = b % stride; d < n_dirs; d += stride) {
+      const float *run = image + d * grid->n_range + first;
+      for (guint i = 0; i < rows; i++)
+        if (isfinite (run[i]))
+          values[n++] = run[i];
     }
     if (n < 4)
       continue;
-    qsort (values, n, sizeof (float), compare_floats);
-    quartiles[n_quartiles++] = values[n / 4];
+    quartiles[n_quartiles++] = select_kth (values, n, n / 4);
   }
   if (n_quartiles == 0)
     return 0.0;
-  qsort (quartiles, n_quartiles, sizeof (float), compare_floats);
-  q = quartiles[n_quartiles / 2];
+  q = select_kth (quartiles, n_quartiles, n_quartiles / 2);
   /* The quartile of the maximum of K Rayleigh envelopes of scale s:
    * q^2 = -2 s^2 ln (1 - 4^(-1/K)); E|n|^2 = 2 s^2. */
   return q * q / -log (-expm1 (log (0.25) / k));

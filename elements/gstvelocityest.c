@@ -14,6 +14,11 @@
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
  *
+ * Each detection also carries the echo's amplitude and SNR, the 1-sigma
+ * uncertainties of its range, direction and radial velocity from the
+ * ping's own noise and peaks (sonar-uncertainty.h), and the set-up's
+ * frame id.
+ *
  * Results, per ping, three ways (docs/CONTRACTS.md): a line of JSON as the
  * output buffer (text/x-raw, utf8: fdsink or filesink write it), a
  * SonarDetectionsMeta on that buffer (appsink), and a "sonar-detections"
@@ -77,7 +82,6 @@ struct _GstVelocityEst
   SonarVelocityPool *pool;
   SonarImageGrid grid;
   guint hypotheses;             /* Doppler hypotheses each pixel is the maximum of */
-  double velocity_step;         /* the bank's, m/s */
   guint n_emitters;
   double emission_centre;       /* s after the trigger */
   GArray *detections;           /* SonarDetection, reused every ping */
@@ -122,8 +126,6 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
       &self->grid, &params, threads, error);
   if (!self->pool)
     return NULL;
-  self->velocity_step =
-      sonar_doppler_bank_step (gst_sonar_filter_get_bank (filter));
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
       gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
@@ -148,8 +150,8 @@ gst_velocity_est_unconfigure (GstSonarFilter * filter)
       sonar_velocity_pool_free);
 }
 
-/* @image: the ping's energyscape (its pixels); @noise_power: its noise at
- * the centroid's range (sonar-uncertainty.h). */
+/* @image: the ping's energyscape (its pixels); @noise_power: its noise
+ * (sonar-uncertainty.h), read once per ping. */
 static void
 add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
     guint index, const SonarVelocityEstimate * e, GstClockTime ping_time,
@@ -180,7 +182,7 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   d.peak_db = e->peak_db;
   d.variance = e->variance;
   sonar_uncertainty_measure (image, &self->grid, noise_power, centroid, e,
-      self->n_emitters, self->velocity_step, &u);
+      self->n_emitters, &u);
   d.amplitude = u.amplitude_db;
   d.snr = u.snr_db;
   /* The range is moved on to the instant at the estimated velocity
@@ -214,6 +216,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   GstBuffer *out;
   GstMapInfo map, image_map;
   const float *image;
+  gboolean mapped;
   double noise_power;
   char *json;
   guint64 ping;
@@ -238,9 +241,13 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
       centroids->centroids, centroids->n_centroids, self->results,
       self->counts);
   gst_buffer_unmap (spectra->spectra, &map);
-  if (!gst_buffer_map (buffer, &image_map, GST_MAP_READ)
-      || image_map.size < sizeof (SonarEnergyscapeHeader) +
+  mapped = gst_buffer_map (buffer, &image_map, GST_MAP_READ);
+  if (mapped && image_map.size < sizeof (SonarEnergyscapeHeader) +
       sizeof (float) * sonar_image_grid_size (&self->grid)) {
+    gst_buffer_unmap (buffer, &image_map);
+    mapped = FALSE;
+  }
+  if (!mapped) {
     GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("An energyscape smaller than "
             "its caps say"), (NULL));
     gst_buffer_unref (buffer);

@@ -129,20 +129,19 @@ log_curvature (const float *image, gsize p, gsize stride, guint i, guint n)
   return k < 0.0 ? k : NAN;
 }
 
-/* sqrt (1 / (2 snr |kappa|) + floor^2), NaN without a curvature. */
+/* sqrt (1 / (2 snr |kappa|)), NaN without a curvature. */
 static double
-sigma (double snr, double kappa, double floor)
+sigma (double snr, double kappa)
 {
   if (!(kappa < 0.0) || !(snr > 0.0))
     return NAN;
-  return sqrt (1.0 / (2.0 * snr * -kappa) + floor * floor);
+  return sqrt (1.0 / (2.0 * snr * -kappa));
 }
 
 void
 sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
     double noise_power, const SonarCentroid * centroid,
-    const SonarVelocityEstimate * e, guint n_emitters, double velocity_step,
-    SonarUncertainty * out)
+    const SonarVelocityEstimate * e, guint n_emitters, SonarUncertainty * out)
 {
   const gsize stride_e = (gsize) grid->n_azimuth * grid->n_range;
   const guint a = MIN (centroid->peak_azimuth_index, grid->n_azimuth - 1);
@@ -151,13 +150,15 @@ sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
   const gsize row = ((gsize) el * grid->n_azimuth + a) * grid->n_range;
   const double nearest = (e->range - grid->range_first) /
       MAX (grid->range_step, 1e-12);
-  guint i = (guint) CLAMP (lround (nearest), 0, (long) grid->n_range - 1);
+  const guint i0 = (guint) CLAMP (lround (nearest), 0,
+      (long) grid->n_range - 1);
+  guint i = i0;
   double amplitude, snr;
   gsize p;
 
-  /* The echo's own peak along range (a second reflector in the centroid
-   * lies off the strongest member's). */
-  for (guint j = (guint) MAX ((long) i - 2, 0); j <= MIN (i + 2,
+  /* The echo's own peak along range, within 2 bins of its range (a second
+   * reflector in the centroid lies off the strongest member's). */
+  for (guint j = (guint) MAX ((long) i0 - 2, 0); j <= MIN (i0 + 2,
           grid->n_range - 1); j++)
     if (image[row + j] > image[row + i])
       i = j;
@@ -167,17 +168,16 @@ sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
   out->amplitude_db = amplitude > 0.0f ? 20.0 * log10 (amplitude) : NAN;
   out->snr_db = 10.0 * log10 (snr);
   out->range_sigma = grid->range_step * sigma (snr, log_curvature (image,
-          p, 1, i, grid->n_range), SONAR_UNCERTAINTY_GRID_FLOOR);
+          p, 1, i, grid->n_range));
   out->azimuth_sigma = fabs (grid->azimuth_step) * sigma (snr,
-      log_curvature (image, p, grid->n_range, a, grid->n_azimuth),
-      SONAR_UNCERTAINTY_GRID_FLOOR);
+      log_curvature (image, p, grid->n_range, a, grid->n_azimuth));
   out->elevation_sigma = grid->n_elevation > 1 ?
       fabs (grid->elevation_step) * sigma (snr, log_curvature (image, p,
-          stride_e, el, grid->n_elevation), SONAR_UNCERTAINTY_GRID_FLOOR) :
+          stride_e, el, grid->n_elevation)) :
       NAN;
   /* Each emitter's curve carries g / N of the MIMO image's SNR. */
   out->radial_velocity_sigma = n_emitters > 0 ? sigma (snr *
       SONAR_UNCERTAINTY_EMITTER_SNR_GAIN / n_emitters,
-      e->velocity_curvature, SONAR_UNCERTAINTY_GRID_FLOOR * velocity_step) :
+      e->velocity_curvature) :
       NAN;
 }

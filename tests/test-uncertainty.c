@@ -82,7 +82,7 @@ test_sigmas_of_a_known_peak (void)
       image[a * 200 + i] = (float) (amplitude * exp (-x * x / (2 * wr * wr)
               - y * y / (2 * wa * wa)));
     }
-  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, 0.05, &u);
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
   g_assert_cmpfloat_with_epsilon (u.amplitude_db, 20 * log10 (amplitude),
       1e-4);
   g_assert_cmpfloat_with_epsilon (u.snr_db, 10 * log10 (snr), 1e-4);
@@ -95,7 +95,7 @@ test_sigmas_of_a_known_peak (void)
           (2 * SONAR_UNCERTAINTY_EMITTER_SNR_GAIN * snr * 400.0)), 1e-9);
   /* No curvature measured (a prescreen rejection): no velocity sigma. */
   e.velocity_curvature = NAN;
-  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, 0.05, &u);
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
   g_assert_true (isnan (u.radial_velocity_sigma));
 }
 

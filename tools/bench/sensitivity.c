@@ -839,8 +839,7 @@ uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
           sonar_uncertainty_measure (ch->image, ch->grid,
               sonar_uncertainty_noise_power (ch->image, ch->grid,
                   ch->n_templates),
-              &ch->centroids[k], e, ch->n_emitters,
-              sonar_doppler_bank_step (ch->bank->bank), &s);
+              &ch->centroids[k], e, ch->n_emitters, &s);
           values[3 * n] = e->range;
           values[3 * n + 1] = e->azimuth;
           values[3 * n + 2] = e->radial_velocity;

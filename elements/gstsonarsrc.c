@@ -126,6 +126,7 @@ enum
   PROP_POST_MESSAGES,
   PROP_WRITE_SENSOR_FILE,
   PROP_MAX_MEMORY,
+  PROP_FRAME_ID,
 };
 
 /* What the properties say; read under the object lock, used at start. */
@@ -143,6 +144,7 @@ typedef struct
   gboolean post_messages;
   char *write_sensor_file;
   guint64 max_memory;
+  char *frame_id;
 } SonarSrcSettings;
 
 struct _GstSonarSrc
@@ -208,6 +210,7 @@ gst_sonar_src_finalize (GObject * object)
   g_free (self->settings.geometry_file);
   g_free (self->settings.waveforms_file);
   g_free (self->settings.write_sensor_file);
+  g_free (self->settings.frame_id);
   G_OBJECT_CLASS (gst_sonar_src_parent_class)->finalize (object);
 }
 
@@ -242,6 +245,10 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
     case PROP_SCENE_FILE:
       g_free (s->scene_file);
       s->scene_file = g_value_dup_string (value);
+      break;
+    case PROP_FRAME_ID:
+      g_free (s->frame_id);
+      s->frame_id = g_value_dup_string (value);
       break;
     case PROP_GEOMETRY_FILE:
       g_free (s->geometry_file);
@@ -326,6 +333,9 @@ gst_sonar_src_get_property (GObject * object, guint prop_id, GValue * value,
     case PROP_SCENE_FILE:
       g_value_set_string (value, s->scene_file);
       break;
+    case PROP_FRAME_ID:
+      g_value_set_string (value, s->frame_id);
+      break;
     case PROP_GEOMETRY_FILE:
       g_value_set_string (value, s->geometry_file);
       break;
@@ -395,6 +405,7 @@ settings_copy (SonarSrcSettings * dest, const SonarSrcSettings * src)
   dest->geometry_file = g_strdup (src->geometry_file);
   dest->waveforms_file = g_strdup (src->waveforms_file);
   dest->write_sensor_file = g_strdup (src->write_sensor_file);
+  dest->frame_id = g_strdup (src->frame_id);
 }
 
 static void
@@ -404,6 +415,7 @@ settings_clear (SonarSrcSettings * s)
   g_clear_pointer (&s->geometry_file, g_free);
   g_clear_pointer (&s->waveforms_file, g_free);
   g_clear_pointer (&s->write_sensor_file, g_free);
+  g_clear_pointer (&s->frame_id, g_free);
 }
 
 /* Builds the sensor the settings describe, resolving the directions of a
@@ -470,7 +482,7 @@ make_setup (const SonarSrcSettings * s, guint dimensions, GError ** error)
         .waveforms = waveforms, .ping_length = ping_length,
         .ping_period = 1.0 / s->ping_rate, .ping_stride = ping_length,
         .field_of_view = dimensions == 2 ? SONAR_FIELD_OF_VIEW_FAN :
-        SONAR_FIELD_OF_VIEW_HEMISPHERE}, error);
+        SONAR_FIELD_OF_VIEW_HEMISPHERE,.frame_id = s->frame_id}, error);
 done:
   sonar_geometry_clear (&geometry);
   return setup;
@@ -802,6 +814,12 @@ gst_sonar_src_class_init (GstSonarSrcClass * klass)
   g_object_class_install_property (gobject_class, PROP_SCENE_FILE,
       g_param_spec_string ("scene-file", "Scene file", "JSON scene file "
           "(format: docs/FORMATS.md); overrides scene", NULL, flags));
+  g_object_class_install_property (gobject_class, PROP_FRAME_ID,
+      g_param_spec_string ("frame-id", "Frame id", "Name of this sensor's "
+          "frame (as ROS's header.frame_id, up to 63 printable ASCII "
+          "characters): carried in the set-up event to every detection "
+          "(\"frame_id\"), so that one host can tell several sensors' "
+          "results apart; NULL: none", NULL, flags));
   g_object_class_install_property (gobject_class, PROP_GEOMETRY_FILE,
       g_param_spec_string ("geometry-file", "Geometry file", "JSON array "
           "geometry file (format: docs/FORMATS.md); default: the 32-microphone "

@@ -249,6 +249,19 @@ read_detections (GstSonarTrack * self, const SonarDetectionsMeta * meta)
     /* A speed at the bank's edge may lie beyond it: position only. */
     m.radial_velocity = d->out_of_range ? NAN : d->radial_velocity;
     sonar_measurement_set_nominal_sigma (&m, &sigma);
+    /* The detection's own uncertainty (velocityest's, from the ping's
+     * noise) where it is larger: a weak echo. The model stays the floor:
+     * it covers what the noise does not (the presets' measured biases,
+     * extended objects, the array's calibration), which at high SNR is
+     * most of the error. */
+    if (d->range_sigma > m.sigma_range)
+      m.sigma_range = d->range_sigma;
+    if (d->azimuth_sigma * G_PI / 180.0 > m.sigma_azimuth)
+      m.sigma_azimuth = d->azimuth_sigma * G_PI / 180.0;
+    if (d->elevation_sigma * G_PI / 180.0 > m.sigma_elevation)
+      m.sigma_elevation = d->elevation_sigma * G_PI / 180.0;
+    if (d->radial_velocity_sigma > m.sigma_radial_velocity)
+      m.sigma_radial_velocity = d->radial_velocity_sigma;
     g_array_append_val (self->measurements, m);
     g_array_append_val (self->indices, k);
   }
@@ -262,6 +275,8 @@ gst_sonar_track_generate_output (GstBaseTransform * trans,
   GstSonarTrack *self = GST_SONAR_TRACK (trans);
   GstBuffer *in = trans->queued_buf;
   SonarDetectionsMeta *meta;
+  SonarTracksMeta *tracks_meta;
+  const char *frame_id;
   SonarEgoMotion motion;
   const SonarTrack *tracks;
   GError *error = NULL;
@@ -336,18 +351,21 @@ gst_sonar_track_generate_output (GstBaseTransform * trans,
   }
   tracks = (const SonarTrack *) self->tracks->data;
 
-  json = sonar_tracks_to_json (meta->ping_index, pts, &motion, tracks,
-      n_tracks);
+  frame_id = self->setup ? self->setup->frame_id : "";
+  json = sonar_tracks_to_json (meta->ping_index, pts, frame_id, &motion,
+      tracks, n_tracks);
   *outbuf = gst_buffer_new_wrapped (json, strlen (json));
   gst_buffer_copy_into (*outbuf, in, GST_BUFFER_COPY_TIMESTAMPS |
       GST_BUFFER_COPY_META, 0, -1);
-  sonar_buffer_add_tracks_meta (*outbuf, meta->ping_index, &motion, tracks,
-      n_tracks);
+  tracks_meta = sonar_buffer_add_tracks_meta (*outbuf, meta->ping_index,
+      &motion, tracks, n_tracks);
+  if (tracks_meta)
+    g_strlcpy (tracks_meta->frame_id, frame_id, sizeof tracks_meta->frame_id);
   if (self->post_messages)
     gst_element_post_message (GST_ELEMENT (self),
         gst_message_new_element (GST_OBJECT (self),
-            sonar_tracks_to_structure (meta->ping_index, pts, &motion,
-                tracks, n_tracks)));
+            sonar_tracks_to_structure (meta->ping_index, pts, frame_id,
+                &motion, tracks, n_tracks)));
   gst_buffer_unref (in);
   return GST_FLOW_OK;
 }

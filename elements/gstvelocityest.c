@@ -14,6 +14,11 @@
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
  *
+ * Each detection also carries the echo's amplitude and SNR, the 1-sigma
+ * uncertainties of its range, direction and radial velocity from the
+ * ping's own noise and peaks (sonar-uncertainty.h), and the set-up's
+ * frame id.
+ *
  * Results, per ping, three ways (docs/CONTRACTS.md): a line of JSON as the
  * output buffer (text/x-raw, utf8: fdsink or filesink write it), a
  * SonarDetectionsMeta on that buffer (appsink), and a "sonar-detections"
@@ -29,8 +34,10 @@
 
 #include "gstvelocityest.h"
 
+#include <math.h>
 #include <string.h>
 
+#include "sonar-uncertainty.h"
 #include "sonar-velocity.h"
 
 GST_DEBUG_CATEGORY_STATIC (velocity_est_debug);
@@ -76,6 +83,7 @@ struct _GstVelocityEst
   /* Configured state. */
   SonarVelocityPool *pool;
   SonarImageGrid grid;
+  guint hypotheses;             /* Doppler hypotheses each pixel is the maximum of */
   guint n_emitters;
   double emission_centre;       /* s after the trigger */
   GArray *detections;           /* SonarDetection, reused every ping */
@@ -105,7 +113,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   guint records, threads;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
-          &records, NULL) || records != 1) {
+          &records, &self->hypotheses) || records != 1) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
         "velocityest: it needs one energyscape per ping with centroids "
         "(mimobeamform ! wardcluster ! velocityest)");
@@ -177,17 +185,22 @@ retune (GstVelocityEst * self)
   }
 }
 
+/* @image: the ping's energyscape (its pixels); @noise_power: its noise
+ * (sonar-uncertainty.h), read once per ping. */
 static void
-add_detection (GstVelocityEst * self, guint centroid,
-    const SonarVelocityEstimate * e, GstClockTime ping_time)
+add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
+    guint index, const SonarVelocityEstimate * e, GstClockTime ping_time,
+    const float *image, double noise_power)
 {
-  const double c = gst_sonar_filter_get_setup (GST_SONAR_FILTER
-      (self))->speed_of_sound;
+  const SonarSetup *setup = gst_sonar_filter_get_setup (GST_SONAR_FILTER
+      (self));
+  const double c = setup->speed_of_sound;
   SonarDetection d;
+  SonarUncertainty u;
   double delay;
 
   /* Position and velocity at one instant: the velocity's. */
-  d.centroid = centroid;
+  d.centroid = index;
   d.range = sonar_velocity_centre_range (e->range, e->radial_velocity, c,
       self->emission_centre, &delay);
   d.azimuth = e->azimuth;
@@ -203,6 +216,18 @@ add_detection (GstVelocityEst * self, guint centroid,
   d.valid = e->valid;
   d.peak_db = e->peak_db;
   d.variance = e->variance;
+  sonar_uncertainty_measure (image, &self->grid, noise_power, centroid, e,
+      self->n_emitters, &u);
+  d.amplitude = u.amplitude_db;
+  d.snr = u.snr_db;
+  /* The range is moved on to the instant at the estimated velocity
+   * (over delay - range / c): its error adds to the range's. */
+  d.range_sigma = isfinite (u.radial_velocity_sigma) ? hypot (u.range_sigma,
+      (delay - e->range / c) * u.radial_velocity_sigma) : u.range_sigma;
+  d.azimuth_sigma = u.azimuth_sigma;
+  d.elevation_sigma = u.elevation_sigma;
+  d.radial_velocity_sigma = u.radial_velocity_sigma;
+  g_strlcpy (d.frame_id, setup->frame_id, sizeof d.frame_id);
   g_array_append_val (self->detections, d);
 }
 
@@ -224,7 +249,10 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   SonarSpectraMeta *spectra = sonar_buffer_get_spectra_meta (buffer);
   const SonarBand *band = gst_sonar_filter_get_band (filter);
   GstBuffer *out;
-  GstMapInfo map;
+  GstMapInfo map, image_map;
+  const float *image;
+  gboolean mapped;
+  double noise_power;
   char *json;
   guint64 ping;
   gboolean keep_rejected;
@@ -253,11 +281,34 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
       centroids->centroids, centroids->n_centroids, self->results,
       self->counts);
   gst_buffer_unmap (spectra->spectra, &map);
-  for (guint k = 0; k < centroids->n_centroids; k++)
-    for (guint i = 0; i < self->counts[k]; i++)
-      if (self->results[2 * k + i].valid || keep_rejected)
-        add_detection (self, k, &self->results[2 * k + i],
-            GST_BUFFER_PTS (buffer));
+  mapped = gst_buffer_map (buffer, &image_map, GST_MAP_READ);
+  if (mapped && image_map.size < sizeof (SonarEnergyscapeHeader) +
+      sizeof (float) * sonar_image_grid_size (&self->grid)) {
+    gst_buffer_unmap (buffer, &image_map);
+    mapped = FALSE;
+  }
+  if (!mapped) {
+    GST_ELEMENT_ERROR (self, STREAM, FORMAT, ("An energyscape smaller than "
+            "its caps say"), (NULL));
+    gst_buffer_unref (buffer);
+    return GST_FLOW_ERROR;
+  }
+  image = (const float *) (image_map.data + sizeof (SonarEnergyscapeHeader));
+  noise_power = -1.0;
+  for (guint k = 0; k < centroids->n_centroids; k++) {
+    for (guint i = 0; i < self->counts[k]; i++) {
+      if (!self->results[2 * k + i].valid && !keep_rejected)
+        continue;
+      /* Once per ping, and only with something to report. */
+      if (noise_power < 0.0)
+        noise_power = sonar_uncertainty_noise_power (image, &self->grid,
+            self->hypotheses);
+      add_detection (self, &centroids->centroids[k], k,
+          &self->results[2 * k + i], GST_BUFFER_PTS (buffer), image,
+          noise_power);
+    }
+  }
+  gst_buffer_unmap (buffer, &image_map);
 
   json = sonar_detections_to_json (ping, GST_BUFFER_PTS (buffer),
       (SonarDetection *) self->detections->data, self->detections->len);

@@ -59,9 +59,12 @@ main (int argc, char **argv)
       const SonarDetection *d = &dets->detections[k];
       printf ("ping %" G_GUINT64_FORMAT " detection: range %.4f m, azimuth "
           "%.2f deg, elevation %.2f deg, x %.4f y %.4f z %.4f m, radial "
-          "velocity %+.4f m/s, valid %d\n", dets->ping_index, d->range,
+          "velocity %+.4f m/s, valid %d, SNR %.1f dB, 1-sigma %.2g m "
+          "%.2g deg %.2g m/s, frame \"%s\"\n", dets->ping_index, d->range,
           d->azimuth, d->elevation, d->position.x, d->position.y,
-          d->position.z, d->radial_velocity, d->valid);
+          d->position.z, d->radial_velocity, d->valid, d->snr,
+          d->range_sigma, d->azimuth_sigma, d->radial_velocity_sigma,
+          d->frame_id);
     }
     for (guint k = 0; truth && k < truth->n_truths; k++) {
       const SonarTruth *t = &truth->truths[k];

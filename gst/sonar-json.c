@@ -557,3 +557,69 @@ sonar_json_get_sample_rows (JsonObject * object, const char *member,
   *length = n_cols;
   return TRUE;
 }
+
+static void
+append_node (GString * out, JsonNode * node)
+{
+  switch (JSON_NODE_TYPE (node)) {
+    case JSON_NODE_OBJECT:{
+      JsonObject *object = json_node_get_object (node);
+      g_autoptr (GList) names = json_object_get_members (object);
+      g_string_append_c (out, '{');
+      for (GList * l = names; l; l = l->next) {
+        g_autoptr (JsonNode) name = json_node_new (JSON_NODE_VALUE);
+        g_autofree char *quoted = NULL;
+        json_node_set_string (name, l->data);
+        quoted = json_to_string (name, FALSE);
+        g_string_append_printf (out, "%s%s: ", l != names ? ", " : "",
+            quoted);
+        append_node (out, json_object_get_member (object, l->data));
+      }
+      g_string_append_c (out, '}');
+      break;
+    }
+    case JSON_NODE_ARRAY:{
+      JsonArray *array = json_node_get_array (node);
+      g_string_append_c (out, '[');
+      for (guint i = 0; i < json_array_get_length (array); i++) {
+        if (i)
+          g_string_append (out, ", ");
+        append_node (out, json_array_get_element (array, i));
+      }
+      g_string_append_c (out, ']');
+      break;
+    }
+    case JSON_NODE_VALUE:
+      if (json_node_get_value_type (node) == G_TYPE_DOUBLE) {
+        const double v = json_node_get_double (node);
+        char buffer[G_ASCII_DTOSTR_BUF_SIZE];
+        if (!isfinite (v)) {
+          g_string_append (out, "null");
+          break;
+        }
+        g_ascii_formatd (buffer, sizeof buffer, "%.15g", v);
+        if (g_ascii_strtod (buffer, NULL) != v)
+          g_ascii_formatd (buffer, sizeof buffer, "%.17g", v);
+        g_string_append (out, buffer);
+        /* Still a number with a fraction or exponent, as json-glib's. */
+        if (!strpbrk (buffer, ".eE"))
+          g_string_append (out, ".0");
+      } else {
+        g_autofree char *text = json_to_string (node, FALSE);
+        g_string_append (out, text);
+      }
+      break;
+    case JSON_NODE_NULL:
+      g_string_append (out, "null");
+      break;
+  }
+}
+
+char *
+sonar_json_to_line (JsonNode * node)
+{
+  GString *out = g_string_new (NULL);
+
+  append_node (out, node);
+  return g_string_free (out, FALSE);
+}

@@ -67,6 +67,13 @@ gboolean sonar_json_get_sample_rows (JsonObject * object, const char *member,
     double max_abs, float **samples, guint * n_rows, guint * length,
     GError ** error);
 
+/* @node as one line of JSON ("a": 1, "b": [2, 3]), as JsonGenerator
+ * writes it but for its numbers: json-glib 1.6 writes every double with 17 significant
+ * digits (0.1 as 0.10000000000000001); here each is the shortest text
+ * that reads back as the same double (at most 15 digits when it is, else
+ * 17). Object members in their order of insertion. g_free it. */
+char *sonar_json_to_line (JsonNode * node);
+
 G_END_DECLS
 
 #endif

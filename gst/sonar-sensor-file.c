@@ -124,7 +124,7 @@ sonar_sensor_file_load (const char *path, GError ** error)
   static const char *const members[] = { "description", "sample-rate",
     "speed-of-sound", "microphones", "emitters", "waveforms", "band",
     "emitter-delays", "trigger-offset", "ping-period", "ping-length",
-    "ping-stride", "field-of-view", NULL
+    "ping-stride", "field-of-view", "frame-id", NULL
   };
   g_autoptr (JsonNode) node = NULL;
   JsonObject *root;
@@ -152,7 +152,9 @@ sonar_sensor_file_load (const char *path, GError ** error)
       || !sonar_json_get_double (root, "trigger-offset", FALSE, path,
           &trigger, error)
       || !sonar_json_get_string (root, "field-of-view", FALSE, path, &view,
-          error))
+          error)
+      || !sonar_json_get_string (root, "frame-id", FALSE, path,
+          &params.frame_id, error))
     return NULL;
   if (!(params.sample_rate >= 1000.0 && params.sample_rate <= 1e8)) {
     SET_ERROR (error, "%s: \"sample-rate\" is %g Hz (allowed: 1 kHz to "
@@ -316,6 +318,10 @@ sonar_sensor_file_save (const SonarSetup * setup, const char *path,
   json_builder_set_member_name (builder, "field-of-view");
   json_builder_add_string_value (builder,
       sonar_field_of_view_to_string (setup->field_of_view));
+  if (setup->frame_id[0]) {
+    json_builder_set_member_name (builder, "frame-id");
+    json_builder_add_string_value (builder, setup->frame_id);
+  }
   json_builder_set_member_name (builder, "waveforms");
   json_builder_begin_array (builder);
   for (guint n = 0; n < g->n_emitters; n++) {

@@ -378,6 +378,15 @@ sonar_setup_params_init (SonarSetupParams * params)
   };
 }
 
+static gboolean
+frame_id_is_printable (const char *id)
+{
+  for (const char *c = id; *c; c++)
+    if (!g_ascii_isprint (*c))
+      return FALSE;
+  return TRUE;
+}
+
 SonarSetup *
 sonar_setup_new (const SonarSetupParams * p, GError ** error)
 {
@@ -444,6 +453,13 @@ sonar_setup_new (const SonarSetupParams * p, GError ** error)
     }
   }
 
+  if (p->frame_id && (strlen (p->frame_id) >= SONAR_FRAME_ID_MAX
+          || !frame_id_is_printable (p->frame_id))) {
+    SET_ERROR (error, "frame id \"%s\" must be at most %d bytes of "
+        "printable ASCII", p->frame_id, SONAR_FRAME_ID_MAX - 1);
+    return NULL;
+  }
+
   setup = g_new0 (SonarSetup, 1);
   setup->ref_count = 1;
   setup->sample_rate = p->sample_rate;
@@ -459,6 +475,8 @@ sonar_setup_new (const SonarSetupParams * p, GError ** error)
   setup->ping_stride = ping_stride;
   setup->trigger_offset = p->trigger_offset;
   setup->field_of_view = p->field_of_view;
+  g_strlcpy (setup->frame_id, p->frame_id ? p->frame_id : "",
+      SONAR_FRAME_ID_MAX);
   return setup;
 }
 
@@ -534,6 +552,7 @@ sonar_setup_equal (const SonarSetup * a, const SonarSetup * b)
       && a->ping_stride == b->ping_stride
       && a->trigger_offset == b->trigger_offset
       && a->field_of_view == b->field_of_view
+      && strcmp (a->frame_id, b->frame_id) == 0
       && ga->n_microphones == gb->n_microphones
       && ga->n_emitters == gb->n_emitters
       && memcmp (ga->microphones, gb->microphones,

@@ -32,6 +32,7 @@ G_BEGIN_DECLS
 #define SONAR_MAX_PING_LENGTH (1u << 24)
 #define SONAR_MAX_PING_PERIOD 3600.0    /* s */
 #define SONAR_MAX_WAVEFORM_SAMPLE 1e6   /* |sample| in a waveforms file */
+#define SONAR_FRAME_ID_MAX 64   /* bytes of a frame id, its NUL included */
 
 typedef struct
 {
@@ -72,6 +73,10 @@ typedef struct
   double ping_stride;           /* samples */
   guint64 trigger_offset;       /* samples */
   SonarFieldOfView field_of_view;
+  /* Name of the sensor's frame that its results are in (as ROS's
+   * header.frame_id), carried to every detection; NULL or "" for none;
+   * at most SONAR_FRAME_ID_MAX - 1 bytes of printable ASCII. */
+  const char *frame_id;
 } SonarSetupParams;
 
 typedef struct
@@ -88,6 +93,7 @@ typedef struct
   double ping_stride;           /* samples between ping starts in a stream */
   guint64 trigger_offset;       /* samples before ping 0 in a stream */
   SonarFieldOfView field_of_view;
+  char frame_id[SONAR_FRAME_ID_MAX];    /* "" for none */
   /*< private >*/
   gint ref_count;
 } SonarSetup;

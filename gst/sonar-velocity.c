@@ -3,6 +3,7 @@
 #include "sonar-error.h"
 #include "sonar-kernels.h"
 #include "sonar-steering.h"
+#include "sonar-uncertainty.h"
 #include "sonar-workers.h"
 
 #include <gio/gio.h>
@@ -528,6 +529,18 @@ fit_vertex (const double *lp, guint n, guint p, double lobe_steps)
   return c < 0.0 ? CLAMP (-b / (2.0 * c), lo, hi) : 0.0;
 }
 
+/* The log product's curvature at index @p, per (m/s)^2, over the span
+ * fit_vertex () reads the peak from. */
+static double
+product_curvature (SonarVelocityEstimator * est, guint p)
+{
+  const double step = sonar_doppler_bank_step (est->bank);
+  const guint half = MAX (1, (int) floor (0.4 * est->main_lobe / step));
+
+  return sonar_uncertainty_curvature (est->log_product, est->n_velocities,
+      p, half) / (step * step);
+}
+
 static int
 compare_doubles (const void *a, const void *b)
 {
@@ -558,6 +571,7 @@ describe_peak (SonarVelocityEstimator * est,
   out->at_bank_edge = p == 0 || p + 1 == nv;
   /* Amplitude dB per emitter: the product of N curves is N times as steep. */
   out->peak_db = 20.0 / G_LN10 * (lp[p] - median) / est->n_emitters;
+  out->velocity_curvature = product_curvature (est, p);
 
   /* The paper's variance test, on the product normalised to its peak. */
   for (guint i = 0; i < nv; i++) {
@@ -689,6 +703,7 @@ refine_alone (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
         sonar_doppler_bank_step (est->bank));
   e->bank_index = top;
   e->at_bank_edge = top == 0 || top + 1 == nv;
+  e->velocity_curvature = product_curvature (est, top);
   est->lag_first = first;
   est->lag_last = last;
 }
@@ -727,6 +742,7 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
     out[0].radial_velocity = NAN;
     out[0].bank_index = 0;
     out[0].peak_db = out[0].variance = 0.0;
+    out[0].velocity_curvature = NAN;
     out[0].agreeing_emitters = 0;
     out[0].at_bank_edge = out[0].valid = out[0].second = FALSE;
     out[0].evaluated_velocities = 0;

@@ -62,6 +62,11 @@ typedef struct
   double radial_velocity;       /* m/s, + = moving away */
   guint bank_index;             /* bank velocity nearest the estimate */
   double peak_db;               /* product peak above the curve's median, dB per emitter */
+  /* Second derivative of the log product (natural log of the amplitudes,
+   * summed over the emitters) at its peak, per (m/s)^2: the peak's
+   * sharpness, for its uncertainty (sonar-uncertainty.h); NaN when not
+   * measured. */
+  double velocity_curvature;
   double variance;              /* variance of the product normalised to [0, 1] */
   guint agreeing_emitters;      /* emitters whose own peak agrees */
   double coherence;             /* |sum of emitters' outputs|^2 / (N sum of

@@ -4,6 +4,8 @@
 
 #include "sonar-contracts.h"
 #include "sonar-error.h"
+#include "sonar-sensor-file.h"
+#include <glib/gstdio.h>
 #include "sonar-test-gst.h"
 
 static void
@@ -84,12 +86,73 @@ test_setup_event_serialised (void)
   gst_event_unref (event);
 }
 
+/* A frame id rides in the set-up event (and a sensor file) to whoever
+ * reads it; none is the empty string, and a malformed one is refused by
+ * name. */
+static void
+test_frame_id (void)
+{
+  g_autoptr (SonarSetup) plain = sonar_test_default_setup (5000);
+  SonarSetupParams p;
+  g_autoptr (SonarSetup) tagged = NULL;
+  g_autoptr (SonarSetup) copy = NULL;
+  g_autoptr (SonarSetup) loaded = NULL;
+  g_autofree char *dir = g_dir_make_tmp ("sonar-frame-XXXXXX", NULL);
+  g_autofree char *path = g_build_filename (dir, "sensor.json", NULL);
+  GError *error = NULL;
+  GstEvent *event;
+
+  g_assert_cmpstr (plain->frame_id, ==, "");
+  event = sonar_setup_event_new (plain);
+  g_assert_false (gst_structure_has_field (gst_event_get_structure (event),
+          "frame-id"));
+  gst_event_unref (event);
+
+  sonar_setup_params_init (&p);
+  p.sample_rate = plain->sample_rate;
+  p.speed_of_sound = plain->speed_of_sound;
+  p.band_low = plain->band_low;
+  p.band_high = plain->band_high;
+  p.geometry = &plain->geometry;
+  p.waveform_length = plain->waveform_length;
+  p.waveforms = plain->waveforms;
+  p.ping_length = plain->ping_length;
+  p.ping_period = plain->ping_period;
+  p.ping_stride = plain->ping_stride;
+  p.field_of_view = plain->field_of_view;
+  p.frame_id = "sonar_front";
+  tagged = sonar_setup_new (&p, &error);
+  g_assert_no_error (error);
+  g_assert_false (sonar_setup_equal (plain, tagged));
+  event = sonar_setup_event_new (tagged);
+  copy = sonar_setup_from_event (event, &error);
+  g_assert_no_error (error);
+  g_assert_cmpstr (copy->frame_id, ==, "sonar_front");
+  g_assert_true (sonar_setup_equal (tagged, copy));
+  gst_event_unref (event);
+
+  g_assert_true (sonar_sensor_file_save (tagged, path, &error));
+  g_assert_no_error (error);
+  loaded = sonar_sensor_file_load (path, &error);
+  g_assert_no_error (error);
+  g_assert_cmpstr (loaded->frame_id, ==, "sonar_front");
+  g_unlink (path);
+  g_rmdir (dir);
+
+  p.frame_id = "tab\there";
+  g_assert_null (sonar_setup_new (&p, &error));
+  g_assert_cmpstr (error->message, ==, "frame id \"tab\there\" must be at "
+      "most 63 bytes of printable ASCII");
+  g_clear_error (&error);
+}
+
 int
 main (int argc, char **argv)
 {
   sonar_test_init_gst (&argc, &argv);
   g_test_add_func ("/contracts/setup-event-round-trip",
       test_setup_event_round_trip);
+  g_test_add_func ("/contracts/frame-id", test_frame_id);
   g_test_add_func ("/contracts/setup-event-serialised",
       test_setup_event_serialised);
   return g_test_run ();

@@ -215,7 +215,7 @@ test_wav_recording_identical (void)
       REPLAY_CHAIN, live);
   recorded = collect_json (load);
   g_test_message ("%s", recorded);
-  g_assert_nonnull (strstr (live->str, "\"time\": 0.166667"));
+  g_assert_nonnull (strstr (live->str, "\"time\": 0.166667,"));
   g_assert_nonnull (strstr (live->str, "\"radial_velocity\""));
   g_assert_cmpstr (recorded, ==, live->str);
   g_unlink (wav);
@@ -254,7 +254,7 @@ test_wav_recording_waveforms_file (void)
       REPLAY_CHAIN, live);
   recorded = collect_json (load);
   g_test_message ("%s", recorded);
-  g_assert_nonnull (strstr (recorded, "\"time\": 0.038360"));
+  g_assert_nonnull (strstr (recorded, "\"time\": 0.03836,"));
   {
     g_auto (GStrv) a = g_strsplit (live->str, "\n", -1);
     g_auto (GStrv) b = g_strsplit (recorded, "\n", -1);

@@ -344,7 +344,7 @@ test_truth_messages (void)
       g_assert_cmpuint (gst_value_array_get_size (reflectors), ==, 6);
       first = gst_value_get_structure (gst_value_array_get_value (reflectors,
               0));
-      g_assert_true (gst_structure_get_double (first, "radial-velocity", &rv));
+      g_assert_true (gst_structure_get_double (first, "radial_velocity", &rv));
       g_assert_true (gst_structure_get_double (first, "azimuth", &az));
       /* Still object, sensor driving forward at 0.3 m/s. */
       g_assert_cmpfloat (fabs (rv + 0.3 * cos (az * M_PI / 180.0)), <, 0.01);

@@ -507,9 +507,9 @@ test_outputs_agree (void)
     g_assert_true (gst_structure_has_name (msg, "sonar-tracks"));
     g_assert_true (gst_structure_get_uint64 (msg, "ping", &ping));
     g_assert_cmpuint (ping, ==, meta->ping_index);
-    g_assert_cmpstr (gst_structure_get_string (msg, "ego-status"), ==,
+    g_assert_cmpstr (gst_structure_get_string (msg, "ego_status"), ==,
         "observed");
-    velocity = gst_structure_get_value (msg, "ego-velocity");
+    velocity = gst_structure_get_value (msg, "ego_velocity");
     g_assert_cmpuint (gst_value_array_get_size (velocity), ==, 3);
     g_assert_cmpfloat (g_value_get_double (gst_value_array_get_value
             (velocity, 2)), ==, meta->ego.velocity.z);
@@ -522,10 +522,10 @@ test_outputs_agree (void)
       double vr;
       g_assert_true (gst_structure_get_uint64 (t, "id", &id));
       g_assert_cmpuint (id, ==, meta->tracks[i].id);
-      g_assert_true (gst_structure_get_double (t, "radial-velocity", &vr));
+      g_assert_true (gst_structure_get_double (t, "radial_velocity", &vr));
       g_assert_cmpfloat (vr, ==, meta->tracks[i].radial_velocity);
       g_assert_cmpuint (gst_value_array_get_size (gst_structure_get_value (t,
-                  "position-covariance")), ==, 9);
+                  "position_covariance")), ==, 9);
     }
     /* The ping's truth and detections ride along. */
     g_assert_nonnull (sonar_buffer_get_truth_meta (buffer));

@@ -289,9 +289,11 @@ edit_samples (GstPad * pad, GstPadProbeInfo * info, gpointer user_data)
 }
 
 /* Every number in the JSON document is finite (json-glib refuses "nan" and
- * "inf" outright, so a non-finite number fails the parse). The one null
- * allowed is the documented one: the velocity of a centroid rejected
- * before it was evaluated (keep-rejected=true, "valid": false). */
+ * "inf" outright, so a non-finite number fails the parse). The nulls
+ * allowed are the documented ones: the velocity of a centroid rejected
+ * before it was evaluated (keep-rejected=true, "valid": false), and an
+ * uncertainty that cannot be measured ("..._sigma": elevation on a 2-D
+ * image, a velocity not evaluated). */
 static void
 assert_json_finite (JsonNode * node)
 {
@@ -303,7 +305,8 @@ assert_json_finite (JsonNode * node)
           && !json_object_get_boolean_member (object, "valid");
       for (GList * l = names; l; l = l->next) {
         JsonNode *member = json_object_get_member (object, l->data);
-        if (rejected && strcmp (l->data, "radial_velocity") == 0
+        if (((rejected && strcmp (l->data, "radial_velocity") == 0)
+                || g_str_has_suffix (l->data, "_sigma"))
             && JSON_NODE_HOLDS_NULL (member))
           continue;
         assert_json_finite (member);
@@ -327,7 +330,7 @@ assert_json_finite (JsonNode * node)
 }
 
 /* The same for a bus message's double fields, in its lists of structures
- * too (the same exception: a rejected detection's NaN radial-velocity). */
+ * too (the same exception: a rejected detection's NaN radial_velocity). */
 static gboolean
 assert_field_finite (GQuark field, const GValue * value, gpointer user_data)
 {
@@ -336,7 +339,9 @@ assert_field_finite (GQuark field, const GValue * value, gpointer user_data)
   if (G_VALUE_HOLDS_DOUBLE (value)) {
     gboolean valid = TRUE;
     if (gst_structure_get_boolean (s, "valid", &valid) && !valid
-        && strcmp (g_quark_to_string (field), "radial-velocity") == 0)
+        && strcmp (g_quark_to_string (field), "radial_velocity") == 0)
+      return TRUE;
+    if (g_str_has_suffix (g_quark_to_string (field), "_sigma"))
       return TRUE;
     if (!isfinite (g_value_get_double (value)))
       g_error ("%s: field %s is %g", gst_structure_get_name (s),

@@ -275,7 +275,7 @@ while (m := bus.pop_filtered(Gst.MessageType.ELEMENT)) is not None:
     if s.get_name() == "sonar-detections":
         messages.append({"ping": s.get_value("ping"), "detections": [
             {"range": d.get_value("range"),
-             "radial_velocity": d.get_value("radial-velocity")}
+             "radial_velocity": d.get_value("radial_velocity")}
             for d in s.get_value("detections")]})
 pipeline.set_state(Gst.State.NULL)
 print(json.dumps({"json": json_lines, "messages": messages}))

@@ -34,7 +34,7 @@ def moved(item, ping_time, instant, speed_of_sound):
     object, a detection's when the emissions' centre does (CONTRACTS)."""
     since = instant - (ping_time + float(item["range"]) / speed_of_sound)
     return dict(item, range=float(item["range"]) +
-                float(item["radial-velocity"]) * since)
+                float(item["radial_velocity"]) * since)
 
 
 def main():
@@ -59,7 +59,7 @@ def main():
             if truth_file:
                 truth_file.write(json.dumps({"ping": ping, "reflectors": [
                     {k.replace("-", "_"): float(f[k]) for k in
-                     ("range", "azimuth", "elevation", "radial-velocity")}
+                     ("range", "azimuth", "elevation", "radial_velocity")}
                     for f in items]}) + "\n")
             print(f"ping {ping}: ground truth")
             print(f"  {'id':>3} {'kind':<9} {'range m':>8} {'azim deg':>9} "
@@ -67,7 +67,7 @@ def main():
             for f in items:
                 print(f"  {f['id']:>3} {f['kind']:<9} {float(f['range']):8.3f} "
                       f"{float(f['azimuth']):9.2f} {float(f['elevation']):9.2f} "
-                      f"{float(f['radial-velocity']):8.3f}")
+                      f"{float(f['radial_velocity']):8.3f}")
         elif "sonar-detections" in line:
             ping = int(fields(line.split("detections=")[0])["ping"])
             items = [fields(i) for i in line.split("detection, ")[1:]]
@@ -82,15 +82,15 @@ def main():
                            key=lambda t: math.dist(position(t), position(f)))
                 note = ""
                 if best is not None:
-                    err = float(f["radial-velocity"]) - \
-                        float(best["radial-velocity"])
+                    err = float(f["radial_velocity"]) - \
+                        float(best["radial_velocity"])
                     note = (f"id {best['id']} at "
                             f"{math.dist(position(best), position(f)):.3f} m, "
                             f"{err:+.4f} m/s")
                 arrow = "approaching" if f["approaching"] == "true" else ""
                 print(f"  {float(f['range']):8.3f} {float(f['azimuth']):9.2f} "
                       f"{float(f['elevation']):9.2f} "
-                      f"{float(f['radial-velocity']):+8.3f} "
+                      f"{float(f['radial_velocity']):+8.3f} "
                       f"{float(f['confidence']):5.2f}   {note} {arrow}")
         elif line.startswith(("Got message", "Setting", "Redistribute",
                               "Pipeline", "New clock")):

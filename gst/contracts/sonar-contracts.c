@@ -1,8 +1,10 @@
 /* sonar-contracts.c: see sonar-contracts.h and docs/CONTRACTS.md. */
 #include "sonar-contracts.h"
 #include "sonar-error.h"
+#include "sonar-json.h"
 
 #include <gio/gio.h>
+#include <json-glib/json-glib.h>
 #include <math.h>
 #include <string.h>
 
@@ -78,6 +80,9 @@ sonar_setup_event_new (const SonarSetup * setup)
       "emitters", G_TYPE_STRING, emitters,
       "waveforms", G_TYPE_STRING, waveforms, NULL);
 
+  /* Only when set: set-up events saved before frame ids read the same. */
+  if (setup->frame_id[0])
+    gst_structure_set (s, "frame-id", G_TYPE_STRING, setup->frame_id, NULL);
   return gst_event_new_custom (GST_EVENT_CUSTOM_DOWNSTREAM_STICKY, s);
 }
 
@@ -182,7 +187,9 @@ sonar_setup_from_structure (const GstStructure * s, GError ** error)
           "n-microphones", G_TYPE_UINT, &geometry.n_microphones,
           "n-emitters", G_TYPE_UINT, &geometry.n_emitters, NULL)
       || !(view = gst_structure_get_string (s, "field-of-view"))
-      || !sonar_field_of_view_from_string (view, &p.field_of_view)) {
+      || !sonar_field_of_view_from_string (view, &p.field_of_view)
+      || (gst_structure_has_field (s, "frame-id")
+          && !(p.frame_id = gst_structure_get_string (s, "frame-id")))) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_FORMAT,
         "sonar-setup event: missing or mistyped field (see "
         "docs/CONTRACTS.md)");
@@ -314,7 +321,7 @@ sonar_truth_to_structure (guint64 ping_index, GstClockTime timestamp,
             "range", G_TYPE_DOUBLE, t->range,
             "azimuth", G_TYPE_DOUBLE, t->azimuth,
             "elevation", G_TYPE_DOUBLE, t->elevation,
-            "radial-velocity", G_TYPE_DOUBLE, t->radial_velocity,
+            "radial_velocity", G_TYPE_DOUBLE, t->radial_velocity,
             "x", G_TYPE_DOUBLE, t->position.x,
             "y", G_TYPE_DOUBLE, t->position.y,
             "z", G_TYPE_DOUBLE, t->position.z, NULL));
@@ -769,65 +776,137 @@ sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
             "y", G_TYPE_DOUBLE, d->position.y,
             "z", G_TYPE_DOUBLE, d->position.z,
             "instant", G_TYPE_DOUBLE, d->instant,
-            "radial-velocity", G_TYPE_DOUBLE, d->radial_velocity,
+            "radial_velocity", G_TYPE_DOUBLE, d->radial_velocity,
             "approaching", G_TYPE_BOOLEAN, d->approaching,
             "confidence", G_TYPE_DOUBLE, d->confidence,
-            "out-of-range", G_TYPE_BOOLEAN, d->out_of_range,
-            "valid", G_TYPE_BOOLEAN, d->valid, NULL));
+            "out_of_range", G_TYPE_BOOLEAN, d->out_of_range,
+            "valid", G_TYPE_BOOLEAN, d->valid,
+            "amplitude", G_TYPE_DOUBLE, d->amplitude,
+            "snr", G_TYPE_DOUBLE, d->snr,
+            "range_sigma", G_TYPE_DOUBLE, d->range_sigma,
+            "azimuth_sigma", G_TYPE_DOUBLE, d->azimuth_sigma,
+            "elevation_sigma", G_TYPE_DOUBLE, d->elevation_sigma,
+            "radial_velocity_sigma", G_TYPE_DOUBLE, d->radial_velocity_sigma,
+            "frame_id", G_TYPE_STRING, d->frame_id, NULL));
     gst_value_array_append_and_take_value (&array, &item);
   }
   return list_message (SONAR_DETECTIONS_MESSAGE_NAME, ping_index, timestamp,
       "detections", &array);
 }
 
-/* Numbers in JSON with a C locale's decimal point, whatever the user's. */
+/* JSON built with json-glib's JsonBuilder, written by sonar_json_to_line
+ * () (json-glib's generator, but numbers at their shortest). Each number
+ * is rounded as the lines always were (0.1 mm, 0.01 degree, 0.1 mm/s,
+ * 1 us: tests/data/golden-*.jsonl compare them to the last digit), an
+ * uncertainty to 3 significant digits; a non-finite one is null. */
 static void
-append_number (GString * s, const char *name, double value, int decimals)
+add_number (JsonBuilder * b, const char *name, double value, int decimals)
 {
-  char buffer[G_ASCII_DTOSTR_BUF_SIZE];
-  char format[8];
+  const double scale = pow (10.0, decimals);
 
-  g_snprintf (format, sizeof format, "%%.%df", decimals);
-  g_string_append_printf (s, "\"%s\": %s", name, isfinite (value) ?
-      g_ascii_formatd (buffer, sizeof buffer, format, value) : "null");
+  json_builder_set_member_name (b, name);
+  if (isfinite (value))
+    json_builder_add_double_value (b, round (value * scale) / scale);
+  else
+    json_builder_add_null_value (b);
+}
+
+static double significant (double value, int digits);
+
+/* A number that spans decades (an uncertainty) to @digits significant
+ * digits. */
+static void
+add_significant (JsonBuilder * b, const char *name, double value, int digits)
+{
+  json_builder_set_member_name (b, name);
+  if (isfinite (value))
+    json_builder_add_double_value (b, significant (value, digits));
+  else
+    json_builder_add_null_value (b);
+}
+
+static void
+add_boolean (JsonBuilder * b, const char *name, gboolean value)
+{
+  json_builder_set_member_name (b, name);
+  json_builder_add_boolean_value (b, value);
+}
+
+static void
+add_string (JsonBuilder * b, const char *name, const char *value)
+{
+  json_builder_set_member_name (b, name);
+  if (value)
+    json_builder_add_string_value (b, value);
+  else
+    json_builder_add_null_value (b);
+}
+
+/* The ping's members every JSON line starts with. */
+static JsonBuilder *
+begin_ping (guint64 ping_index, GstClockTime timestamp)
+{
+  JsonBuilder *b = json_builder_new ();
+
+  json_builder_begin_object (b);
+  json_builder_set_member_name (b, "ping");
+  json_builder_add_int_value (b, (gint64) ping_index);
+  add_number (b, "time", GST_CLOCK_TIME_IS_VALID (timestamp) ?
+      timestamp / (double) GST_SECOND : NAN, 6);
+  return b;
+}
+
+/* Closes @b's object and returns its text and a newline. */
+static char *
+end_ping (JsonBuilder * b)
+{
+  g_autoptr (JsonNode) root = NULL;
+  char *text, *line;
+
+  json_builder_end_object (b);
+  root = json_builder_get_root (b);
+  g_object_unref (b);
+  text = sonar_json_to_line (root);
+  line = g_strconcat (text, "\n", NULL);
+  g_free (text);
+  return line;
 }
 
 char *
 sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
     const SonarDetection * detections, guint n)
 {
-  GString *s = g_string_new (NULL);
+  JsonBuilder *b = begin_ping (ping_index, timestamp);
 
-  g_string_append_printf (s, "{\"ping\": %" G_GUINT64_FORMAT ", ", ping_index);
-  append_number (s, "time", GST_CLOCK_TIME_IS_VALID (timestamp) ?
-      timestamp / (double) GST_SECOND : NAN, 6);
-  g_string_append (s, ", \"detections\": [");
+  json_builder_set_member_name (b, "detections");
+  json_builder_begin_array (b);
   for (guint k = 0; k < n; k++) {
     const SonarDetection *d = &detections[k];
-    g_string_append (s, k ? ", {" : "{");
-    append_number (s, "range", d->range, 4);
-    g_string_append (s, ", ");
-    append_number (s, "azimuth", d->azimuth, 2);
-    g_string_append (s, ", ");
-    append_number (s, "elevation", d->elevation, 2);
-    g_string_append (s, ", ");
-    append_number (s, "x", d->position.x, 4);
-    g_string_append (s, ", ");
-    append_number (s, "y", d->position.y, 4);
-    g_string_append (s, ", ");
-    append_number (s, "z", d->position.z, 4);
-    g_string_append (s, ", ");
-    append_number (s, "instant", d->instant, 7);
-    g_string_append (s, ", ");
-    append_number (s, "radial_velocity", d->radial_velocity, 4);
-    g_string_append_printf (s, ", \"approaching\": %s, ",
-        d->approaching ? "true" : "false");
-    append_number (s, "confidence", d->confidence, 3);
-    g_string_append_printf (s, ", \"out_of_range\": %s, \"valid\": %s}",
-        d->out_of_range ? "true" : "false", d->valid ? "true" : "false");
+    json_builder_begin_object (b);
+    add_number (b, "range", d->range, 4);
+    add_number (b, "azimuth", d->azimuth, 2);
+    add_number (b, "elevation", d->elevation, 2);
+    add_number (b, "x", d->position.x, 4);
+    add_number (b, "y", d->position.y, 4);
+    add_number (b, "z", d->position.z, 4);
+    add_number (b, "instant", d->instant, 7);
+    add_number (b, "radial_velocity", d->radial_velocity, 4);
+    add_boolean (b, "approaching", d->approaching);
+    add_number (b, "confidence", d->confidence, 3);
+    add_boolean (b, "out_of_range", d->out_of_range);
+    add_boolean (b, "valid", d->valid);
+    add_number (b, "amplitude", d->amplitude, 2);
+    add_number (b, "snr", d->snr, 2);
+    add_significant (b, "range_sigma", d->range_sigma, 3);
+    add_significant (b, "azimuth_sigma", d->azimuth_sigma, 3);
+    add_significant (b, "elevation_sigma", d->elevation_sigma, 3);
+    add_significant (b, "radial_velocity_sigma", d->radial_velocity_sigma,
+        3);
+    add_string (b, "frame_id", d->frame_id);
+    json_builder_end_object (b);
   }
-  g_string_append (s, "]}\n");
-  return g_string_free (s, FALSE);
+  json_builder_end_array (b);
+  return end_ping (b);
 }
 
 /* Errors -----------------------------------------------------------------*/
@@ -860,6 +939,7 @@ tracks_meta_init (GstMeta * meta, gpointer params, GstBuffer * buffer)
   memset (&m->ego, 0, sizeof m->ego);
   m->n_tracks = 0;
   m->tracks = NULL;
+  m->frame_id[0] = '\0';
   return TRUE;
 }
 
@@ -874,8 +954,12 @@ tracks_meta_transform (GstBuffer * dest, GstMeta * meta, GstBuffer * buffer,
     GQuark type, gpointer data)
 {
   SonarTracksMeta *m = (SonarTracksMeta *) meta;
-  return sonar_buffer_add_tracks_meta (dest, m->ping_index, &m->ego,
-      m->tracks, m->n_tracks) != NULL;
+  SonarTracksMeta *copy = sonar_buffer_add_tracks_meta (dest, m->ping_index,
+      &m->ego, m->tracks, m->n_tracks);
+
+  if (copy)
+    memcpy (copy->frame_id, m->frame_id, sizeof copy->frame_id);
+  return copy != NULL;
 }
 
 SonarTracksMeta *
@@ -928,7 +1012,8 @@ ego_reason (const SonarEgoMotion * ego)
 
 GstStructure *
 sonar_tracks_to_structure (guint64 ping_index, GstClockTime timestamp,
-    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n)
+    const char *frame_id, const SonarEgoMotion * ego,
+    const SonarTrack * tracks, guint n)
 {
   const gboolean observed = ego->status == SONAR_EGO_OBSERVED;
   GValue array = G_VALUE_INIT;
@@ -952,15 +1037,15 @@ sonar_tracks_to_structure (guint64 ping_index, GstClockTime timestamp,
         "x", G_TYPE_DOUBLE, t->position.x,
         "y", G_TYPE_DOUBLE, t->position.y,
         "z", G_TYPE_DOUBLE, t->position.z,
-        "radial-velocity", G_TYPE_DOUBLE, t->radial_velocity,
+        "radial_velocity", G_TYPE_DOUBLE, t->radial_velocity,
         "radius", G_TYPE_DOUBLE, t->radius,
         "hits", G_TYPE_UINT, t->hits,
         "misses", G_TYPE_UINT, t->misses,
         "detection", G_TYPE_INT, t->detection, NULL);
     take_doubles (track, "velocity", velocity, 3);
-    take_doubles (track, "position-covariance", &t->position_covariance[0][0],
+    take_doubles (track, "position_covariance", &t->position_covariance[0][0],
         9);
-    take_doubles (track, "velocity-covariance", &t->velocity_covariance[0][0],
+    take_doubles (track, "velocity_covariance", &t->velocity_covariance[0][0],
         9);
     g_value_init (&item, GST_TYPE_STRUCTURE);
     g_value_take_boxed (&item, track);
@@ -968,129 +1053,131 @@ sonar_tracks_to_structure (guint64 ping_index, GstClockTime timestamp,
   }
   s = list_message (SONAR_TRACKS_MESSAGE_NAME, ping_index, timestamp,
       "tracks", &array);
-  gst_structure_set (s, "ego-status", G_TYPE_STRING, observed ? "observed" :
-      "unobservable", "ego-still", G_TYPE_UINT, ego->n_still, NULL);
+  gst_structure_set (s, "frame_id", G_TYPE_STRING, frame_id ? frame_id : "",
+      "ego_status", G_TYPE_STRING, observed ? "observed" :
+      "unobservable", "ego_still", G_TYPE_UINT, ego->n_still, NULL);
   if (observed) {
     const double velocity[3] = { ego->velocity.x, ego->velocity.y,
       ego->velocity.z
     };
-    gst_structure_set (s, "ego-dimensions", G_TYPE_UINT, ego->dimensions,
+    gst_structure_set (s, "ego_dimensions", G_TYPE_UINT, ego->dimensions,
         NULL);
-    take_doubles (s, "ego-velocity", velocity, 3);
-    take_doubles (s, "ego-covariance", &ego->covariance[0][0], 9);
+    take_doubles (s, "ego_velocity", velocity, 3);
+    take_doubles (s, "ego_covariance", &ego->covariance[0][0], 9);
   } else {
-    gst_structure_set (s, "ego-reason", G_TYPE_STRING, ego_reason (ego),
+    gst_structure_set (s, "ego_reason", G_TYPE_STRING, ego_reason (ego),
         NULL);
   }
   return s;
 }
 
-/* A number in JSON to @digits significant digits (covariances span
- * decades), C locale. */
-static void
-append_significant (GString * s, double value, int digits)
+/* A number to @digits significant digits (covariances span decades). */
+static double
+significant (double value, int digits)
 {
-  char buffer[G_ASCII_DTOSTR_BUF_SIZE];
-  char format[8];
+  double scale;
 
-  g_snprintf (format, sizeof format, "%%.%dg", digits);
-  g_string_append (s, isfinite (value) ? g_ascii_formatd (buffer,
-          sizeof buffer, format, value) : "null");
+  if (!isfinite (value) || value == 0.0)
+    return value;
+  scale = pow (10.0, digits - 1 - (int) floor (log10 (fabs (value))));
+  return round (value * scale) / scale;
 }
 
 static void
-append_vector (GString * s, const char *name, SonarVec3 v, int decimals)
+add_vector (JsonBuilder * b, const char *name, SonarVec3 v, int decimals)
 {
-  char buffer[G_ASCII_DTOSTR_BUF_SIZE];
-  char format[8];
   const double c[3] = { v.x, v.y, v.z };
+  const double scale = pow (10.0, decimals);
 
-  g_snprintf (format, sizeof format, "%%.%df", decimals);
-  g_string_append_printf (s, "\"%s\": [", name);
-  for (guint i = 0; i < 3; i++)
-    g_string_append_printf (s, "%s%s", i ? ", " : "", isfinite (c[i]) ?
-        g_ascii_formatd (buffer, sizeof buffer, format, c[i]) : "null");
-  g_string_append (s, "]");
+  json_builder_set_member_name (b, name);
+  json_builder_begin_array (b);
+  for (guint i = 0; i < 3; i++) {
+    if (isfinite (c[i]))
+      json_builder_add_double_value (b, round (c[i] * scale) / scale);
+    else
+      json_builder_add_null_value (b);
+  }
+  json_builder_end_array (b);
 }
 
 static void
-append_matrix (GString * s, const char *name, const double m[3][3])
+add_matrix (JsonBuilder * b, const char *name, const double m[3][3])
 {
-  g_string_append_printf (s, "\"%s\": [", name);
+  json_builder_set_member_name (b, name);
+  json_builder_begin_array (b);
   for (guint r = 0; r < 3; r++) {
-    g_string_append (s, r ? ", [" : "[");
+    json_builder_begin_array (b);
     for (guint c = 0; c < 3; c++) {
-      if (c)
-        g_string_append (s, ", ");
-      append_significant (s, m[r][c], 4);
+      if (isfinite (m[r][c]))
+        json_builder_add_double_value (b, significant (m[r][c], 4));
+      else
+        json_builder_add_null_value (b);
     }
-    g_string_append (s, "]");
+    json_builder_end_array (b);
   }
-  g_string_append (s, "]");
+  json_builder_end_array (b);
 }
 
 char *
 sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
-    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n)
+    const char *frame_id, const SonarEgoMotion * ego,
+    const SonarTrack * tracks, guint n)
 {
   const gboolean observed = ego->status == SONAR_EGO_OBSERVED;
-  GString *s = g_string_new (NULL);
+  JsonBuilder *b = begin_ping (ping_index, timestamp);
 
-  g_string_append_printf (s, "{\"ping\": %" G_GUINT64_FORMAT ", ", ping_index);
-  append_number (s, "time", GST_CLOCK_TIME_IS_VALID (timestamp) ?
-      timestamp / (double) GST_SECOND : NAN, 6);
-  g_string_append_printf (s, ", \"ego_status\": \"%s\", ", observed ?
-      "observed" : "unobservable");
+  add_string (b, "frame_id", frame_id ? frame_id : "");
+  add_string (b, "ego_status", observed ? "observed" : "unobservable");
+  add_string (b, "ego_reason", ego_reason (ego));
   if (observed) {
-    g_string_append (s, "\"ego_reason\": null, ");
-    append_vector (s, "ego_velocity", ego->velocity, 4);
-    g_string_append (s, ", ");
-    append_matrix (s, "ego_covariance", ego->covariance);
-    g_string_append_printf (s, ", \"ego_dimensions\": %u", ego->dimensions);
+    add_vector (b, "ego_velocity", ego->velocity, 4);
+    add_matrix (b, "ego_covariance", ego->covariance);
+    json_builder_set_member_name (b, "ego_dimensions");
+    json_builder_add_int_value (b, ego->dimensions);
   } else {
-    g_string_append_printf (s, "\"ego_reason\": \"%s\", \"ego_velocity\": "
-        "null, \"ego_covariance\": null, \"ego_dimensions\": null",
-        ego_reason (ego));
+    json_builder_set_member_name (b, "ego_velocity");
+    json_builder_add_null_value (b);
+    json_builder_set_member_name (b, "ego_covariance");
+    json_builder_add_null_value (b);
+    json_builder_set_member_name (b, "ego_dimensions");
+    json_builder_add_null_value (b);
   }
-  g_string_append_printf (s, ", \"ego_still\": %u, \"tracks\": [",
-      ego->n_still);
+  json_builder_set_member_name (b, "ego_still");
+  json_builder_add_int_value (b, ego->n_still);
+  json_builder_set_member_name (b, "tracks");
+  json_builder_begin_array (b);
   for (guint k = 0; k < n; k++) {
     const SonarTrack *t = &tracks[k];
-    g_string_append_printf (s, "%s{\"id\": %" G_GUINT64_FORMAT ", \"state\": "
-        "\"%s\", \"moving\": %s, ", k ? ", " : "", t->id,
-        sonar_track_state_to_string (t->state), t->moving ? "true" : "false");
-    append_number (s, "instant", t->instant, 7);
-    g_string_append (s, ", ");
-    append_number (s, "range", t->range, 4);
-    g_string_append (s, ", ");
-    append_number (s, "azimuth", t->azimuth, 2);
-    g_string_append (s, ", ");
-    append_number (s, "elevation", t->elevation, 2);
-    g_string_append (s, ", ");
-    append_number (s, "x", t->position.x, 4);
-    g_string_append (s, ", ");
-    append_number (s, "y", t->position.y, 4);
-    g_string_append (s, ", ");
-    append_number (s, "z", t->position.z, 4);
-    g_string_append (s, ", ");
-    append_number (s, "radial_velocity", t->radial_velocity, 4);
-    g_string_append (s, ", ");
-    append_vector (s, "velocity", t->velocity, 4);
-    g_string_append (s, ", ");
-    append_number (s, "radius", t->radius, 4);
-    g_string_append (s, ", ");
-    append_matrix (s, "position_covariance", t->position_covariance);
-    g_string_append (s, ", ");
-    append_matrix (s, "velocity_covariance", t->velocity_covariance);
-    g_string_append_printf (s, ", \"hits\": %u, \"misses\": %u, "
-        "\"detection\": ", t->hits, t->misses);
+    json_builder_begin_object (b);
+    json_builder_set_member_name (b, "id");
+    json_builder_add_int_value (b, (gint64) t->id);
+    add_string (b, "state", sonar_track_state_to_string (t->state));
+    add_boolean (b, "moving", t->moving);
+    add_number (b, "instant", t->instant, 7);
+    add_number (b, "range", t->range, 4);
+    add_number (b, "azimuth", t->azimuth, 2);
+    add_number (b, "elevation", t->elevation, 2);
+    add_number (b, "x", t->position.x, 4);
+    add_number (b, "y", t->position.y, 4);
+    add_number (b, "z", t->position.z, 4);
+    add_number (b, "radial_velocity", t->radial_velocity, 4);
+    add_vector (b, "velocity", t->velocity, 4);
+    add_number (b, "radius", t->radius, 4);
+    add_matrix (b, "position_covariance", t->position_covariance);
+    add_matrix (b, "velocity_covariance", t->velocity_covariance);
+    json_builder_set_member_name (b, "hits");
+    json_builder_add_int_value (b, t->hits);
+    json_builder_set_member_name (b, "misses");
+    json_builder_add_int_value (b, t->misses);
+    json_builder_set_member_name (b, "detection");
     if (t->detection >= 0)
-      g_string_append_printf (s, "%d}", t->detection);
+      json_builder_add_int_value (b, t->detection);
     else
-      g_string_append (s, "null}");
+      json_builder_add_null_value (b);
+    json_builder_end_object (b);
   }
-  g_string_append (s, "]}\n");
-  return g_string_free (s, FALSE);
+  json_builder_end_array (b);
+  return end_ping (b);
 }
 
 GstEvent *

@@ -219,6 +219,18 @@ typedef struct
   gboolean valid;               /* passed the false-positive tests */
   double peak_db;               /* Doppler-ACF product peak over its median, dB per emitter */
   double variance;              /* the paper's variance of the normalised product */
+  /* How well it is known (sonar-uncertainty.h, docs/CONTRACTS.md §9):
+   * the echo's envelope in the energyscape at its peak (dB re one unit of
+   * the energyscape, before range compensation), its SNR over the image's
+   * noise (dB), and 1-sigma uncertainties (m, degrees, degrees, m/s; NaN
+   * when not measurable, elevation on a 2-D image). */
+  double amplitude;
+  double snr;
+  double range_sigma, azimuth_sigma, elevation_sigma;
+  double radial_velocity_sigma;
+  /* The sensor's frame id (the set-up's, sonarsrc's frame-id property),
+   * NUL-terminated; empty when none was given. */
+  char frame_id[SONAR_FRAME_ID_MAX];
 } SonarDetection;
 
 typedef struct
@@ -271,6 +283,7 @@ typedef struct
   SonarEgoMotion ego;           /* the ping's own estimate (sonar-egomotion.h) */
   guint n_tracks;
   SonarTrack *tracks;           /* by id (sonar-track.h) */
+  char frame_id[SONAR_FRAME_ID_MAX];    /* the detections' ("" for none) */
 } SonarTracksMeta;
 
 GType sonar_tracks_meta_api_get_type (void);
@@ -284,12 +297,13 @@ SonarTracksMeta *sonar_buffer_add_tracks_meta (GstBuffer * buffer,
 /* Element message posted by sonartrack per ping. */
 #define SONAR_TRACKS_MESSAGE_NAME "sonar-tracks"
 GstStructure *sonar_tracks_to_structure (guint64 ping_index,
-    GstClockTime timestamp, const SonarEgoMotion * ego,
+    GstClockTime timestamp, const char *frame_id, const SonarEgoMotion * ego,
     const SonarTrack * tracks, guint n);
 /* One line of JSON (ending in a newline) with the ping's ego-motion and
- * tracks. */
+ * tracks, in frame @frame_id (the detections'; NULL or "" for none). */
 char *sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
-    const SonarEgoMotion * ego, const SonarTrack * tracks, guint n);
+    const char *frame_id, const SonarEgoMotion * ego,
+    const SonarTrack * tracks, guint n);
 
 /* Custom upstream event an application sends to sonartrack with its own
  * estimate of the sensor's velocity (odometry): fields vx, vy, vz (m/s,

@@ -273,6 +273,7 @@ extern guint split_pings;
 gboolean run_noise (Bench * b);
 gboolean run_detection (Bench * b);
 gboolean run_split (Bench * b);
+gboolean run_uncertainty (Bench * b);
 
 /* output.c */
 FILE *open_csv (const char *path, GError ** error);

@@ -1,0 +1,183 @@
+/* sonar-uncertainty.c: see sonar-uncertainty.h. */
+#include "sonar-uncertainty.h"
+
+#include <math.h>
+
+/* Pixels, about, in each block's noise quartile: from a thousand samples
+ * a quartile is steady to a few per cent, the median over the blocks to
+ * less. */
+#define NOISE_SAMPLES 1024
+
+/* Element @k of @v (@n values) in ascending order; reorders them
+ * (Hoare's selection). */
+static float
+select_kth (float *v, gsize n, gsize k)
+{
+  gsize lo = 0, hi = n - 1;
+
+  while (lo < hi) {
+    const float pivot = v[lo + (hi - lo) / 2];
+    gsize i = lo, j = hi;
+    while (i <= j) {
+      while (v[i] < pivot)
+        i++;
+      while (v[j] > pivot)
+        j--;
+      if (i <= j) {
+        const float t = v[i];
+        v[i] = v[j];
+        v[j] = t;
+        i++;
+        if (j == 0)
+          break;
+        j--;
+      }
+    }
+    if (k <= j)
+      hi = j;
+    else if (k >= i)
+      lo = i;
+    else
+      break;
+  }
+  return v[k];
+}
+
+double
+sonar_uncertainty_noise_power (const float *image,
+    const SonarImageGrid * grid, guint hypotheses)
+{
+  const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
+  const guint block = MAX (1, (guint) ceil (SONAR_UNCERTAINTY_NOISE_BLOCK /
+          MAX (grid->range_step, 1e-9)));
+  const guint n_blocks = (grid->n_range + block - 1) / block;
+  /* Every block_rows-th direction, each one's run of range bins read in
+   * one go (a sample's worth of reads, in cache lines). */
+  const gsize stride = MAX (1, n_dirs * block / NOISE_SAMPLES);
+  const double k = 1.0 + (MAX (hypotheses, 1) - 1.0) *
+      SONAR_UNCERTAINTY_QUARTILE_SHARE;
+  g_autofree float *values = g_new (float, (n_dirs / stride + 1) * block);
+  g_autofree float *quartiles = g_new (float, n_blocks);
+  guint n_quartiles = 0;
+  double q;
+
+  for (guint b = 0; b < n_blocks; b++) {
+    const guint first = b * block;
+    const guint rows = MIN (block, grid->n_range - first);
+    gsize n = 0;
+    /* Offset by block, so that the blocks see different directions. */
+    for (gsize d = b % stride; d < n_dirs; d += stride) {
+      const float *run = image + d * grid->n_range + first;
+      for (guint i = 0; i < rows; i++)
+        if (isfinite (run[i]))
+          values[n++] = run[i];
+    }
+    if (n < 4)
+      continue;
+    quartiles[n_quartiles++] = select_kth (values, n, n / 4);
+  }
+  if (n_quartiles == 0)
+    return 0.0;
+  q = select_kth (quartiles, n_quartiles, n_quartiles / 2);
+  /* The quartile of the maximum of K Rayleigh envelopes of scale s:
+   * q^2 = -2 s^2 ln (1 - 4^(-1/K)); E|n|^2 = 2 s^2. */
+  return q * q / -log (-expm1 (log (0.25) / k));
+}
+
+double
+sonar_uncertainty_curvature (const double *values, guint n, guint p,
+    guint half)
+{
+  const int lo = -(int) MIN (half, p);
+  const int hi = (int) MIN (half, n - 1 - p);
+  double s[5] = { 0 }, t[3] = { 0 }, det, c;
+
+  if (hi - lo < 2)
+    return NAN;
+  /* Normal equations of y = a + b x + c x^2. */
+  for (int x = lo; x <= hi; x++) {
+    double xp = 1.0;
+    for (int k = 0; k < 5; k++) {
+      s[k] += xp;
+      if (k < 3)
+        t[k] += xp * values[p + x];
+      xp *= x;
+    }
+  }
+  det = s[0] * (s[2] * s[4] - s[3] * s[3]) - s[1] * (s[1] * s[4] - s[3] *
+      s[2]) + s[2] * (s[1] * s[3] - s[2] * s[2]);
+  if (fabs (det) < 1e-12)
+    return NAN;
+  c = (s[0] * (s[2] * t[2] - t[1] * s[3]) - s[1] * (s[1] * t[2] - t[1] *
+          s[2]) + t[0] * (s[1] * s[3] - s[2] * s[2])) / det;
+  return 2.0 * c;
+}
+
+/* Second derivative of ln (image) at pixel @p along an axis of @stride
+ * (index @i of @n along it), per step^2; NaN at an edge or where the
+ * samples are no peak. */
+static double
+log_curvature (const float *image, gsize p, gsize stride, guint i, guint n)
+{
+  double k;
+
+  if (i == 0 || i + 1 >= n || !(image[p - stride] > 0.0f)
+      || !(image[p] > 0.0f) || !(image[p + stride] > 0.0f))
+    return NAN;
+  k = log (image[p - stride]) - 2.0 * log (image[p]) +
+      log (image[p + stride]);
+  return k < 0.0 ? k : NAN;
+}
+
+/* sqrt (1 / (2 snr |kappa|)), NaN without a curvature. */
+static double
+sigma (double snr, double kappa)
+{
+  if (!(kappa < 0.0) || !(snr > 0.0))
+    return NAN;
+  return sqrt (1.0 / (2.0 * snr * -kappa));
+}
+
+void
+sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
+    double noise_power, const SonarCentroid * centroid,
+    const SonarVelocityEstimate * e, guint n_emitters, SonarUncertainty * out)
+{
+  const gsize stride_e = (gsize) grid->n_azimuth * grid->n_range;
+  const guint a = MIN (centroid->peak_azimuth_index, grid->n_azimuth - 1);
+  const guint el = MIN (centroid->peak_elevation_index,
+      grid->n_elevation - 1);
+  const gsize row = ((gsize) el * grid->n_azimuth + a) * grid->n_range;
+  const double nearest = (e->range - grid->range_first) /
+      MAX (grid->range_step, 1e-12);
+  const guint i0 = (guint) CLAMP (lround (nearest), 0,
+      (long) grid->n_range - 1);
+  guint i = i0;
+  double amplitude, snr;
+  gsize p;
+
+  /* The echo's own peak along range, within 2 bins of its range (a second
+   * reflector in the centroid lies off the strongest member's). */
+  for (guint j = (guint) MAX ((long) i0 - 2, 0); j <= MIN (i0 + 2,
+          grid->n_range - 1); j++)
+    if (image[row + j] > image[row + i])
+      i = j;
+  p = row + i;
+  amplitude = image[p];
+  snr = noise_power > 0.0 ? amplitude * amplitude / noise_power : NAN;
+  out->amplitude_db = amplitude > 0.0f ? 20.0 * log10 (amplitude) : NAN;
+  out->snr_db = 10.0 * log10 (snr);
+  out->range_sigma = grid->range_step * sigma (snr, log_curvature (image,
+          p, 1, i, grid->n_range));
+  out->azimuth_sigma = fabs (grid->azimuth_step) * sigma (snr,
+      log_curvature (image, p, grid->n_range, a, grid->n_azimuth));
+  out->elevation_sigma = grid->n_elevation > 1 ?
+      fabs (grid->elevation_step) * sigma (snr, log_curvature (image, p,
+          stride_e, el, grid->n_elevation)) :
+      NAN;
+  /* Each emitter's curve carries g / N of the MIMO image's SNR. */
+  out->radial_velocity_sigma = n_emitters > 0 ? sigma (snr *
+      SONAR_UNCERTAINTY_EMITTER_SNR_GAIN / n_emitters,
+      e->velocity_curvature) :
+      NAN;
+}

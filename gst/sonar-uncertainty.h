@@ -1,0 +1,101 @@
+/* sonar-uncertainty.h: how well a detection is known, from the ping's own
+ * data: the echo's amplitude, its signal-to-noise ratio, and the 1-sigma
+ * uncertainty of its range, direction and radial velocity.
+ *
+ * Each coordinate is the peak of a curve (the image's envelope along range,
+ * azimuth and elevation; the Doppler-ACF product along velocity). For a
+ * peak of shape A rho(x - x0) in noise whose correlation has the same
+ * shape (the matched filter's, the delay-and-sum beam's), linearising
+ * the peak condition gives the Cramér-Rao bound
+ *
+ *   sigma_x^2 = 1 / (2 SNR |kappa|),
+ *
+ * SNR = A^2 / E|n|^2 (noise power per pixel, one hypothesis), kappa the
+ * second derivative of ln |rho| at the peak, both measured on the data:
+ * kappa from the three log samples around the image's peak (per m^2, per
+ * degree^2) and from a least-squares parabola through the log product
+ * (per (m/s)^2, summed over the N emitters' curves, each with 1/N of the
+ * MIMO image's SNR: sigma_v^2 = N / (2 SNR |K|)).
+ *
+ * The noise: the image's noise is flat over range (white noise at the
+ * microphones, through the same filters everywhere), and echoes fill few
+ * pixels: per block of SONAR_UNCERTAINTY_NOISE_BLOCK of range, the lower
+ * quartile over its pixels (every direction); the median over the blocks
+ * (a block holding a strong echo's sidelobes stands out and is left
+ * out), read as the quartile of the maximum of K_eff independent
+ * Rayleigh envelopes: E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)), with
+ * K_eff = 1 + (K - 1) SONAR_UNCERTAINTY_QUARTILE_SHARE for an image over
+ * K Doppler hypotheses (neighbouring hypotheses are correlated: fewer
+ * count at the quartile than at wardcluster's 1e-10 tail). Not the
+ * range bin's own quartile, as wardcluster's CFAR takes: at high SNR it
+ * holds the echo's own sidelobes.
+ *
+ * No floor term: over 8 places x 12 noise seeds (sonar-bench --sweep
+ * uncertainty) the scatter kept falling as 1 / sqrt (SNR) down to the
+ * highest SNR measured (42 dB in the image); the grid's interpolation
+ * bias is fixed per place, a bias, which these sigmas leave out. Above
+ * about 40 dB the image's own sidelobe floor lifts the noise read and the
+ * sigmas are conservative (1.3 times the scatter at 42 dB). */
+#ifndef SONAR_UNCERTAINTY_H
+#define SONAR_UNCERTAINTY_H
+
+#include <glib.h>
+
+#include "sonar-cluster.h"
+#include "sonar-image-grid.h"
+#include "sonar-velocity.h"
+
+G_BEGIN_DECLS
+
+typedef struct
+{
+  double amplitude_db;          /* 20 log10 of the image's envelope at the peak */
+  double snr_db;                /* 10 log10 (A^2 / E|n|^2) */
+  double range_sigma;           /* m */
+  double azimuth_sigma;         /* degrees */
+  double elevation_sigma;       /* degrees; NaN on a 2-D image (one elevation) */
+  double radial_velocity_sigma; /* m/s; NaN without a velocity curvature */
+} SonarUncertainty;
+
+/* m of range per block of the noise's quartiles. */
+#define SONAR_UNCERTAINTY_NOISE_BLOCK 0.25
+
+/* Effective independent hypotheses per further one at the noise's
+ * quartile: with wardcluster's tail value (0.87, sonar-cluster.h) every
+ * sigma came out 0.82-0.85 of the measured scatter at every SNR from -30
+ * to -20 dB per channel (sonar-bench --sweep uncertainty, 8 places x 12
+ * seeds, 47 hypotheses): the noise 1.45 times too low, which K_eff = 14
+ * (not 41) at the quartile gives: (14 - 1) / 46. */
+#define SONAR_UNCERTAINTY_QUARTILE_SHARE 0.28
+
+/* g: each emitter's Doppler-ACF curve carries g / N of the MIMO image's
+ * SNR (g = 1 if the N emitters' noises added up independently in the
+ * image). Measured: with g = 1 the reported velocity sigma was 1.52-1.56
+ * times the scatter over 50 noise seeds at -30, -24 and -15 dB per
+ * channel, while range and azimuth were within 8-24 % (sonar-bench
+ * --sweep uncertainty): 1.54^2. */
+#define SONAR_UNCERTAINTY_EMITTER_SNR_GAIN 2.4
+
+/* Noise power E|n|^2 per pixel of one hypothesis' envelope in @image
+ * (laid out as @grid says; each pixel the maximum of @hypotheses Doppler
+ * hypotheses), once per image. 0 when nothing is there to read. */
+double sonar_uncertainty_noise_power (const float *image,
+    const SonarImageGrid * grid, guint hypotheses);
+
+/* Second derivative, per step^2, of the least-squares parabola through
+ * @values[p - half .. p + half] (clipped to 0 .. @n - 1); NaN with fewer
+ * than three values. */
+double sonar_uncertainty_curvature (const double *values, guint n, guint p,
+    guint half);
+
+/* Fills @out for an estimate @e at @centroid of @image: @noise_power from
+ * sonar_uncertainty_noise_power (), @n_emitters the curves in e's
+ * product. */
+void sonar_uncertainty_measure (const float *image,
+    const SonarImageGrid * grid, double noise_power,
+    const SonarCentroid * centroid, const SonarVelocityEstimate * e,
+    guint n_emitters, SonarUncertainty * out);
+
+G_END_DECLS
+
+#endif

@@ -1,0 +1,177 @@
+/* test-uncertainty.c: the detections' uncertainties (sonar-uncertainty.h):
+ * the curvature fit, the noise read off an image of known noise, the
+ * sigmas of a peak of known shape, and the bound they use against the
+ * scatter of the peak's estimate over many noisy trials. The whole
+ * chain's sigmas against its scatter: tests/test_results.py and
+ * sonar-bench --sweep uncertainty. */
+#include <math.h>
+
+#include "sonar-rng.h"
+#include "sonar-uncertainty.h"
+
+/* A parabola's second derivative, exactly, wherever the span is cut by
+ * the ends; too few values give NaN. */
+static void
+test_curvature (void)
+{
+  double values[9];
+
+  for (int i = 0; i < 9; i++)
+    values[i] = 3.0 + 0.4 * (i - 5) - 0.7 * (i - 5) * (i - 5);
+  g_assert_cmpfloat_with_epsilon (sonar_uncertainty_curvature (values, 9, 5,
+          3), -1.4, 1e-9);
+  g_assert_cmpfloat_with_epsilon (sonar_uncertainty_curvature (values, 9, 8,
+          3), -1.4, 1e-9);
+  g_assert_true (isnan (sonar_uncertainty_curvature (values, 2, 1, 3)));
+}
+
+/* An image of Rayleigh envelopes of scale s (complex Gaussian noise of
+ * power 2 s^2 per pixel) and one strong echo: the noise power read is
+ * 2 s^2 within the quartile's statistical spread (4096 samples: 3 %). */
+static void
+test_noise_power (void)
+{
+  const SonarImageGrid grid = {.n_azimuth = 91,.n_elevation = 1,
+    .n_range = 600,.azimuth_first = -45,.azimuth_step = 1,
+    .range_first = 0.3,.range_step = 0.005
+  };
+  const double s = 0.02;
+  g_autofree float *image = g_new (float, 91 * 600);
+  SonarRng rng;
+
+  sonar_rng_init (&rng, 3, 0);
+  for (gsize i = 0; i < 91 * 600; i++) {
+    const double re = s * sonar_rng_gaussian (&rng);
+    const double im = s * sonar_rng_gaussian (&rng);
+    image[i] = (float) hypot (re, im);
+  }
+  /* An echo's range sidelobes over every direction at 1 m: left out. */
+  for (guint a = 0; a < 91; a++)
+    for (guint i = 140; i < 170; i++)
+      image[a * 600 + i] = 1.0f;
+  g_assert_cmpfloat_with_epsilon (sonar_uncertainty_noise_power (image,
+          &grid, 1) / (2 * s * s), 1.0, 0.06);
+}
+
+/* A Gaussian peak exp (-x^2 / (2 w^2)) in range and azimuth: its log
+ * curvature is -1 / w^2, so sigma = w / sqrt (2 SNR); the velocity's from
+ * the estimate's curvature, over N emitters with g / N of the SNR each;
+ * a 2-D image has no elevation sigma. */
+static void
+test_sigmas_of_a_known_peak (void)
+{
+  const SonarImageGrid grid = {.n_azimuth = 41,.n_elevation = 1,
+    .n_range = 200,.azimuth_first = -20,.azimuth_step = 1,
+    .range_first = 1.0,.range_step = 0.002
+  };
+  const double amplitude = 50.0, noise_power = 0.25, wr = 0.003, wa = 1.5;
+  const double snr = amplitude * amplitude / noise_power;
+  g_autofree float *image = g_new (float, 41 * 200);
+  SonarCentroid c = {.range = 1.2,.azimuth = 0.0,.peak_azimuth_index = 20,
+    .peak_range_index = 100
+  };
+  SonarVelocityEstimate e = {.range = 1.2,.azimuth = 0.0,
+    .velocity_curvature = -400.0
+  };
+  SonarUncertainty u;
+
+  for (guint a = 0; a < 41; a++)
+    for (guint i = 0; i < 200; i++) {
+      const double x = (i - 100.0) * grid.range_step;
+      const double y = a - 20.0;
+      image[a * 200 + i] = (float) (amplitude * exp (-x * x / (2 * wr * wr)
+              - y * y / (2 * wa * wa)));
+    }
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
+  g_assert_cmpfloat_with_epsilon (u.amplitude_db, 20 * log10 (amplitude),
+      1e-4);
+  g_assert_cmpfloat_with_epsilon (u.snr_db, 10 * log10 (snr), 1e-4);
+  g_assert_cmpfloat_with_epsilon (u.range_sigma, wr / sqrt (2 * snr),
+      1e-4 * wr);
+  g_assert_cmpfloat_with_epsilon (u.azimuth_sigma, wa / sqrt (2 * snr),
+      1e-4 * wa);
+  g_assert_true (isnan (u.elevation_sigma));
+  g_assert_cmpfloat_with_epsilon (u.radial_velocity_sigma, sqrt (8.0 /
+          (2 * SONAR_UNCERTAINTY_EMITTER_SNR_GAIN * snr * 400.0)), 1e-9);
+  /* No curvature measured (a prescreen rejection): no velocity sigma. */
+  e.velocity_curvature = NAN;
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
+  g_assert_true (isnan (u.radial_velocity_sigma));
+}
+
+/* The bound itself: a matched filter's output, A rho (x - x0) plus noise
+ * correlated as rho (white noise through the same filter), sampled
+ * finely; the peak read off a parabola through the log envelope's three
+ * top samples. Over 3000 trials at an SNR of 20 dB the estimate's scatter
+ * matches 1 / sqrt (2 SNR |kappa|) within 10 %. */
+#define TRIALS 3000
+#define N_SAMPLES 64
+#define KERNEL 10
+
+static void
+test_bound_against_scatter (void)
+{
+  /* rho (x) = exp (-x^2 / (4 a^2)): a Gaussian pulse's autocorrelation. */
+  const double a = 1.5, amplitude = 1.0, x0 = 31.3;
+  double kernel[2 * KERNEL + 1], norm = 0.0;
+  double sum = 0.0, sum2 = 0.0, noise_power, snr, kappa, bound;
+  SonarRng rng;
+
+  for (int k = -KERNEL; k <= KERNEL; k++) {
+    kernel[k + KERNEL] = exp (-k * k / (2 * a * a));
+    norm += kernel[k + KERNEL] * kernel[k + KERNEL];
+  }
+  /* White noise of unit power per sample through the kernel: power norm
+   * per output sample; the output's correlation is the kernel's
+   * autocorrelation, rho. Scaled for an SNR of 100. */
+  noise_power = amplitude * amplitude / 100.0;
+  sonar_rng_init (&rng, 11, 0);
+  for (guint t = 0; t < TRIALS; t++) {
+    double re[N_SAMPLES + 2 * KERNEL], im[N_SAMPLES + 2 * KERNEL];
+    double envelope[N_SAMPLES];
+    guint best = 1;
+    for (guint i = 0; i < N_SAMPLES + 2 * KERNEL; i++) {
+      re[i] = sonar_rng_gaussian (&rng) * sqrt (noise_power / (2 * norm));
+      im[i] = sonar_rng_gaussian (&rng) * sqrt (noise_power / (2 * norm));
+    }
+    for (guint i = 0; i < N_SAMPLES; i++) {
+      double r = amplitude * exp (-(i - x0) * (i - x0) / (4 * a * a));
+      double q = 0.0;
+      for (int k = -KERNEL; k <= KERNEL; k++) {
+        r += kernel[k + KERNEL] * re[i + KERNEL + k];
+        q += kernel[k + KERNEL] * im[i + KERNEL + k];
+      }
+      envelope[i] = hypot (r, q);
+    }
+    for (guint i = 1; i + 1 < N_SAMPLES; i++)
+      if (envelope[i] > envelope[best])
+        best = i;
+    {
+      const double l0 = log (envelope[best - 1]), l1 = log (envelope[best]);
+      const double l2 = log (envelope[best + 1]);
+      const double x = best + 0.5 * (l0 - l2) / (l0 - 2 * l1 + l2);
+      sum += x;
+      sum2 += x * x;
+    }
+  }
+  snr = amplitude * amplitude / noise_power;
+  kappa = -1.0 / (2 * a * a);
+  bound = sqrt (1.0 / (2 * snr * -kappa));
+  {
+    const double mean = sum / TRIALS;
+    const double scatter = sqrt (sum2 / TRIALS - mean * mean);
+    g_test_message ("bound %.4f, scatter %.4f samples", bound, scatter);
+    g_assert_cmpfloat_with_epsilon (scatter / bound, 1.0, 0.1);
+  }
+}
+
+int
+main (int argc, char **argv)
+{
+  g_test_init (&argc, &argv, NULL);
+  g_test_add_func ("/uncertainty/curvature", test_curvature);
+  g_test_add_func ("/uncertainty/noise-power", test_noise_power);
+  g_test_add_func ("/uncertainty/known-peak", test_sigmas_of_a_known_peak);
+  g_test_add_func ("/uncertainty/bound", test_bound_against_scatter);
+  return g_test_run ();
+}

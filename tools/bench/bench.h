@@ -127,6 +127,7 @@ typedef struct
   /* CPU time of the whole chain: other processes on the machine inflate
    * the wall-clock times, not this. */
   double cpu_ms_total;
+  double cpu_ms_velocity;       /* the velocity stage's, all its threads */
   double bank_mb, mb[N_STAGES]; /* heap held */
   double peak_rss_mb;
   guint bank_velocities;

@@ -1228,6 +1228,27 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }
 
+void
+sonar_velocity_pool_work (const SonarVelocityPool * pool,
+    SonarVelocityWork * work)
+{
+  const SonarVelocityEstimator *est = pool->estimators[0];
+  const SonarImageGrid *g = &est->grid;
+  const guint qa = g->azimuth_step > FINE_GRID_STEP + 1e-9 ?
+      DIRECTION_SUBSTEPS : 0;
+  const guint qe = g->elevation_step > FINE_GRID_STEP + 1e-9 ?
+      DIRECTION_SUBSTEPS : 0;
+
+  work->bins = est->gate_size ? est->gate_bins : est->band.n_bins;
+  work->block = est->gate_size ? GATE_BLOCK : LAG_BLOCK;
+  work->gate_inverse = est->gate_m;
+  work->gate_forward = est->gate_size;
+  /* refine_direction ()'s lines: along azimuth, then along elevation
+   * without their common centre. */
+  work->directions = 2 * qa + 1 + 2 * qe;
+  work->hypotheses = est->n_hypotheses;
+}
+
 double
 sonar_velocity_centre_range (double range, double radial_velocity,
     double speed_of_sound, double emission_centre, double *delay)

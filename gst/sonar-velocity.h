@@ -120,6 +120,23 @@ void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);
 
+/* What one centroid costs the pool's estimators, for sonar-bench's
+ * arithmetic floor. A focus (one per direction of the prescreen's search)
+ * is a receive sum over the band and, with a range gate, an inverse
+ * transform of gate_inverse points and a forward one of gate_forward; a
+ * bank evaluation (per emitter and window direction) is a dot product
+ * over @bins bins, then sums over blocks of @block bins per lag read. */
+typedef struct
+{
+  guint bins, block;
+  guint gate_inverse, gate_forward;     /* 0 without a gate */
+  guint directions;             /* searched by the prescreen */
+  guint hypotheses;             /* the prescreen's, per direction */
+} SonarVelocityWork;
+
+void sonar_velocity_pool_work (const SonarVelocityPool * pool,
+    SonarVelocityWork * work);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
     sonar_velocity_estimator_free)
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityPool, sonar_velocity_pool_free)

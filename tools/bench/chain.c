@@ -261,11 +261,15 @@ fft_flops (double n)
  *               product (6 per bin), the inverse transform and the
  *               envelope (3 per range bin);
  *   clustering  two reads of the image at the measured read rate;
- *   velocity    per centroid the receive sums of its window's directions
- *               (three calls: direction search, bank pass, around the
- *               peak), per evaluated velocity and window direction and
- *               emitter the block sums (14 per bin) and the window's lags
- *               (8 per block and lag). */
+ *   velocity    per centroid and direction the prescreen searches
+ *               (sonar_velocity_pool_work ()), per window direction: a
+ *               focus (the receive sum, 8 flops per microphone and bin,
+ *               and the range gate's two transforms) and the prescreen's
+ *               hypotheses; per evaluated velocity, window direction and
+ *               emitter: the dot product's block sums (14 per bin of the
+ *               gate) and the lags read (8 per block and lag: the
+ *               window's, and 8 more around its best in window_peak ()).
+ *               The prescreen's evaluations read the window's lags only. */
 static void
 arithmetic_floors (const Bench * b, const Chain * ch, guint units,
     guint passes, guint centroids, double evaluations, double *floor_ms)
@@ -284,14 +288,21 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   const double lags = 2.0 * vp->window_ranges + 1;
   const double cores = g_get_num_processors ();
   const double per_core_ms = 1.0 / (b->peak_gflops * 1e6);
-  double flops[N_STAGES];
+  double flops[N_STAGES], focus, screen, evaluation;
+  SonarVelocityWork work;
 
   flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
   flops[STAGE_IMAGING] = units * 8.0 * J * K + passes * (8.0 * N * K +
       6.0 * K + fft_flops (M) + 3.0 * R);
   flops[STAGE_CLUSTERING] = 0.0;
-  flops[STAGE_VELOCITY] = centroids * 3.0 * window * 8.0 * J * K +
-      evaluations * window * N * (14.0 * K + 8.0 * lags * K / 16.0);
+  sonar_velocity_pool_work (ch->workers, &work);
+  focus = 8.0 * J * K + (work.gate_inverse ? fft_flops (work.gate_inverse) +
+      fft_flops (work.gate_forward) : 0.0);
+  screen = N * (14.0 * work.bins + 8.0 * lags * work.bins / work.block);
+  evaluation = N * (14.0 * work.bins + 8.0 * (lags + 8.0) * work.bins /
+      work.block);
+  flops[STAGE_VELOCITY] = centroids * window * work.directions * (focus +
+      work.hypotheses * screen) + evaluations * window * evaluation;
   floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
   floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
   floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *

@@ -158,6 +158,7 @@ typedef struct
   /* Instead of configurations: a sweep that renders its own pings one at
    * a time (the sensitivity sweeps). */
   gboolean (*run) (struct _Bench * b);
+  gboolean slow;                /* minutes: only by name, not in --all */
 } Sweep;
 
 typedef struct

@@ -513,15 +513,16 @@ cabs2 (double complex z)
 
 /* Coherence factor |sum|^2 / (N sum |.|^2) of the emitters' outputs at
  * the window pixel and velocity (of the @n_v indices @vs) where their sum
- * is largest; *@strength (may be NULL) receives that sum's power and
- * *@lag (may be NULL) its range offset from @range (m), refined between
- * the window's lags by a parabola through the logarithms (as wardcluster
+ * is largest; *@strength (may be NULL) receives that sum's power,
+ * *@which (may be NULL) the position in @vs of that velocity, and *@lag
+ * (may be NULL) its range offset from @range (m), refined between the
+ * window's lags by a parabola through the logarithms (as wardcluster
  * refines its peaks). */
 static double
 coherence_over (SonarVelocityEstimator * est,
     const SonarSplitSpectra * spectra, double range, double azimuth,
     double elevation, const guint * vs, guint n_v, double *strength,
-    double *lag)
+    guint * which, double *lag)
 {
   const SonarImageGrid *grid = &est->grid;
   const int wd = est->params.window_directions;
@@ -529,6 +530,7 @@ coherence_over (SonarVelocityEstimator * est,
   const int first = est->lag_first, last = est->lag_last;
   double best_sum = -1.0, best = 0.0, best_lag = 0.0;
   double before = 0.0, after = 0.0;     /* the sum's power a lag either side */
+  guint best_i = 0;
 
   for (int de = -we; de <= we; de++) {
     for (int da = -wd; da <= wd; da++) {
@@ -560,6 +562,7 @@ coherence_over (SonarVelocityEstimator * est,
             after = dr < last ? cabs2 (sums[dr + 1]) : 0.0;
             best = powers[dr] > 0.0 ? sum_power / (est->n_emitters *
                 powers[dr]) : 0.0;
+            best_i = i;
           }
         }
       }
@@ -567,6 +570,8 @@ coherence_over (SonarVelocityEstimator * est,
   }
   if (strength)
     *strength = best_sum;
+  if (which)
+    *which = best_i;
   if (lag) {
     if (before > 0.0 && after > 0.0 && best_sum > 0.0)
       best_lag += parabola_offset (log (before), log (best_sum), log (after));
@@ -587,7 +592,11 @@ coherence_over (SonarVelocityEstimator * est,
  * detection hypotheses; *coherence receives the coherence factor there.
  * The search is along azimuth, then along elevation from the best
  * azimuth: 9 evaluations instead of 25 on a 3-D grid, the beam being
- * close to separable over half a step. */
+ * close to separable over half a step. Every hypothesis is evaluated at
+ * the centroid's own direction, the other directions at its strongest
+ * one and the neighbours either side only: an echo's Doppler does not
+ * change within half a grid step (with the +-7 m/s bank, 47 hypotheses:
+ * 3-D centroids cost a sixth). */
 static void
 refine_direction (SonarVelocityEstimator * est,
     const SonarSplitSpectra * spectra, double range, double *azimuth,
@@ -600,8 +609,13 @@ refine_direction (SonarVelocityEstimator * est,
       DIRECTION_SUBSTEPS : 0;
   const int qe = g->elevation_step > FINE_GRID_STEP + 1e-9 ?
       DIRECTION_SUBSTEPS : 0;
-  double best_strength = -1.0, best_az = *azimuth, best_el = *elevation;
+  double best_strength, best_az = *azimuth, best_el = *elevation;
+  guint which, first, n_near;
 
+  *coherence = coherence_over (est, spectra, range, best_az, best_el,
+      est->hypotheses, est->n_hypotheses, &best_strength, &which, NULL);
+  first = which > 0 ? which - 1 : 0;
+  n_near = MIN (which + 2, est->n_hypotheses) - first;
   for (int axis = 0; axis < 2; axis++) {
     const int q = axis == 0 ? qa : qe;
     const double az0 = best_az, el0 = best_el;
@@ -609,11 +623,11 @@ refine_direction (SonarVelocityEstimator * est,
       const double az = axis == 0 ? CLAMP (az0 + i * da, -90.0, 90.0) : az0;
       const double el = axis == 1 ? CLAMP (el0 + i * de, -90.0, 90.0) : el0;
       double strength, cf;
-      /* The centre of the elevation line is the azimuth line's best. */
-      if (axis == 1 && i == 0 && best_strength >= 0.0)
+      /* The centre of either line is already evaluated. */
+      if (i == 0)
         continue;
-      cf = coherence_over (est, spectra, range, az, el, est->hypotheses,
-          est->n_hypotheses, &strength, NULL);
+      cf = coherence_over (est, spectra, range, az, el,
+          est->hypotheses + first, n_near, &strength, NULL, NULL);
       if (strength > best_strength) {
         best_strength = strength;
         best_az = az;
@@ -856,7 +870,7 @@ describe_peak (SonarVelocityEstimator * est,
   }
   out->agreeing_emitters = agree;
   out->coherence = coherence_over (est, spectra, centre, out->azimuth,
-      out->elevation, &p, 1, NULL, &lag);
+      out->elevation, &p, 1, NULL, NULL, &lag);
   /* A centroid whose members lie beyond the window around it, or that
    * holds two reflectors, is a blend of echoes at different ranges: each
    * estimate takes its own echo's. */
@@ -1246,7 +1260,9 @@ sonar_velocity_pool_work (const SonarVelocityPool * pool,
   /* refine_direction ()'s lines: along azimuth, then along elevation
    * without their common centre. */
   work->directions = 2 * qa + 1 + 2 * qe;
-  work->hypotheses = est->n_hypotheses;
+  /* Every hypothesis at the centroid's direction, three elsewhere. */
+  work->screens = est->n_hypotheses + (work->directions - 1) *
+      MIN (3, est->n_hypotheses);
 }
 
 double

@@ -131,7 +131,7 @@ typedef struct
   guint bins, block;
   guint gate_inverse, gate_forward;     /* 0 without a gate */
   guint directions;             /* searched by the prescreen */
-  guint hypotheses;             /* the prescreen's, per direction */
+  guint screens;                /* the prescreen's evaluations over them */
 } SonarVelocityWork;
 
 void sonar_velocity_pool_work (const SonarVelocityPool * pool,

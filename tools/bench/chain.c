@@ -264,8 +264,10 @@ fft_flops (double n)
  *   velocity    per centroid and direction the prescreen searches
  *               (sonar_velocity_pool_work ()), per window direction: a
  *               focus (the receive sum, 8 flops per microphone and bin,
- *               and the range gate's two transforms) and the prescreen's
- *               hypotheses; per evaluated velocity, window direction and
+ *               and the range gate's two transforms); per centroid and
+ *               window direction the prescreen's evaluations (all its
+ *               hypotheses at the centroid's direction, three at the
+ *               others); per evaluated velocity, window direction and
  *               emitter: the dot product's block sums (14 per bin of the
  *               gate) and the lags read (8 per block and lag: the
  *               window's, and 8 more around its best in window_peak ()).
@@ -301,8 +303,8 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   screen = N * (14.0 * work.bins + 8.0 * lags * work.bins / work.block);
   evaluation = N * (14.0 * work.bins + 8.0 * (lags + 8.0) * work.bins /
       work.block);
-  flops[STAGE_VELOCITY] = centroids * window * work.directions * (focus +
-      work.hypotheses * screen) + evaluations * window * evaluation;
+  flops[STAGE_VELOCITY] = centroids * window * (work.directions * focus +
+      work.screens * screen) + evaluations * window * evaluation;
   floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
   floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
   floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *

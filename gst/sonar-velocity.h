@@ -19,6 +19,12 @@
  * fails it is rejected before the bank is evaluated (its estimate has a
  * NaN velocity).
  *
+ * The evaluations run on a range gate: the focused receive sum is cut to
+ * the samples around the echo (the longest template, its tails and a few
+ * range steps) and transformed again, a quarter of the ping's bins per
+ * evaluation for the same correlations; a centroid whose members spread
+ * beyond the gate is evaluated on the whole ping.
+ *
  * Two reflectors a few centimetres apart in range share a centroid: the
  * window spans the ranges of its member peaks, so both echoes are in it,
  * and a second peak of the product that stands out of the product's floor

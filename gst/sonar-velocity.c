@@ -1129,6 +1129,7 @@ struct _SonarVelocityPool
   guint n_centroids;
   SonarVelocityEstimate *results;
   guint *counts;
+  gint next_centroid;           /* the next to estimate, shared */
 };
 
 /* Whether @a and @b are one echo: within a range step and an image
@@ -1171,16 +1172,23 @@ drop_duplicates (const SonarVelocityEstimator * est, guint n_centroids,
   }
 }
 
-/* Worker @w estimates centroids w, w + n, ... */
+/* Worker @w takes the next centroid not taken until none is left: a
+ * centroid the prescreen rejects costs a tenth of one it does not, so a
+ * fixed share (w, w + n, ...) left one thread waiting on the other. Each
+ * estimate depends on its centroid alone: the results do not depend on
+ * which thread made them. */
 static void
 estimate_share (gpointer data, guint w, guint n)
 {
   SonarVelocityPool *pool = data;
 
-  for (guint k = w; k < pool->n_centroids; k += n) {
-    const SonarCentroid *c = &pool->centroids[k];
-    pool->counts[k] = estimate (pool->estimators[w], &pool->spectra, c,
-        &pool->results[2 * k], NULL);
+  (void) n;
+  for (;;) {
+    const guint k = (guint) g_atomic_int_add (&pool->next_centroid, 1);
+    if (k >= pool->n_centroids)
+      break;
+    pool->counts[k] = estimate (pool->estimators[w], &pool->spectra,
+        &pool->centroids[k], &pool->results[2 * k], NULL);
   }
 }
 
@@ -1238,6 +1246,7 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   pool->n_centroids = n_centroids;
   pool->results = results;
   pool->counts = counts;
+  g_atomic_int_set (&pool->next_centroid, 0);
   sonar_workers_run (pool->workers, estimate_share, pool);
   drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }

@@ -19,6 +19,12 @@
  * fails it is rejected before the bank is evaluated (its estimate has a
  * NaN velocity).
  *
+ * The evaluations run on a range gate: the focused receive sum is cut to
+ * the samples around the echo (the longest template, its tails and a few
+ * range steps) and transformed again, a quarter of the ping's bins per
+ * evaluation for the same correlations; a centroid whose members spread
+ * beyond the gate is evaluated on the whole ping.
+ *
  * Two reflectors a few centimetres apart in range share a centroid: the
  * window spans the ranges of its member peaks, so both echoes are in it,
  * and a second peak of the product that stands out of the product's floor
@@ -136,6 +142,23 @@ gboolean sonar_velocity_pool_retune (SonarVelocityPool * pool,
 void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);
+
+/* What one centroid costs the pool's estimators, for sonar-bench's
+ * arithmetic floor. A focus (one per direction of the prescreen's search)
+ * is a receive sum over the band and, with a range gate, an inverse
+ * transform of gate_inverse points and a forward one of gate_forward; a
+ * bank evaluation (per emitter and window direction) is a dot product
+ * over @bins bins, then sums over blocks of @block bins per lag read. */
+typedef struct
+{
+  guint bins, block;
+  guint gate_inverse, gate_forward;     /* 0 without a gate */
+  guint directions;             /* searched by the prescreen */
+  guint screens;                /* the prescreen's evaluations over them */
+} SonarVelocityWork;
+
+void sonar_velocity_pool_work (const SonarVelocityPool * pool,
+    SonarVelocityWork * work);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
     sonar_velocity_estimator_free)

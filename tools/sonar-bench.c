@@ -112,7 +112,7 @@ parse_options (Options * o, int *argc, char ***argv)
     {"sweep", 's', 0, G_OPTION_ARG_STRING_ARRAY, &o->sweep_names, NULL,
         "NAME"},
     {"all", 'a', 0, G_OPTION_ARG_NONE, &o->all,
-        "Run every sweep but baseline", NULL},
+        "Run every sweep but baseline and the slow ones", NULL},
     {"quick", 'q', 0, G_OPTION_ARG_NONE, &o->quick,
         "Only 2 fig10 pings and the linkage and refine sweeps", NULL},
     {"csv", 'c', 0, G_OPTION_ARG_FILENAME, &o->csv_path,
@@ -179,6 +179,10 @@ parse_options (Options * o, int *argc, char ***argv)
       "one fig10 ping,\n"
       "                            coarse grids of 4, 6, 8 degrees and "
       "dense\n"
+      "  hemisphere-fig9           (minutes; not in --all) 3-D, 91 x 91 at 2 "
+      "degrees, coarse 6,\n"
+      "                            the fig9 world, the default -7..7 / 0.05 "
+      "bank\n"
       "Sensitivity sweeps (minutes; not in --all), pings rendered one at a "
       "time, the defaults:\n"
       "  noise                     noise-only pings: the false-alarm model "
@@ -224,9 +228,10 @@ select_sweeps (const Options * o)
     g_ptr_array_add (selected, (gpointer) find_sweep ("linkage"));
     g_ptr_array_add (selected, (gpointer) find_sweep ("refine"));
   } else if (o->all) {
-    /* The sensitivity sweeps take minutes: only by name. */
+    /* The sensitivity sweeps and the slow ones take minutes: only by
+     * name. */
     for (guint i = 1; i < n_sweeps; i++)
-      if (!sweeps[i].run)
+      if (!sweeps[i].run && !sweeps[i].slow)
         g_ptr_array_add (selected, (gpointer) &sweeps[i]);
   }
   for (guint i = 0; o->sweep_names && o->sweep_names[i]; i++) {

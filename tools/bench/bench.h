@@ -132,6 +132,7 @@ typedef struct
   /* CPU time of the whole chain: other processes on the machine inflate
    * the wall-clock times, not this. */
   double cpu_ms_total;
+  double cpu_ms_velocity;       /* the velocity stage's, all its threads */
   double bank_mb, mb[N_STAGES]; /* heap held */
   double peak_rss_mb;
   guint bank_velocities;
@@ -162,6 +163,7 @@ typedef struct
   /* Instead of configurations: a sweep that renders its own pings one at
    * a time (the sensitivity sweeps). */
   gboolean (*run) (struct _Bench * b);
+  gboolean slow;                /* minutes: only by name, not in --all */
 } Sweep;
 
 typedef struct

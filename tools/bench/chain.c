@@ -268,11 +268,17 @@ fft_flops (double n)
  *               product (6 per bin), the inverse transform and the
  *               envelope (3 per range bin);
  *   clustering  two reads of the image at the measured read rate;
- *   velocity    per centroid the receive sums of its window's directions
- *               (three calls: direction search, bank pass, around the
- *               peak), per evaluated velocity and window direction and
- *               emitter the block sums (14 per bin) and the window's lags
- *               (8 per block and lag). */
+ *   velocity    per centroid and direction the prescreen searches
+ *               (sonar_velocity_pool_work ()), per window direction: a
+ *               focus (the receive sum, 8 flops per microphone and bin,
+ *               and the range gate's two transforms); per centroid and
+ *               window direction the prescreen's evaluations (all its
+ *               hypotheses at the centroid's direction, three at the
+ *               others); per evaluated velocity, window direction and
+ *               emitter: the dot product's block sums (14 per bin of the
+ *               gate) and the lags read (8 per block and lag: the
+ *               window's, and 8 more around its best in window_peak ()).
+ *               The prescreen's evaluations read the window's lags only. */
 static void
 arithmetic_floors (const Bench * b, const Chain * ch, guint units,
     guint passes, guint centroids, double evaluations, double *floor_ms)
@@ -291,14 +297,21 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   const double lags = 2.0 * vp->window_ranges + 1;
   const double cores = g_get_num_processors ();
   const double per_core_ms = 1.0 / (b->peak_gflops * 1e6);
-  double flops[STAGE_VELOCITY + 1];
+  double flops[N_STAGES], focus, screen, evaluation;
+  SonarVelocityWork work;
 
   flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
   flops[STAGE_IMAGING] = units * 8.0 * J * K + passes * (8.0 * N * K +
       6.0 * K + fft_flops (M) + 3.0 * R);
   flops[STAGE_CLUSTERING] = 0.0;
-  flops[STAGE_VELOCITY] = centroids * 3.0 * window * 8.0 * J * K +
-      evaluations * window * N * (14.0 * K + 8.0 * lags * K / 16.0);
+  sonar_velocity_pool_work (ch->workers, &work);
+  focus = 8.0 * J * K + (work.gate_inverse ? fft_flops (work.gate_inverse) +
+      fft_flops (work.gate_forward) : 0.0);
+  screen = N * (14.0 * work.bins + 8.0 * lags * work.bins / work.block);
+  evaluation = N * (14.0 * work.bins + 8.0 * (lags + 8.0) * work.bins /
+      work.block);
+  flops[STAGE_VELOCITY] = centroids * window * (work.directions * focus +
+      work.screens * screen) + evaluations * window * evaluation;
   floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
   floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
   floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *
@@ -733,8 +746,9 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
 
   reset_peak_rss ();
   ok = chain_init (ch, b, c, r, error);
-  /* Per ping: the stages, the total, its CPU time. */
-  times = g_new (double, (N_STAGES + 2) * n_timed);
+  /* Per ping: the stages, the total, its CPU time, the velocity stage's
+   * CPU time (all its threads). */
+  times = g_new (double, (N_STAGES + 3) * n_timed);
   /* Ping -1 is a warm-up on the first ping, neither timed nor scored: it
    * takes the page faults of fresh buffers and ORC's first compilations,
    * and its heap growth is the stages' working memory. */
@@ -746,6 +760,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     StageClock clock = { q < 0 };
     double t[N_STAGES], total = 0.0;
     guint n_centroids, units, dense_units, passes, dense_passes;
+    double velocity_cpu;
 
     stage_start (&clock);
     chain_spectra (ch, samples, n_mics, length);
@@ -760,7 +775,9 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
         ch->centroids, MAX_CENTROIDS);
     t[STAGE_CLUSTERING] = stage_stop (&clock, r, STAGE_CLUSTERING);
     stage_start (&clock);
+    velocity_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
     chain_velocity (ch, n_centroids);
+    velocity_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID) - velocity_cpu;
     t[STAGE_VELOCITY] = stage_stop (&clock, r, STAGE_VELOCITY);
     if (p == 0)
       sonar_tracker_reset (ch->tracker);
@@ -781,6 +798,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
 
     times[(N_STAGES + 1) * n_timed + q] =
         clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
+    times[(N_STAGES + 2) * n_timed + q] = velocity_cpu;
     for (guint k = 0; k < N_STAGES; k++) {
       times[k * n_timed + q] = t[k];
       total += t[k];
@@ -811,5 +829,6 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   r->ms_total_low = percentile (times + N_STAGES * n_timed, n_timed, 0.1);
   r->ms_total_high = percentile (times + N_STAGES * n_timed, n_timed, 0.9);
   r->cpu_ms_total = median (times + (N_STAGES + 1) * n_timed, n_timed);
+  r->cpu_ms_velocity = median (times + (N_STAGES + 2) * n_timed, n_timed);
   return TRUE;
 }

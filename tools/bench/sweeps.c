@@ -241,6 +241,7 @@ const Sweep sweeps[] = {
   {"noise", SCENE_FIG9, 0, NULL, run_noise},
   {"detection", SCENE_FIG9, 0, NULL, run_detection},
   {"split", SCENE_FIG9, 0, NULL, run_split},
+  {"crowded", SCENE_FIG9, 0, NULL, run_crowded},
 };
 
 const guint n_sweeps = G_N_ELEMENTS (sweeps);

@@ -334,6 +334,39 @@ lower_quartile (float *values, gsize n)
   return n > 0 ? select_kth (values, n, n / 4) : 0.0f;
 }
 
+/* Censoring rounds of censored_quartile (), at most. */
+#define CENSOR_ROUNDS 8
+
+/* The lower quartile of the @n @values below @gain times it: the
+ * quartile of them all, then again of those below the floor it sets,
+ * until no more are set aside. Noise alone sets aside a pfa's share and
+ * its quartile stays; a row crossed by many objects (a crowd: tens of
+ * them at one range, each filling a few directions with its main lobe)
+ * loses them, and its floor falls back to what lies between them.
+ * Reorders @values. */
+static float
+censored_quartile (float *values, gsize n, float gain)
+{
+  gsize kept = n;
+  float q;
+
+  if (n == 0)
+    return 0.0f;
+  q = select_kth (values, n, n / 4);
+  for (int round = 0; round < CENSOR_ROUNDS; round++) {
+    const float floor = gain * q;
+    gsize below = 0;
+    for (gsize k = 0; k < kept; k++)
+      below += values[k] < floor;
+    if (below == kept || below < 4)
+      break;
+    /* The smallest @below values are those below the floor. */
+    q = select_kth (values, kept, below / 4);
+    kept = below;
+  }
+  return q;
+}
+
 double
 sonar_cluster_effective_hypotheses (guint hypotheses)
 {
@@ -385,8 +418,8 @@ noise_floors (SonarClusterer * c, const float *image)
           c->columns[b * n_dirs + counts[b]++] = pixels[b];
     }
     for (guint b = 0; b < block; b++)
-      c->floor[i0 + b] = gain * lower_quartile (c->columns + b * n_dirs,
-          counts[b]);
+      c->floor[i0 + b] = gain * censored_quartile (c->columns + b * n_dirs,
+          counts[b], gain);
   }
 }
 

@@ -109,7 +109,8 @@ strongest_near (const SonarImageGrid * g, const float *image, double range)
 
 typedef struct
 {
-  guint objects, detectable, found, found_detectable, false_objects;
+  guint objects, centroids, detectable, found, found_detectable;
+  guint false_objects;
   double sum_error, max_error, chain_ms, oracle_s;
   double worst_missed_db;       /* the highest margin of a detectable
                                  * object not found, dB (-inf: none) */
@@ -139,6 +140,7 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
   SonarReflector *all = scene->reflectors;
   SonarScene one = *scene;
   double start;
+  guint n_centroids;
 
   memset (row, 0, sizeof (*row));
   row->objects = n;
@@ -146,8 +148,9 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
   sonar_simulator_render (sim, scene, 0, 0.0, planar, truths);
   interleave (planar, n_mics, length, samples);
   start = now_ms ();
-  chain_run_ping (ch, samples, n_mics, length);
+  n_centroids = chain_run_ping (ch, samples, n_mics, length);
   row->chain_ms = now_ms () - start;
+  row->centroids = n_centroids;
 
   /* The oracle. */
   start = now_ms ();
@@ -204,10 +207,23 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
       row->sum_error += err;
       row->max_error = MAX (row->max_error, err);
     } else if (detectable[k]) {
+      /* Where it was lost: no centroid near it, or its estimate's tests. */
+      int near = -1;
+      for (guint c = 0; c < n_centroids && near < 0; c++)
+        if (sonar_vec3_norm (sonar_vec3_sub (ch->centroids[c].position,
+                    truths[k].position)) < MATCH_DISTANCE)
+          near = c;
       row->worst_missed_db = MAX (row->worst_missed_db, margin[k]);
-      g_printerr ("crowded: %s: missed an object %.1f dB above its "
-          "interference at %.3f m %+.1f deg\n", name, margin[k],
-          truths[k].range, truths[k].azimuth);
+      if (near < 0)
+        g_printerr ("crowded: %s: missed an object %.1f dB above its "
+            "interference at %.3f m %+.1f deg: no centroid\n", name,
+            margin[k], truths[k].range, truths[k].azimuth);
+      else
+        g_printerr ("crowded: %s: missed an object %.1f dB above its "
+            "interference at %.3f m %+.1f deg: coherence %.2f, %u "
+            "agreeing emitters\n", name, margin[k], truths[k].range,
+            truths[k].azimuth, ch->results[2 * near].coherence,
+            ch->results[2 * near].agreeing_emitters);
     }
   }
   for (guint d = 0; d < ch->n_detections; d++) {
@@ -220,9 +236,13 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
     /* A second detection of an object is a duplicate, not a false
      * object. */
     row->false_objects += !near;
-    if (!near)
-      g_printerr ("crowded: %s: false object at %.3f m, %+.4f m/s\n", name,
-          sonar_vec3_norm (ch->positions[d]), ch->velocities[d]);
+    if (!near) {
+      double azimuth, elevation;
+      sonar_vec3_to_direction (ch->positions[d], &azimuth, &elevation);
+      g_printerr ("crowded: %s: false object at %.3f m %+.1f deg, %+.4f "
+          "m/s\n", name, sonar_vec3_norm (ch->positions[d]), azimuth,
+          ch->velocities[d]);
+    }
   }
   return TRUE;
 }
@@ -256,8 +276,9 @@ run_crowded (Bench * b)
   g_print ("\ncrowded (one ping per scene, the elements' defaults, bank "
       "-7..7 / 0.05; oracle: the object's level in the image at its "
       "true position >= %g dB above the others' and the noise's there; "
-      "at most %u centroids)\n%-10s %7s %7s %7s %9s %6s %9s %9s %9s %8s "
-      "%8s\n", ORACLE_DB, MAX_CENTROIDS, "scene", "objects", "oracle",
+      "at most %u centroids)\n%-10s %7s %9s %7s %7s %9s %6s %9s %9s %9s "
+      "%8s %8s\n", ORACLE_DB, MAX_CENTROIDS, "scene", "objects",
+      "centroids", "oracle",
       "found", "found/or", "false", "mean m/s", "max m/s", "missed dB",
       "ping ms", "oracle s");
   for (guint s = 0; s < G_N_ELEMENTS (grid_sides) +
@@ -286,8 +307,8 @@ run_crowded (Bench * b)
       never_fewer &= row.found >= previous_found;
       previous_found = row.found;
     }
-    g_print ("%-10s %7u %7u %7u %9u %6u %9.4f %9.4f %9.1f %8.0f %8.1f\n",
-        name, row.objects, row.detectable, row.found, row.found_detectable,
+    g_print ("%-10s %7u %9u %7u %7u %9u %6u %9.4f %9.4f %9.1f %8.0f "
+        "%8.1f\n", name, row.objects, row.centroids, row.detectable, row.found, row.found_detectable,
         row.false_objects, row.found ? row.sum_error / row.found : NAN,
         row.max_error, row.worst_missed_db, row.chain_ms, row.oracle_s);
     if (b->csv)

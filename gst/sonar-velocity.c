@@ -81,10 +81,11 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->refine = TRUE;
   p->min_variance = 0.0;
   p->min_agreeing_emitters = 5;
-  /* Measured with sonar-bench --sweep crowded: 1e-3 (0.63 over 8
-   * emitters) finds every object of the grids the oracle puts 13 dB above
-   * its interference where a coherence of 0.8 lost most of them, with no
-   * false object on the presets, random scenes and noise pings. */
+  /* Measured with sonar-bench --sweep crowded: 3e-5 (0.77 over 8
+   * emitters) finds up to twice the objects of a crowd that 0.8 found,
+   * with no false object on the presets, random scenes and noise pings;
+   * 1e-4 (0.73) and lower let a strong echo's cross-talk ridge through
+   * where wardcluster's floors pass its peaks (test-velocityest). */
   p->coherence_pfa = 3e-5;
   p->min_coherence = 0.0;
   /* A lone echo's cross-talk floor lies 11-14 dB below its peak: a
@@ -727,8 +728,8 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
   out[0].elevation = elevation;
 
   /* Prescreen: a centroid whose emitters do not add up coherently at any
-   * detection hypothesis is a ghost (measured: objects 0.95 and more,
-   * cross-talk ridges 0.65 and less). Rejecting it here spares the whole
+   * detection hypothesis is a ghost (measured: isolated objects 0.95 and
+   * more, cross-talk ridges up to 0.77). Rejecting it here spares the whole
    * bank's evaluation, most of the work of a ping. The centroid's direction
    * is only as good as the image's grid, and the MIMO beam is about 2
    * degrees wide: the prescreen also takes the strongest direction within

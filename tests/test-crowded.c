@@ -15,6 +15,7 @@
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-imager.h"
+#include "sonar-rng.h"
 #include "sonar-simulator.h"
 #include "sonar-test-util.h"
 #include "sonar-velocity.h"
@@ -300,10 +301,48 @@ test_grids (void)
   g_assert_cmpuint (large.found, >=, small.found);
 }
 
+/* velocityest's coherence threshold holds its false-alarm rate: the
+ * coherence factor of complex Gaussian outputs independent across 8
+ * emitters exceeds sonar_velocity_coherence_threshold (pfa) a pfa's share
+ * of the time. */
+static void
+test_coherence_threshold (void)
+{
+  const guint n = 8, draws = 400000;
+  const double pfas[] = { 1e-1, 1e-2, 1e-3 };
+  SonarRng rng;
+
+  g_assert_cmpfloat (sonar_velocity_coherence_threshold (1e-3, 1), ==, 0.0);
+  g_assert_cmpfloat (sonar_velocity_coherence_threshold (1.0, 8), ==, 0.0);
+  for (guint i = 0; i < G_N_ELEMENTS (pfas); i++) {
+    const double t = sonar_velocity_coherence_threshold (pfas[i], n);
+    guint above = 0;
+    sonar_rng_init (&rng, 12, i);
+    for (guint d = 0; d < draws; d++) {
+      double re = 0.0, im = 0.0, power = 0.0;
+      for (guint k = 0; k < n; k++) {
+        const double x = sonar_rng_gaussian (&rng);
+        const double y = sonar_rng_gaussian (&rng);
+        re += x;
+        im += y;
+        power += x * x + y * y;
+      }
+      above += (re * re + im * im) / (n * power) >= t;
+    }
+    g_test_message ("pfa %g: threshold %.3f, measured %.2e", pfas[i], t,
+        (double) above / draws);
+    /* Within 4 standard deviations of the count. */
+    g_assert_cmpfloat (fabs (above - pfas[i] * draws), <=,
+        4.0 * sqrt (pfas[i] * draws));
+  }
+}
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
+  g_test_add_func ("/crowded/coherence-threshold",
+      test_coherence_threshold);
   g_test_add_func ("/crowded/grids", test_grids);
   return g_test_run ();
 }

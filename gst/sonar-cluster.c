@@ -356,13 +356,17 @@ censored_quartile (float *values, gsize n, float gain)
   for (int round = 0; round < CENSOR_ROUNDS; round++) {
     const float floor = gain * q;
     gsize below = 0;
+    /* Those below the floor first. */
     for (gsize k = 0; k < kept; k++)
-      below += values[k] < floor;
+      if (values[k] < floor) {
+        const float v = values[k];
+        values[k] = values[below];
+        values[below++] = v;
+      }
     if (below == kept || below < 4)
       break;
-    /* The smallest @below values are those below the floor. */
-    q = select_kth (values, kept, below / 4);
     kept = below;
+    q = select_kth (values, kept, kept / 4);
   }
   return q;
 }

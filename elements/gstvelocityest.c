@@ -421,10 +421,10 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "coherence factor |sum|^2 / (N sum of powers), the power its N "
           "emitters share against the interference left at the pixel, is "
           "at least what interference independent across the emitters "
-          "reaches with this probability, 1 - pfa^(1/(N-1)) (3e-5: 0.77 over "
-          "8 emitters; an echo 16 dB above its interference passes 9 times "
-          "in 10, an isolated one scores above 0.9, cross-talk ridges "
-          "0.4-0.77)", 1e-15, 1.0, d.coherence_pfa, flags));
+          "reaches with this probability, 1 - pfa^(1/(N-1)) (1.3e-5: 0.80 "
+          "over 8 emitters; an echo 16 dB above its interference passes 8 "
+          "times in 10, an isolated one scores above 0.9, cross-talk ridges "
+          "0.4-0.8)", 1e-15, 1.0, d.coherence_pfa, flags));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "
           "Doppler-ACF product peak, more than half a Doppler main lobe "

@@ -81,12 +81,14 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->refine = TRUE;
   p->min_variance = 0.0;
   p->min_agreeing_emitters = 5;
-  /* Measured with sonar-bench --sweep crowded: 3e-5 (0.77 over 8
-   * emitters) finds up to twice the objects of a crowd that 0.8 found,
-   * with no false object on the presets, random scenes and noise pings;
-   * 1e-4 (0.73) and lower let a strong echo's cross-talk ridge through
-   * where wardcluster's floors pass its peaks (test-velocityest). */
-  p->coherence_pfa = 3e-5;
+  /* 1.3e-5: 0.80 over 8 emitters, the fixed threshold this replaced.
+   * Measured with sonar-bench --sweep crowded and the tests: 3e-5 (0.77)
+   * finds up to 1.5 times the objects of a crowd, 1e-3 (0.63) several
+   * times more, but a ghost 5.5 m/s off at 65 degrees passes at 0.77 in
+   * test_foreign.py's split pairs, and a strong echo's cross-talk ridge at
+   * 0.73 in test-velocityest's near-far case (pfa=1e-6): those ridges are
+   * as coherent as a crowd's echoes. */
+  p->coherence_pfa = 1.3e-5;
   p->min_coherence = 0.0;
   /* A lone echo's cross-talk floor lies 11-14 dB below its peak: a
    * second reflector can stand out of it no lower than this. */
@@ -729,7 +731,7 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
 
   /* Prescreen: a centroid whose emitters do not add up coherently at any
    * detection hypothesis is a ghost (measured: isolated objects 0.95 and
-   * more, cross-talk ridges up to 0.77). Rejecting it here spares the whole
+   * more, cross-talk ridges up to 0.8). Rejecting it here spares the whole
    * bank's evaluation, most of the work of a ping. The centroid's direction
    * is only as good as the image's grid, and the MIMO beam is about 2
    * degrees wide: the prescreen also takes the strongest direction within

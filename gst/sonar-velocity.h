@@ -21,13 +21,13 @@
  * amplitude A in interference of power s^2 per emitter scores (A^2 +
  * s^2 / N) / (A^2 + s^2) on average, and interference alone, independent
  * across the emitters, reaches c with probability (1 - c)^(N - 1). The
- * threshold is set by that false-alarm rate (coherence_pfa): 3e-5 gives
- * 0.77 over 8 emitters, which an echo 16 dB above its interference in the
- * image passes 9 times in 10 and one 13 dB above 4 times in 10 (an
+ * threshold is set by that false-alarm rate (coherence_pfa): 1.3e-5 gives
+ * 0.80 over 8 emitters, which an echo 16 dB above its interference in the
+ * image passes 8 times in 10 and one 13 dB above 3 times in 10 (an
  * isolated echo scores above 0.9). Lower thresholds would find more of a
- * crowd, but a strong echo's cross-talk ridges reach 0.7-0.77 where
+ * crowd, but a strong echo's cross-talk ridges reach 0.73-0.8 where
  * wardcluster's floors let their peaks through (tests/test-velocityest.c,
- * near-far and wide angles). The coherence is checked first at a few
+ * near-far; tests/test_foreign.py, split pairs). The coherence is checked first at a few
  * Doppler hypotheses: a centroid that fails it is rejected before the bank
  * is evaluated (its estimate has a NaN velocity).
  *

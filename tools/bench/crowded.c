@@ -16,13 +16,15 @@
  * its true range and direction; only the few pixels around the object
  * are imaged, focused on it. The interference: that pixel's value in the
  * image of the recording of every other object and the noise, without
- * it. The
- * recordings are linear in the reflectors (the simulator does not clip):
- * the one without the object is the whole ping's minus the object's own,
- * and so are their spectra.
+ * it. The recordings are linear in the reflectors (the simulator does
+ * not clip): the one without the object is the whole ping's minus the
+ * object's own, and so are their spectra.
  *
  * Found: a valid detection within MATCH_DISTANCE (each detection matches
- * one object at most); false objects: valid detections near no object. */
+ * one object at most); false objects: valid detections near no object.
+ * Each detectable object missed is printed on stderr with where it was
+ * lost (no centroid near it, or its estimate's coherence and agreeing
+ * emitters); "missed dB": the highest margin of those. */
 #include <math.h>
 
 #include "bench.h"

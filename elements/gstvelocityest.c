@@ -57,6 +57,7 @@ enum
   PROP_MIN_VARIANCE,
   PROP_MIN_AGREEING_EMITTERS,
   PROP_MIN_COHERENCE,
+  PROP_COHERENCE_PFA,
   PROP_SECOND_PEAK,
   PROP_EMITTERS,
   PROP_KEEP_REJECTED,
@@ -359,6 +360,9 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
     case PROP_MIN_COHERENCE:
       p->min_coherence = g_value_get_double (value);
       break;
+    case PROP_COHERENCE_PFA:
+      p->coherence_pfa = g_value_get_double (value);
+      break;
     case PROP_SECOND_PEAK:
       p->second_peak_db = g_value_get_double (value);
       break;
@@ -409,6 +413,9 @@ gst_velocity_est_get_property (GObject * object, guint prop_id,
       break;
     case PROP_MIN_COHERENCE:
       g_value_set_double (value, p->min_coherence);
+      break;
+    case PROP_COHERENCE_PFA:
+      g_value_set_double (value, p->coherence_pfa);
       break;
     case PROP_SECOND_PEAK:
       g_value_set_double (value, p->second_peak_db);
@@ -501,11 +508,21 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "to their number; set so while playing, a warning and no "
           "change)", 0, 64, d.min_agreeing_emitters, tunable));
   g_object_class_install_property (gobject_class, PROP_MIN_COHERENCE,
-      g_param_spec_double ("min-coherence", "Minimum coherence", "A "
-          "reflector's emitters add up coherently at its velocity: coherence "
-          "factor |sum|^2 / (N sum of powers) at least this (true echoes "
-          "score above 0.9, cross-talk ridges 0.4-0.7)", 0.0, 1.0,
+      g_param_spec_double ("min-coherence", "Minimum coherence", "A fixed "
+          "floor under coherence-pfa's threshold on the coherence factor "
+          "|sum|^2 / (N sum of powers) of a reflector's emitters at its "
+          "velocity (0: coherence-pfa's alone)", 0.0, 1.0,
           d.min_coherence, tunable));
+  g_object_class_install_property (gobject_class, PROP_COHERENCE_PFA,
+      g_param_spec_double ("coherence-pfa", "Coherence false-alarm rate",
+          "A reflector's emitters add up coherently at its velocity: its "
+          "coherence factor |sum|^2 / (N sum of powers), the power its N "
+          "emitters share against the interference left at the pixel, is "
+          "at least what interference independent across the emitters "
+          "reaches with this probability, 1 - pfa^(1/(N-1)) (1.3e-5: 0.80 "
+          "over 8 emitters; an echo 16 dB above its interference passes 8 "
+          "times in 10, an isolated one scores above 0.9, cross-talk ridges "
+          "0.4-0.8)", 1e-15, 1.0, d.coherence_pfa, tunable));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "
           "Doppler-ACF product peak, more than half a Doppler main lobe "

@@ -334,6 +334,48 @@ lower_quartile (float *values, gsize n)
   return n > 0 ? select_kth (values, n, n / 4) : 0.0f;
 }
 
+/* Censoring rounds of censored_quartile (), at most. */
+#define CENSOR_ROUNDS 8
+/* Share of noise's values censored_quartile () sets aside. */
+#define CENSOR_SHARE 0.01
+
+/* The lower quartile of the @n @values, those above @gain times it set
+ * aside: the quartile of them all, then again of those below that level,
+ * until no more are set aside. @gain is the factor noise exceeds with
+ * probability CENSOR_SHARE: in noise alone that share is set aside and
+ * the quartile, taken at rank 1/4 / (1 - CENSOR_SHARE) of the rest, is
+ * unchanged; a row crossed by many objects (a crowd: tens of them at one
+ * range, each filling a few directions with its main lobe and skirts)
+ * loses them, and its floor falls back to what lies between them.
+ * Reorders @values. */
+static float
+censored_quartile (float *values, gsize n, float gain)
+{
+  gsize kept = n;
+  float q;
+
+  if (n == 0)
+    return 0.0f;
+  q = select_kth (values, n, n / 4);
+  for (int round = 0; round < CENSOR_ROUNDS; round++) {
+    const float level = gain * q;
+    gsize below = 0;
+    /* Those below the level first. */
+    for (gsize k = 0; k < kept; k++)
+      if (values[k] < level) {
+        const float v = values[k];
+        values[k] = values[below];
+        values[below++] = v;
+      }
+    if (below == kept || below < 4)
+      break;
+    kept = below;
+    q = select_kth (values, kept, MIN (kept - 1, (gsize) (0.25 * kept /
+                (1.0 - CENSOR_SHARE))));
+  }
+  return q;
+}
+
 double
 sonar_cluster_effective_hypotheses (guint hypotheses)
 {
@@ -369,6 +411,8 @@ noise_floors (SonarClusterer * c, const float *image)
   const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
   const float gain = (float) sonar_cluster_floor_gain (c->params.pfa,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
+  const float censor = (float) sonar_cluster_floor_gain (CENSOR_SHARE,
+      sonar_cluster_effective_hypotheses (c->params.hypotheses));
   gsize counts[FLOOR_BLOCK];
 
   if (!(gain > 0.0f)) {
@@ -385,8 +429,8 @@ noise_floors (SonarClusterer * c, const float *image)
           c->columns[b * n_dirs + counts[b]++] = pixels[b];
     }
     for (guint b = 0; b < block; b++)
-      c->floor[i0 + b] = gain * lower_quartile (c->columns + b * n_dirs,
-          counts[b]);
+      c->floor[i0 + b] = gain * censored_quartile (c->columns + b * n_dirs,
+          counts[b], censor);
   }
 }
 

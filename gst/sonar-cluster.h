@@ -87,7 +87,9 @@ typedef struct
   /* Probability that a noise-only pixel passes the noise-floor test (a
    * CFAR detector), per pixel and ping, in (0, 1]; 1 turns the test off.
    * The test: the pixel exceeds its range bin's lower quartile over the
-   * directions (objects fill few of them) times the factor that noise of
+   * directions (objects fill few of them; censored: taken again over the
+   * values below the floor it sets, so that a crowd crossing the row
+   * does not raise it) times the factor that noise of
    * the image's statistics exceeds with probability pfa
    * (sonar_cluster_floor_gain ()). 1e-10: the default image has about
    * 3e5 pixels (181 directions x 1754 ranges), so noise passes about once

@@ -72,6 +72,7 @@ struct _SonarVelocityEstimator
   SonarImageGrid grid;
   SonarVelocityParams params;
   guint n_velocities, n_emitters;
+  double min_coherence;         /* the coherence test's threshold */
   double main_lobe;             /* m/s: one emitter's Doppler resolution */
   /* The window pixel focused on (focus ()): its legs and receive sum. */
   double *mic_legs, *emitter_legs;
@@ -137,11 +138,39 @@ sonar_velocity_params_init_default (SonarVelocityParams * p)
   p->refine = TRUE;
   p->min_variance = 0.0;
   p->min_agreeing_emitters = 5;
-  p->min_coherence = 0.8;
+  /* 1.3e-5: 0.80 over 8 emitters, the fixed threshold this replaced.
+   * Measured with sonar-bench --sweep crowded and the tests: 3e-5 (0.77)
+   * finds up to 1.5 times the objects of a crowd, 1e-3 (0.63) several
+   * times more, but a ghost 5.5 m/s off at 65 degrees passes at 0.77 in
+   * test_foreign.py's split pairs, and a strong echo's cross-talk ridge at
+   * 0.73 in test-velocityest's near-far case (pfa=1e-6): those ridges are
+   * as coherent as a crowd's echoes. */
+  p->coherence_pfa = 1.3e-5;
+  p->min_coherence = 0.0;
   /* A lone echo's cross-talk floor lies 11-14 dB below its peak: a
    * second reflector can stand out of it no lower than this. */
   p->second_peak_db = 12.0;
   p->emitters = 0;
+}
+
+double
+sonar_velocity_coherence_threshold (double pfa, guint n_emitters)
+{
+  /* Interference independent across the emitters (circular Gaussian):
+   * the power of their sum over N is one exponential share of their total,
+   * the coherence factor Beta(1, N - 1) distributed. 1 - pfa^(1/(N-1))
+   * without cancellation. */
+  if (n_emitters < 2 || pfa >= 1.0)
+    return 0.0;
+  return -expm1 (log (pfa) / (n_emitters - 1.0));
+}
+
+/* The coherence test's threshold: coherence-pfa's, min-coherence under it. */
+static double
+coherence_threshold (const SonarVelocityParams * params, guint n_emitters)
+{
+  return MAX (params->min_coherence,
+      sonar_velocity_coherence_threshold (params->coherence_pfa, n_emitters));
 }
 
 static gboolean
@@ -150,11 +179,12 @@ params_valid (const SonarVelocityParams * params, GError ** error)
   if (params->window_directions > 32
       || params->window_ranges > MAX_WINDOW_RANGES
       || !(params->second_peak_db > 0.0) || !(params->min_variance >= 0.0)
-      || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)) {
+      || !(params->min_coherence >= 0.0 && params->min_coherence <= 1.0)
+      || !(params->coherence_pfa > 0.0 && params->coherence_pfa <= 1.0)) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "velocity: window half-widths must be at most 32 directions and 256 "
-        "range steps, second-peak-db positive, min-variance >= 0 and "
-        "min-coherence in [0, 1]");
+        "range steps, second-peak-db positive, min-variance >= 0, "
+        "min-coherence in [0, 1] and coherence-pfa in (0, 1]");
     return FALSE;
   }
   return TRUE;
@@ -282,6 +312,7 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->n_velocities = sonar_doppler_bank_n_velocities (bank);
   est->n_emitters = params->emitters ? params->emitters :
       setup->geometry.n_emitters;
+  est->min_coherence = coherence_threshold (params, est->n_emitters);
   /* c / (2 f0 T): the Doppler resolution of one emission (physics notes). */
   est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
           setup->band_high) * setup->waveform_length / setup->sample_rate);
@@ -917,7 +948,7 @@ describe_peak (SonarVelocityEstimator * est,
   out->range = est->spread || other >= 0 ? centre + lag : centre;
   out->valid = agree >= MIN (est->params.min_agreeing_emitters,
       est->n_emitters) && out->variance >= est->params.min_variance
-      && out->coherence >= est->params.min_coherence;
+      && out->coherence >= est->min_coherence;
   out->second = FALSE;
 }
 
@@ -1033,8 +1064,8 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
   out[0].elevation = elevation;
 
   /* Prescreen: a centroid whose emitters do not add up coherently at any
-   * detection hypothesis is a ghost (measured: objects 0.95 and more,
-   * cross-talk ridges 0.65 and less). Rejecting it here spares the whole
+   * detection hypothesis is a ghost (measured: isolated objects 0.95 and
+   * more, cross-talk ridges up to 0.8). Rejecting it here spares the whole
    * bank's evaluation, most of the work of a ping. The centroid's direction
    * is only as good as the image's grid, and the MIMO beam is about 2
    * degrees wide: the prescreen also takes the strongest direction within
@@ -1043,7 +1074,7 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
       &out[0].coherence);
   out[0].azimuth = azimuth;
   out[0].elevation = elevation;
-  if (out[0].coherence < est->params.min_coherence) {
+  if (out[0].coherence < est->min_coherence) {
     out[0].radial_velocity = NAN;
     out[0].bank_index = 0;
     out[0].peak_db = out[0].variance = 0.0;
@@ -1282,10 +1313,12 @@ sonar_velocity_estimator_retune (SonarVelocityEstimator * est,
   tuned.min_variance = params->min_variance;
   tuned.min_agreeing_emitters = params->min_agreeing_emitters;
   tuned.min_coherence = params->min_coherence;
+  tuned.coherence_pfa = params->coherence_pfa;
   tuned.second_peak_db = params->second_peak_db;
   if (!params_valid (&tuned, error))
     return FALSE;
   est->params = tuned;
+  est->min_coherence = coherence_threshold (&tuned, est->n_emitters);
   return TRUE;
 }
 

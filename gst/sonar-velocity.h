@@ -13,11 +13,23 @@
  * A centroid whose curves are not peaked (a sidelobe or cross-talk ghost)
  * is flagged: its normalised product has a small variance (the paper's
  * test, Fig. 8), the emitters' own peaks disagree, and the emitters'
- * outputs at the estimated velocity do not add up coherently (a true echo
- * has a coherence factor above 0.9, a cross-talk ridge 0.4-0.7). The
- * coherence is checked first at a few Doppler hypotheses: a centroid that
- * fails it is rejected before the bank is evaluated (its estimate has a
- * NaN velocity).
+ * outputs at the estimated velocity do not add up coherently. The
+ * coherence factor |sum|^2 / (N sum |.|^2) weighs the power the N
+ * emitters' outputs share against the interference measured at the pixel
+ * itself, the power left in the N - 1 combinations orthogonal to their sum
+ * (noise, sidelobes and the cross-talk of every other echo): an echo of
+ * amplitude A in interference of power s^2 per emitter scores (A^2 +
+ * s^2 / N) / (A^2 + s^2) on average, and interference alone, independent
+ * across the emitters, reaches c with probability (1 - c)^(N - 1). The
+ * threshold is set by that false-alarm rate (coherence_pfa): 1.3e-5 gives
+ * 0.80 over 8 emitters, which an echo 16 dB above its interference in the
+ * image passes 8 times in 10 and one 13 dB above 3 times in 10 (an
+ * isolated echo scores above 0.9). Lower thresholds would find more of a
+ * crowd, but a strong echo's cross-talk ridges reach 0.73-0.8 where
+ * wardcluster's floors let their peaks through (tests/test-velocityest.c,
+ * near-far; tests/test_foreign.py, split pairs). The coherence is checked first at a few
+ * Doppler hypotheses: a centroid that fails it is rejected before the bank
+ * is evaluated (its estimate has a NaN velocity).
  *
  * The evaluations run on a range gate: the focused receive sum is cut to
  * the samples around the echo (the longest template, its tails and a few
@@ -51,7 +63,12 @@ typedef struct
   double min_variance;          /* below: not peaked, flagged as a false positive */
   guint min_agreeing_emitters;  /* emitters whose own curve comes within 3 dB
                                  * of its maximum near the product's peak */
-  double min_coherence;         /* coherence factor across emitters, 0..1 */
+  double coherence_pfa;         /* the coherence test's false-alarm rate
+                                 * for interference independent across
+                                 * the emitters, (0, 1] */
+  double min_coherence;         /* coherence factor across emitters, 0..1:
+                                 * a fixed floor under coherence_pfa's
+                                 * threshold */
   double second_peak_db;        /* a second product peak at most this far below
                                  * the first (dB per emitter, > 0) that stands
                                  * out of the product's floor and passes the
@@ -61,6 +78,11 @@ typedef struct
 } SonarVelocityParams;
 
 void sonar_velocity_params_init_default (SonarVelocityParams * params);
+
+/* The coherence factor that interference independent across @n_emitters
+ * emitters reaches with probability @pfa: 1 - pfa^(1 / (N - 1)); 0 for
+ * one emitter (whose factor is always 1). */
+double sonar_velocity_coherence_threshold (double pfa, guint n_emitters);
 
 typedef struct
 {

@@ -8,7 +8,10 @@ objects with a centroid within 5 cm (found or rejected), valid detections
 near no object.
 
     /usr/bin/python3 tools/crowded.py 5 10 14 20
-    /usr/bin/python3 tools/crowded.py 10 --velocityest "min-coherence=0"
+    /usr/bin/python3 tools/crowded.py 10 --velocityest "coherence-pfa=1"
+
+(coherence-pfa=1: no coherence test). sonar-bench --sweep crowded
+measures the same grids at the elements' defaults beside an oracle bound.
 """
 
 import argparse

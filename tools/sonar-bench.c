@@ -198,7 +198,13 @@ parse_options (Options * o, int *argc, char ***argv)
       "                            0.4-5 m/s apart: share split into two "
       "objects; false splits\n"
       "                            of single objects, presets and random "
-      "scenes (--split-pings)\n");
+      "scenes (--split-pings)\n"
+      "  crowded                   grids of 25-400 still objects and random "
+      "scenes of 25-150:\n"
+      "                            objects found against an oracle bound "
+      "(>= 13 dB above the\n"
+      "                            others' and the noise's level at each "
+      "object), false objects\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, argc, argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);

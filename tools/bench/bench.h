@@ -11,6 +11,8 @@
  *                  defaults) and the runs of their configurations;
  *   sensitivity.c  the noise, detection and split sweeps, which render
  *                  their own pings one at a time;
+ *   crowded.c      the crowded sweep: grids and random scenes of many
+ *                  objects against an oracle bound;
  *   output.c       the tables and the CSV;
  *   ../sonar-bench.c  the options and main ().
  */
@@ -276,6 +278,9 @@ gboolean run_noise (Bench * b);
 gboolean run_detection (Bench * b);
 gboolean run_split (Bench * b);
 gboolean run_uncertainty (Bench * b);
+
+/* crowded.c */
+gboolean run_crowded (Bench * b);
 
 /* output.c */
 FILE *open_csv (const char *path, GError ** error);

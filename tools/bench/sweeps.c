@@ -256,6 +256,7 @@ const Sweep sweeps[] = {
   {"detection", SCENE_FIG9, 0, NULL, run_detection},
   {"split", SCENE_FIG9, 0, NULL, run_split},
   {"uncertainty", SCENE_FIG9, 0, NULL, run_uncertainty},
+  {"crowded", SCENE_FIG9, 0, NULL, run_crowded},
 };
 
 const guint n_sweeps = G_N_ELEMENTS (sweeps);

@@ -1,0 +1,325 @@
+/* sonar-bench's crowded sweep (issue 12): detections against the number of
+ * objects, beside an oracle bound.
+ *
+ * Scenes: still unit point reflectors on n x n grids (n = 5, 10, 14, 20),
+ * 8 degrees apart in azimuth and 22 cm apart in range from 0.6 m (as
+ * tools/crowded.py), then the bench's random scenes of 25 to 150 point
+ * reflectors (scenes.c: 0.5-4.5 m, -60..60 degrees, -0.4..0.4 m/s, 25 cm
+ * apart). One ping each, noise seed 0, through the chain at the elements'
+ * defaults (the -7..7 m/s bank at 0.05 m/s and its 47 hypotheses).
+ *
+ * The oracle: an object is detectable when its level in the detection
+ * image at its true position stands at least ORACLE_DB above the
+ * interference there. Its level: the image (the chain's directions and
+ * hypotheses, every pixel imaged, no coarse pass) of a noise-free
+ * recording of the object alone, the strongest pixel within a pixel of
+ * its true range and direction; only the few pixels around the object
+ * are imaged, focused on it. The interference: that pixel's value in the
+ * image of the recording of every other object and the noise, without
+ * it. The recordings are linear in the reflectors (the simulator does
+ * not clip): the one without the object is the whole ping's minus the
+ * object's own, and so are their spectra.
+ *
+ * Found: a valid detection within MATCH_DISTANCE (each detection matches
+ * one object at most); false objects: valid detections near no object.
+ * Each detectable object missed is printed on stderr with where it was
+ * lost (no centroid near it, or its estimate's coherence and agreeing
+ * emitters); "missed dB": the highest margin of those. */
+#include <math.h>
+
+#include "bench.h"
+
+/* dB above the interference at which the defaults must find an object. */
+#define ORACLE_DB 13.0
+/* m: the oracle's image reaches this far either side of an object. */
+#define ORACLE_RANGE 0.05
+#define GRID_AZIMUTH_STEP 8.0
+#define GRID_RANGE_FIRST 0.6
+#define GRID_RANGE_STEP 0.22
+
+static const guint grid_sides[] = { 5, 10, 14, 20 };
+static const guint random_sizes[] = { 25, 50, 100, 150 };
+
+static void
+grid_scene_init (SonarScene * scene, guint n)
+{
+  sonar_scene_init_preset (scene, SONAR_SCENE_PRESET_EMPTY);
+  scene->reflectors = g_new0 (SonarReflector, n * n);
+  scene->n_reflectors = n * n;
+  for (guint i = 0; i < n; i++)
+    for (guint j = 0; j < n; j++) {
+      SonarReflector *r = &scene->reflectors[i * n + j];
+      const double azimuth = -(n - 1.0) * 0.5 * GRID_AZIMUTH_STEP +
+          GRID_AZIMUTH_STEP * j;
+      r->kind = SONAR_REFLECTOR_POINT;
+      r->position = sonar_vec3_scale (sonar_vec3_from_direction (azimuth,
+              0.0), GRID_RANGE_FIRST + GRID_RANGE_STEP * i);
+      r->strength = 1.0;
+    }
+}
+
+static void
+interleave (const float *planar, guint n_mics, gsize length, float *out)
+{
+  for (guint j = 0; j < n_mics; j++)
+    for (gsize i = 0; i < length; i++)
+      out[i * n_mics + j] = planar[j * length + i];
+}
+
+/* The oracle's imager for the object at (@range m, @azimuth degrees): the
+ * chain's image (@grid, its @params) around it, its direction and one
+ * grid step either side, ORACLE_RANGE either side in range, every pixel
+ * imaged (no coarse pass) and focused on it. */
+static SonarImager *
+oracle_imager (SonarSetup * setup, const SonarBand * band,
+    const SonarImagerParams * params, const SonarImageGrid * grid,
+    double range, double azimuth, GError ** error)
+{
+  SonarImagerParams p = *params;
+  const int a = CLAMP ((int) lround ((azimuth - grid->azimuth_first) /
+          grid->azimuth_step), 1, (int) grid->n_azimuth - 2);
+
+  p.azimuth_min = grid->azimuth_first + (a - 1) * grid->azimuth_step;
+  p.azimuth_max = grid->azimuth_first + (a + 1) * grid->azimuth_step;
+  p.n_azimuth = 3;
+  p.range_min = MAX (range - ORACLE_RANGE, 0.0);
+  p.range_max = range + ORACLE_RANGE;
+  p.focus_zones = 1;
+  p.coarse_spacing = 0.0;
+  p.threads = 1;
+  return sonar_imager_new (setup, band, &p, error);
+}
+
+/* The strongest pixel of @image (@g) within one pixel of @range m along
+ * the middle direction. */
+static gsize
+strongest_near (const SonarImageGrid * g, const float *image, double range)
+{
+  const int i = CLAMP ((int) lround ((range - g->range_first) /
+          g->range_step), 0, (int) g->n_range - 1);
+  gsize best = (gsize) g->n_range + i;
+
+  for (int a = 0; a < 3; a++)
+    for (int di = -1; di <= 1; di++) {
+      const int ii = i + di;
+      const gsize p = (gsize) a * g->n_range + ii;
+      if (ii >= 0 && ii < (int) g->n_range && image[p] > image[best])
+        best = p;
+    }
+  return best;
+}
+
+typedef struct
+{
+  guint objects, centroids, detectable, found, found_detectable;
+  guint false_objects;
+  double sum_error, max_error, chain_ms, oracle_s;
+  double worst_missed_db;       /* the highest margin of a detectable
+                                 * object not found, dB (-inf: none) */
+} CrowdRow;
+
+/* One scene: the chain's ping, then the oracle per object. */
+static gboolean
+crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
+    SonarSetup * setup,
+    const SonarScene * scene, const char *name, CrowdRow * row,
+    GError ** error)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  const guint n = scene->n_reflectors;
+  const gsize n_spectra = (gsize) n_mics * ch->band->n_bins;
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  g_autofree SonarTruth *truths = g_new (SonarTruth, MAX (n, 1));
+  g_autofree SonarComplex *whole = g_new (SonarComplex, n_spectra);
+  g_autofree SonarComplex *own = g_new (SonarComplex, n_spectra);
+  g_autofree SonarComplex *others = g_new (SonarComplex, n_spectra);
+  g_autofree float *image = NULL;
+  g_autofree gboolean *detectable = g_new0 (gboolean, MAX (n, 1));
+  g_autofree double *margin = g_new (double, MAX (n, 1));
+  gboolean used[2 * MAX_CENTROIDS] = { FALSE };
+  SonarReflector *all = scene->reflectors;
+  SonarScene one = *scene;
+  double start;
+  guint n_centroids;
+
+  memset (row, 0, sizeof (*row));
+  row->objects = n;
+  row->worst_missed_db = -INFINITY;
+  sonar_simulator_render (sim, scene, 0, 0.0, planar, truths);
+  interleave (planar, n_mics, length, samples);
+  start = now_ms ();
+  n_centroids = chain_run_ping (ch, samples, n_mics, length);
+  row->chain_ms = now_ms () - start;
+  row->centroids = n_centroids;
+
+  /* The oracle. */
+  start = now_ms ();
+  memcpy (whole, ch->spectra, n_spectra * sizeof (SonarComplex));
+  one.n_reflectors = 1;
+  for (guint k = 0; k < n; k++) {
+    g_autoptr (SonarImager) imager = oracle_imager (setup, ch->band,
+        &ch->config->imager, ch->grid, truths[k].range, truths[k].azimuth,
+        error);
+    const SonarImageGrid *g;
+    gsize p;
+    double level;
+
+    if (!imager)
+      return FALSE;
+    g = sonar_imager_grid (imager);
+    image = g_renew (float, image, sonar_image_grid_size (g));
+    one.reflectors = &all[k];
+    sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
+    interleave (planar, n_mics, length, samples);
+    chain_spectra (ch, samples, n_mics, length);
+    memcpy (own, ch->spectra, n_spectra * sizeof (SonarComplex));
+    sonar_imager_process (imager, own, ch->n_templates, ch->hypotheses, -1,
+        image);
+    p = strongest_near (g, image, truths[k].range);
+    level = image[p];
+    for (gsize s = 0; s < n_spectra; s++)
+      others[s] = whole[s] - own[s];
+    sonar_imager_process (imager, others, ch->n_templates, ch->hypotheses,
+        -1, image);
+    margin[k] = 20.0 * log10 (level / MAX (image[p], 1e-30f));
+    detectable[k] = margin[k] >= ORACLE_DB;
+    row->detectable += detectable[k];
+  }
+  row->oracle_s = (now_ms () - start) / 1000.0;
+
+  for (guint k = 0; k < n; k++) {
+    int best = -1;
+    double best_distance = MATCH_DISTANCE;
+    for (guint d = 0; d < ch->n_detections; d++) {
+      const double distance = sonar_vec3_norm (sonar_vec3_sub
+          (ch->positions[d], truths[k].position));
+      if (!used[d] && distance < best_distance) {
+        best = d;
+        best_distance = distance;
+      }
+    }
+    if (best >= 0) {
+      const double err = fabs (ch->velocities[best] -
+          truths[k].radial_velocity);
+      used[best] = TRUE;
+      row->found++;
+      row->found_detectable += detectable[k];
+      row->sum_error += err;
+      row->max_error = MAX (row->max_error, err);
+    } else if (detectable[k]) {
+      /* Where it was lost: no centroid near it, or its estimate's tests. */
+      int near = -1;
+      for (guint c = 0; c < n_centroids && near < 0; c++)
+        if (sonar_vec3_norm (sonar_vec3_sub (ch->centroids[c].position,
+                    truths[k].position)) < MATCH_DISTANCE)
+          near = c;
+      row->worst_missed_db = MAX (row->worst_missed_db, margin[k]);
+      if (near < 0)
+        g_printerr ("crowded: %s: missed an object %.1f dB above its "
+            "interference at %.3f m %+.1f deg: no centroid\n", name,
+            margin[k], truths[k].range, truths[k].azimuth);
+      else
+        g_printerr ("crowded: %s: missed an object %.1f dB above its "
+            "interference at %.3f m %+.1f deg: coherence %.2f, %u "
+            "agreeing emitters\n", name, margin[k], truths[k].range,
+            truths[k].azimuth, ch->results[2 * near].coherence,
+            ch->results[2 * near].agreeing_emitters);
+    }
+  }
+  for (guint d = 0; d < ch->n_detections; d++) {
+    gboolean near = FALSE;
+    if (used[d])
+      continue;
+    for (guint k = 0; k < n && !near; k++)
+      near = sonar_vec3_norm (sonar_vec3_sub (ch->positions[d],
+              truths[k].position)) < MATCH_DISTANCE;
+    /* A second detection of an object is a duplicate, not a false
+     * object. */
+    row->false_objects += !near;
+    if (!near) {
+      double azimuth, elevation;
+      sonar_vec3_to_direction (ch->positions[d], &azimuth, &elevation);
+      g_printerr ("crowded: %s: false object at %.3f m %+.1f deg, %+.4f "
+          "m/s\n", name, sonar_vec3_norm (ch->positions[d]), azimuth,
+          ch->velocities[d]);
+    }
+  }
+  return TRUE;
+}
+
+gboolean
+run_crowded (Bench * b)
+{
+  g_autoptr (GError) error = NULL;
+  g_autoptr (SonarSimulator) sim = NULL;
+  g_autoptr (SonarSimulator) quiet = NULL;
+  g_autofree Chain *ch = g_new0 (Chain, 1);
+  Result r = { 0 };
+  SonarSimulatorParams sp;
+  Config c;
+  guint previous_found = 0;
+  gboolean never_fewer = TRUE;
+
+  sonar_simulator_params_init_default (&sp);
+  sp.noise_amplitude = NOISE_AMPLITUDE;
+  sp.seed = NOISE_SEED;
+  sim = sonar_simulator_new (b->setup, &sp, &error);
+  sp.noise_amplitude = 0.0;
+  if (sim)
+    quiet = sonar_simulator_new (b->setup, &sp, &error);
+  config_init (&c, &scenes[SCENE_FIG9]);
+  if (!quiet || !chain_init (ch, b, &c, &r, &error)) {
+    g_printerr ("crowded: %s\n", error->message);
+    chain_clear (ch);
+    return FALSE;
+  }
+  g_print ("\ncrowded (one ping per scene, the elements' defaults, bank "
+      "-7..7 / 0.05; oracle: the object's level in the image at its "
+      "true position >= %g dB above the others' and the noise's there; "
+      "at most %u centroids)\n%-10s %7s %9s %7s %7s %9s %6s %9s %9s %9s "
+      "%8s %8s\n", ORACLE_DB, MAX_CENTROIDS, "scene", "objects",
+      "centroids", "oracle",
+      "found", "found/or", "false", "mean m/s", "max m/s", "missed dB",
+      "ping ms", "oracle s");
+  for (guint s = 0; s < G_N_ELEMENTS (grid_sides) +
+      G_N_ELEMENTS (random_sizes); s++) {
+    const gboolean grid = s < G_N_ELEMENTS (grid_sides);
+    const guint size = grid ? grid_sides[s] :
+        random_sizes[s - G_N_ELEMENTS (grid_sides)];
+    g_autofree char *name = g_strdup_printf (grid ? "grid%ux%u" : "rand%u",
+        size, size);
+    SonarScene scene;
+    CrowdRow row;
+
+    if (grid)
+      grid_scene_init (&scene, size);
+    else
+      random_scene_init (&scene, size);
+    if (!crowd_scene (ch, sim, quiet, b->setup, &scene, name, &row,
+            &error)) {
+      g_printerr ("crowded: %s\n", error->message);
+      sonar_scene_clear (&scene);
+      chain_clear (ch);
+      return FALSE;
+    }
+    sonar_scene_clear (&scene);
+    if (grid) {
+      never_fewer &= row.found >= previous_found;
+      previous_found = row.found;
+    }
+    g_print ("%-10s %7u %9u %7u %7u %9u %6u %9.4f %9.4f %9.1f %8.0f "
+        "%8.1f\n", name, row.objects, row.centroids, row.detectable, row.found, row.found_detectable,
+        row.false_objects, row.found ? row.sum_error / row.found : NAN,
+        row.max_error, row.worst_missed_db, row.chain_ms, row.oracle_s);
+    if (b->csv)
+      write_sensitivity_row (b->csv, "crowded", name, grid ? "grid" :
+          "random", 1, row.found, row.objects, row.false_objects,
+          row.found ? row.sum_error / row.found : NAN, row.max_error);
+  }
+  g_print ("grids: %s\n", never_fewer ? "never fewer objects found when "
+      "more are added" : "FEWER objects found when more were added");
+  chain_clear (ch);
+  return TRUE;
+}

@@ -351,27 +351,39 @@ lower_quartile (float *values, gsize n)
 static float
 censored_quartile (float *values, gsize n, float gain)
 {
-  gsize kept = n;
+  gsize kept = n, rank;
   float q;
 
   if (n == 0)
     return 0.0f;
-  q = select_kth (values, n, n / 4);
+  rank = n / 4;
+  q = select_kth (values, n, rank);
+  /* values[0 .. rank) <= q <= values (rank .. kept): a round sets aside
+   * only values after the rank, and the next quartile is selected in
+   * whichever side of it holds its rank, not in them all. */
   for (int round = 0; round < CENSOR_ROUNDS; round++) {
     const float level = gain * q;
-    gsize below = 0;
-    /* Those below the level first. */
-    for (gsize k = 0; k < kept; k++)
-      if (values[k] < level) {
-        const float v = values[k];
-        values[k] = values[below];
-        values[below++] = v;
-      }
-    if (below == kept || below < 4)
+    gsize end = kept, next;
+
+    if (!(level > q))
       break;
-    kept = below;
-    q = select_kth (values, kept, MIN (kept - 1, (gsize) (0.25 * kept /
-                (1.0 - CENSOR_SHARE))));
+    for (gsize k = rank + 1; k < end;)
+      if (values[k] >= level) {
+        const float v = values[k];
+        values[k] = values[--end];
+        values[end] = v;
+      } else {
+        k++;
+      }
+    if (end == kept || end < 4)
+      break;
+    kept = end;
+    next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
+    if (next < rank)
+      q = select_kth (values, rank, next);
+    else if (next > rank)
+      q = select_kth (values + rank + 1, kept - rank - 1, next - rank - 1);
+    rank = next;
   }
   return q;
 }

@@ -293,9 +293,8 @@ keep_peak (SonarClusterer * c, float value, gsize pixel)
   }
 }
 
-/* k-th smallest of v[0 .. n) (Hoare's selection; reorders v). */
-static float
-select_kth (float *v, gsize n, gsize k)
+float
+sonar_select_kth (float *v, gsize n, gsize k)
 {
   gsize lo = 0, hi = n - 1;
 
@@ -331,7 +330,7 @@ select_kth (float *v, gsize n, gsize k)
 static float
 lower_quartile (float *values, gsize n)
 {
-  return n > 0 ? select_kth (values, n, n / 4) : 0.0f;
+  return n > 0 ? sonar_select_kth (values, n, n / 4) : 0.0f;
 }
 
 /* Censoring rounds of censored_quartile (), at most. */
@@ -357,7 +356,7 @@ censored_quartile (float *values, gsize n, float gain)
   if (n == 0)
     return 0.0f;
   rank = n / 4;
-  q = select_kth (values, n, rank);
+  q = sonar_select_kth (values, n, rank);
   /* values[0 .. rank) <= q <= values (rank .. kept): a round sets aside
    * only values after the rank, and the next quartile is selected in
    * whichever side of it holds its rank, not in them all. */
@@ -380,9 +379,9 @@ censored_quartile (float *values, gsize n, float gain)
     kept = end;
     next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
     if (next < rank)
-      q = select_kth (values, rank, next);
+      q = sonar_select_kth (values, rank, next);
     else if (next > rank)
-      q = select_kth (values + rank + 1, kept - rank - 1, next - rank - 1);
+      q = sonar_select_kth (values + rank + 1, kept - rank - 1, next - rank - 1);
     rank = next;
   }
   return q;

@@ -205,6 +205,11 @@ double sonar_cluster_effective_hypotheses (guint hypotheses);
  * pfa is 41.1 at 1e-3 and 40.7 at 1e-4: (41 - 1) / 46. */
 #define SONAR_CLUSTER_HYPOTHESIS_SHARE 0.87
 
+/* Element @k of @v (@n > @k values) in ascending order, by Hoare's
+ * selection: reorders @v so that v[0 .. k) <= v[k] <= v(k .. n). The
+ * order statistic the noise floors take (here and sonar-uncertainty.h). */
+float sonar_select_kth (float *v, gsize n, gsize k);
+
 /* Peaks found by the last process call (before the max_peaks cap). */
 guint sonar_clusterer_n_peaks (const SonarClusterer * c);
 

@@ -8,41 +8,6 @@
  * less. */
 #define NOISE_SAMPLES 1024
 
-/* Element @k of @v (@n values) in ascending order; reorders them
- * (Hoare's selection). */
-static float
-select_kth (float *v, gsize n, gsize k)
-{
-  gsize lo = 0, hi = n - 1;
-
-  while (lo < hi) {
-    const float pivot = v[lo + (hi - lo) / 2];
-    gsize i = lo, j = hi;
-    while (i <= j) {
-      while (v[i] < pivot)
-        i++;
-      while (v[j] > pivot)
-        j--;
-      if (i <= j) {
-        const float t = v[i];
-        v[i] = v[j];
-        v[j] = t;
-        i++;
-        if (j == 0)
-          break;
-        j--;
-      }
-    }
-    if (k <= j)
-      hi = j;
-    else if (k >= i)
-      lo = i;
-    else
-      break;
-  }
-  return v[k];
-}
-
 double
 sonar_uncertainty_noise_power (const float *image,
     const SonarImageGrid * grid, guint hypotheses)
@@ -74,11 +39,11 @@ sonar_uncertainty_noise_power (const float *image,
     }
     if (n < 4)
       continue;
-    quartiles[n_quartiles++] = select_kth (values, n, n / 4);
+    quartiles[n_quartiles++] = sonar_select_kth (values, n, n / 4);
   }
   if (n_quartiles == 0)
     return 0.0;
-  q = select_kth (quartiles, n_quartiles, n_quartiles / 2);
+  q = sonar_select_kth (quartiles, n_quartiles, n_quartiles / 2);
   /* The quartile of the maximum of K Rayleigh envelopes of scale s:
    * q^2 = -2 s^2 ln (1 - 4^(-1/K)); E|n|^2 = 2 s^2. */
   return q * q / -log (-expm1 (log (0.25) / k));

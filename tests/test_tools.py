@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Tests of the command-line tools: sonar-waveforms, the ambiguity function
+"""Tests of the command-line tools: the README's demo (tools/demo, its
+bus-message printer tools/print-messages.py), sonar-waveforms, the ambiguity function
 (tools/ambiguity.py, tools/plot-ambiguity.py), the energyscape reader and
 plotter (tools/energyscape.py, tools/plot-energyscape.py), the tracks
 plotter (tools/plot-tracks.py) and the benchmark (sonar-bench,
@@ -15,6 +16,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -526,6 +528,26 @@ def plot_tracks_writes_png():
                  TMP / "x.png", check=False)
     assert result.returncode != 0
     assert "sonartrack's output" in result.stderr, result.stderr
+
+
+@test
+def demo_prints_truth_and_errors():
+    """tools/demo, the README's first command, on the default scene: every
+    ping's ground truth and each detection matched to its true object
+    (tools/print-messages.py reads the bus messages' fields), within 5 mm
+    and 0.01 m/s, and the picture drawn"""
+    env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
+    result = subprocess.run([str(TOOLS / "demo")], capture_output=True,
+                            text=True, timeout=120, env=env)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert "ping 0: ground truth" in out and "ping 1: ground truth" in out
+    matches = re.findall(r"id (\d+) at ([0-9.]+) m, ([+-][0-9.]+) m/s", out)
+    # Two pings of the three objects, each found once.
+    assert sorted(int(m[0]) for m in matches) == [0, 0, 1, 1, 2, 2], out
+    for _, distance, error in matches:
+        assert float(distance) <= 0.005 and abs(float(error)) <= 0.01, out
+    assert_png(SOURCE_DIR / "out" / "default.png")
 
 
 if __name__ == "__main__":

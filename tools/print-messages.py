@@ -12,7 +12,7 @@ import math
 import re
 import sys
 
-FIELD = re.compile(r'([a-z-]+)=\((?:double|uint|string|guint64|boolean)\)'
+FIELD = re.compile(r'([a-z_-]+)=\((?:double|uint|string|guint64|boolean)\)'
                    r'([^,;>"]+)')
 
 

@@ -83,6 +83,7 @@ struct _GstVelocityEst
 
   /* Configured state. */
   SonarVelocityPool *pool;
+  SonarNoiseMeter *noise;       /* the image's noise, for the sigmas */
   SonarImageGrid grid;
   guint hypotheses;             /* Doppler hypotheses each pixel is the maximum of */
   guint n_emitters;
@@ -129,6 +130,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
       &self->grid, &params, threads, error);
   if (!self->pool)
     return NULL;
+  self->noise = sonar_noise_meter_new (&self->grid, self->hypotheses);
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
       gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
@@ -141,6 +143,7 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
         self->n_emitters, params.emitters,
         params.emitters ? "" : ": all of the set-up's");
     g_clear_pointer (&self->pool, sonar_velocity_pool_free);
+    g_clear_pointer (&self->noise, sonar_noise_meter_free);
     return NULL;
   }
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
@@ -149,8 +152,10 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
 static void
 gst_velocity_est_unconfigure (GstSonarFilter * filter)
 {
-  g_clear_pointer (&GST_VELOCITY_EST (filter)->pool,
-      sonar_velocity_pool_free);
+  GstVelocityEst *self = GST_VELOCITY_EST (filter);
+
+  g_clear_pointer (&self->pool, sonar_velocity_pool_free);
+  g_clear_pointer (&self->noise, sonar_noise_meter_free);
 }
 
 /* Thresholds set while playing take effect at the next ping
@@ -302,8 +307,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
         continue;
       /* Once per ping, and only with something to report. */
       if (noise_power < 0.0)
-        noise_power = sonar_uncertainty_noise_power (image, &self->grid,
-            self->hypotheses);
+        noise_power = sonar_noise_meter_power (self->noise, image);
       add_detection (self, &centroids->centroids[k], k,
           &self->results[2 * k + i], GST_BUFFER_PTS (buffer), image,
           noise_power);

@@ -8,45 +8,74 @@
  * less. */
 #define NOISE_SAMPLES 1024
 
-double
-sonar_uncertainty_noise_power (const float *image,
-    const SonarImageGrid * grid, guint hypotheses)
+struct _SonarNoiseMeter
 {
-  const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
-  const guint block = MAX (1, (guint) ceil (SONAR_UNCERTAINTY_NOISE_BLOCK /
+  SonarImageGrid grid;
+  gsize n_dirs, stride;         /* every stride-th direction is read */
+  guint block, n_blocks;        /* range bins per block, blocks */
+  double k;                     /* K_eff at the quartile */
+  float *values;                /* a block's sample */
+  float *quartiles;             /* per block */
+};
+
+SonarNoiseMeter *
+sonar_noise_meter_new (const SonarImageGrid * grid, guint hypotheses)
+{
+  SonarNoiseMeter *m = g_new0 (SonarNoiseMeter, 1);
+
+  m->grid = *grid;
+  m->n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
+  m->block = MAX (1, (guint) ceil (SONAR_UNCERTAINTY_NOISE_BLOCK /
           MAX (grid->range_step, 1e-9)));
-  const guint n_blocks = (grid->n_range + block - 1) / block;
-  /* Every block_rows-th direction, each one's run of range bins read in
-   * one go (a sample's worth of reads, in cache lines). */
-  const gsize stride = MAX (1, n_dirs * block / NOISE_SAMPLES);
-  const double k = 1.0 + (MAX (hypotheses, 1) - 1.0) *
+  m->n_blocks = (grid->n_range + m->block - 1) / m->block;
+  /* Every stride-th direction, each one's run of range bins read in one
+   * go (a sample's worth of reads, in cache lines). */
+  m->stride = MAX (1, m->n_dirs * m->block / NOISE_SAMPLES);
+  m->k = 1.0 + (MAX (hypotheses, 1) - 1.0) *
       SONAR_UNCERTAINTY_QUARTILE_SHARE;
-  g_autofree float *values = g_new (float, (n_dirs / stride + 1) * block);
-  g_autofree float *quartiles = g_new (float, n_blocks);
+  m->values = g_new (float, (m->n_dirs / m->stride + 1) * m->block);
+  m->quartiles = g_new (float, MAX (m->n_blocks, 1));
+  return m;
+}
+
+void
+sonar_noise_meter_free (SonarNoiseMeter * m)
+{
+  if (!m)
+    return;
+  g_free (m->values);
+  g_free (m->quartiles);
+  g_free (m);
+}
+
+double
+sonar_noise_meter_power (SonarNoiseMeter * m, const float *image)
+{
+  const SonarImageGrid *grid = &m->grid;
   guint n_quartiles = 0;
   double q;
 
-  for (guint b = 0; b < n_blocks; b++) {
-    const guint first = b * block;
-    const guint rows = MIN (block, grid->n_range - first);
+  for (guint b = 0; b < m->n_blocks; b++) {
+    const guint first = b * m->block;
+    const guint rows = MIN (m->block, grid->n_range - first);
     gsize n = 0;
     /* Offset by block, so that the blocks see different directions. */
-    for (gsize d = b % stride; d < n_dirs; d += stride) {
+    for (gsize d = b % m->stride; d < m->n_dirs; d += m->stride) {
       const float *run = image + d * grid->n_range + first;
       for (guint i = 0; i < rows; i++)
         if (isfinite (run[i]))
-          values[n++] = run[i];
+          m->values[n++] = run[i];
     }
     if (n < 4)
       continue;
-    quartiles[n_quartiles++] = sonar_select_kth (values, n, n / 4);
+    m->quartiles[n_quartiles++] = sonar_select_kth (m->values, n, n / 4);
   }
   if (n_quartiles == 0)
     return 0.0;
-  q = sonar_select_kth (quartiles, n_quartiles, n_quartiles / 2);
+  q = sonar_select_kth (m->quartiles, n_quartiles, n_quartiles / 2);
   /* The quartile of the maximum of K Rayleigh envelopes of scale s:
    * q^2 = -2 s^2 ln (1 - 4^(-1/K)); E|n|^2 = 2 s^2. */
-  return q * q / -log (-expm1 (log (0.25) / k));
+  return q * q / -log (-expm1 (log (0.25) / m->k));
 }
 
 double

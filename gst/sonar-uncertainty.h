@@ -76,11 +76,19 @@ typedef struct
  * --sweep uncertainty): 1.54^2. */
 #define SONAR_UNCERTAINTY_EMITTER_SNR_GAIN 2.4
 
-/* Noise power E|n|^2 per pixel of one hypothesis' envelope in @image
- * (laid out as @grid says; each pixel the maximum of @hypotheses Doppler
- * hypotheses), once per image. 0 when nothing is there to read. */
-double sonar_uncertainty_noise_power (const float *image,
-    const SonarImageGrid * grid, guint hypotheses);
+/* The image's noise (above): its scratch is sized once for a grid, so
+ * that a ping allocates nothing. */
+typedef struct _SonarNoiseMeter SonarNoiseMeter;
+
+/* For images laid out as @grid says, each pixel the maximum of
+ * @hypotheses Doppler hypotheses. */
+SonarNoiseMeter *sonar_noise_meter_new (const SonarImageGrid * grid,
+    guint hypotheses);
+void sonar_noise_meter_free (SonarNoiseMeter * meter);
+
+/* Noise power E|n|^2 per pixel of one hypothesis' envelope in @image,
+ * once per image. 0 when nothing is there to read. */
+double sonar_noise_meter_power (SonarNoiseMeter * meter, const float *image);
 
 /* Second derivative, per step^2, of the least-squares parabola through
  * @values[p - half .. p + half] (clipped to 0 .. @n - 1); NaN with fewer
@@ -89,12 +97,14 @@ double sonar_uncertainty_curvature (const double *values, guint n, guint p,
     guint half);
 
 /* Fills @out for an estimate @e at @centroid of @image: @noise_power from
- * sonar_uncertainty_noise_power (), @n_emitters the curves in e's
+ * sonar_noise_meter_power (), @n_emitters the curves in e's
  * product. */
 void sonar_uncertainty_measure (const float *image,
     const SonarImageGrid * grid, double noise_power,
     const SonarCentroid * centroid, const SonarVelocityEstimate * e,
     guint n_emitters, SonarUncertainty * out);
+
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarNoiseMeter, sonar_noise_meter_free)
 
 G_END_DECLS
 

@@ -37,6 +37,7 @@ test_noise_power (void)
   };
   const double s = 0.02;
   g_autofree float *image = g_new (float, 91 * 600);
+  g_autoptr (SonarNoiseMeter) meter = sonar_noise_meter_new (&grid, 1);
   SonarRng rng;
 
   sonar_rng_init (&rng, 3, 0);
@@ -49,8 +50,8 @@ test_noise_power (void)
   for (guint a = 0; a < 91; a++)
     for (guint i = 140; i < 170; i++)
       image[a * 600 + i] = 1.0f;
-  g_assert_cmpfloat_with_epsilon (sonar_uncertainty_noise_power (image,
-          &grid, 1) / (2 * s * s), 1.0, 0.06);
+  g_assert_cmpfloat_with_epsilon (sonar_noise_meter_power (meter, image) /
+      (2 * s * s), 1.0, 0.06);
 }
 
 /* A Gaussian peak exp (-x^2 / (2 w^2)) in range and azimuth: its log

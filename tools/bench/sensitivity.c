@@ -796,6 +796,8 @@ uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
   g_autofree float *samples = g_new (float, length * n_mics);
   g_autofree double *values = g_new (double, 3 * uncertainty_seeds);
   g_autofree double *sigmas = g_new (double, 3 * uncertainty_seeds);
+  g_autoptr (SonarNoiseMeter) noise = sonar_noise_meter_new (ch->grid,
+      ch->n_templates);
   SonarReflector reflector = {.kind = SONAR_REFLECTOR_POINT };
   SonarScene scene;
   SonarRng rng;
@@ -837,8 +839,7 @@ uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
               || fabs (e->azimuth - truth.azimuth) > 3.0)
             continue;
           sonar_uncertainty_measure (ch->image, ch->grid,
-              sonar_uncertainty_noise_power (ch->image, ch->grid,
-                  ch->n_templates),
+              sonar_noise_meter_power (noise, ch->image),
               &ch->centroids[k], e, ch->n_emitters, &s);
           values[3 * n] = e->range;
           values[3 * n + 1] = e->azimuth;

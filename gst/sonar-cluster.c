@@ -63,7 +63,8 @@ struct _SonarClusterer
   float column_gain;
   const float *raw;             /* the call's image before compensation */
   float *column_values;         /* one block's values */
-  float *bracketed;             /* per direction: select_bracketed ()'s */
+  float *bracketed;             /* select_bracketed ()'s: per direction, and
+                                 * at least column_bins */
 };
 
 /* Range bins per block of the column floor: COLUMN_SPAN, at least
@@ -175,7 +176,8 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->column_quartile = g_new (float, (gsize) grid->n_azimuth *
       grid->n_elevation * c->n_column_blocks);
   c->column_values = g_new (float, c->column_bins);
-  c->bracketed = g_new (float, (gsize) grid->n_azimuth * grid->n_elevation);
+  c->bracketed = g_new (float, MAX ((gsize) grid->n_azimuth *
+          grid->n_elevation, c->column_bins));
   c->columns = g_new (float, (gsize) FLOOR_BLOCK * grid->n_azimuth *
       grid->n_elevation);
   return c;
@@ -333,13 +335,6 @@ sonar_select_kth (float *v, gsize n, gsize k)
       break;
   }
   return v[k];
-}
-
-/* Element n / 4 of @values in ascending order, 0 for none; reorders them. */
-static float
-lower_quartile (float *values, gsize n)
-{
-  return n > 0 ? sonar_select_kth (values, n, n / 4) : 0.0f;
 }
 
 /* Censoring rounds of censored_quartile (), at most. */
@@ -580,13 +575,17 @@ noise_floors (SonarClusterer * c, const float *image)
 }
 
 /* The lower quartile of block @b of direction @d's column, computed
- * once per call. */
+ * once per call; a neighbouring block's, when known, the guess of
+ * select_bracketed () (a ridge's level changes little from block to
+ * block). */
 static float
 column_quartile (SonarClusterer * c, gsize d, guint b)
 {
   float *q = &c->column_quartile[d * c->n_column_blocks + b];
 
   if (isnan (*q)) {
+    const float guess = b > 0 && !isnan (q[-1]) ? q[-1] :
+        b + 1 < c->n_column_blocks ? q[1] : NAN;
     const guint n_range = c->grid.n_range;
     const float *column = c->raw + d * n_range;
     const guint i1 = MIN ((b + 1) * c->column_bins, n_range);
@@ -594,7 +593,8 @@ column_quartile (SonarClusterer * c, gsize d, guint b)
     for (guint i = b * c->column_bins; i < i1; i++)
       if (isfinite (column[i]))
         c->column_values[count++] = column[i];
-    *q = lower_quartile (c->column_values, count);
+    *q = count > 0 ? select_bracketed (c->column_values, count, count / 4,
+        guess, 1.0f, 1.0f, c->bracketed) : 0.0f;
   }
   return *q;
 }

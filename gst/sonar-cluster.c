@@ -340,7 +340,7 @@ sonar_select_kth (float *v, gsize n, gsize k)
 /* Censoring rounds of censored_quartile (), at most. */
 #define CENSOR_ROUNDS 8
 /* Share of noise's values censored_quartile () sets aside. */
-#define CENSOR_SHARE 0.01
+#define CENSOR_SHARE SONAR_CLUSTER_CENSOR_SHARE
 
 /* select_bracketed ()'s brackets around a guess, relative half-widths:
  * a range bin's quartile over about 180 directions is a sample of the
@@ -508,6 +508,13 @@ censored_quartile (float *values, gsize n, float gain, float guess,
   return q;
 }
 
+float
+sonar_cluster_censored_quartile (float *values, gsize n, float gain,
+    float guess, float *scratch)
+{
+  return censored_quartile (values, n, gain, guess, scratch);
+}
+
 double
 sonar_cluster_effective_hypotheses (guint hypotheses)
 {
@@ -554,12 +561,27 @@ noise_floors (SonarClusterer * c, const float *image)
   }
   for (guint i0 = 0; i0 < g->n_range; i0 += FLOOR_BLOCK) {
     const guint block = MIN (FLOOR_BLOCK, g->n_range - i0);
-    memset (counts, 0, sizeof counts);
-    for (gsize d = 0; d < n_dirs; d += stride) {
+    gsize n = 0;
+    gboolean finite = TRUE;
+    /* Copied as they are, then again without the non-finite ones if the
+     * block has any (rare: the copy needs no count per bin). */
+    for (gsize d = 0; d < n_dirs; d += stride, n++) {
       const float *pixels = image + d * g->n_range + i0;
-      for (guint b = 0; b < block; b++)
-        if (isfinite (pixels[b]))
-          c->columns[b * n_dirs + counts[b]++] = pixels[b];
+      for (guint b = 0; b < block; b++) {
+        c->columns[b * n_dirs + n] = pixels[b];
+        finite &= isfinite (pixels[b]);
+      }
+    }
+    for (guint b = 0; b < block; b++)
+      counts[b] = n;
+    if (!finite) {
+      memset (counts, 0, sizeof counts);
+      for (gsize d = 0; d < n_dirs; d += stride) {
+        const float *pixels = image + d * g->n_range + i0;
+        for (guint b = 0; b < block; b++)
+          if (isfinite (pixels[b]))
+            c->columns[b * n_dirs + counts[b]++] = pixels[b];
+      }
     }
     for (guint b = 0; b < block; b++) {
       /* The guess: the running mean of the last bins' quartiles (the

@@ -210,6 +210,20 @@ double sonar_cluster_effective_hypotheses (guint hypotheses);
  * order statistic the noise floors take (here and sonar-uncertainty.h). */
 float sonar_select_kth (float *v, gsize n, gsize k);
 
+/* Share of noise's values the censored noise floor sets aside (its gain
+ * is sonar_cluster_floor_gain (SONAR_CLUSTER_CENSOR_SHARE, K_eff)). */
+#define SONAR_CLUSTER_CENSOR_SHARE 0.01
+
+/* The noise floor's statistic over @n @values (reorders them; @scratch
+ * holds @n floats): their lower quartile, then again over those below
+ * @gain times it, until no more are set aside (at most 8 rounds; from the
+ * second on at rank 1/4 / (1 - SONAR_CLUSTER_CENSOR_SHARE) of those
+ * kept, and not below 4 values). 0 for none. @guess, a value near the
+ * result (NaN: none), only makes it faster; the result does not depend on
+ * it nor on the values' order (tests/test-cluster.c, censored-quartile). */
+float sonar_cluster_censored_quartile (float *values, gsize n, float gain,
+    float guess, float *scratch);
+
 /* Peaks found by the last process call (before the max_peaks cap). */
 guint sonar_clusterer_n_peaks (const SonarClusterer * c);
 

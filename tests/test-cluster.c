@@ -813,6 +813,88 @@ test_floor_gain (void)
   g_assert_cmpfloat (sonar_cluster_effective_hypotheses (47), >, 30.0);
 }
 
+static int
+compare_floats (gconstpointer a, gconstpointer b)
+{
+  const float x = *(const float *) a, y = *(const float *) b;
+  return (x > y) - (x < y);
+}
+
+/* The censored quartile by its definition, on sorted values. */
+static float
+censored_quartile_reference (const float *values, gsize n, float gain)
+{
+  g_autofree float *sorted = g_memdup2 (values, sizeof (float) * n);
+  gsize kept = n, rank = n / 4;
+  float q;
+
+  if (n == 0)
+    return 0.0f;
+  qsort (sorted, n, sizeof (float), compare_floats);
+  q = sorted[rank];
+  for (int round = 0; round < 8; round++) {
+    const float level = gain * q;
+    gsize end = 0;
+    if (!(level > q))
+      break;
+    while (end < kept && sorted[end] < level)
+      end++;
+    if (end == kept || end < 4)
+      break;
+    kept = end;
+    rank = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 -
+                SONAR_CLUSTER_CENSOR_SHARE)));
+    q = sorted[rank];
+  }
+  return q;
+}
+
+/* wardcluster's noise floor selects among the values within a bracket
+ * about a guess: whatever the guess (none, right, a little or far off,
+ * zero, negative, infinite), the same value as the definition, bit for
+ * bit, on rows of noise, of noise with a crowd, of ties, with zeros. */
+static void
+test_censored_quartile (void)
+{
+  const float offsets[] = { NAN, 1.0f, 1.02f, 0.97f, 1.1f, 0.8f, 1.5f,
+    0.3f, 0.0f, -1.0f, INFINITY
+  };
+  float values[1100], copy[1100], scratch[1100];
+  SonarRng rng;
+
+  sonar_rng_init (&rng, 13, 0);
+  for (int row = 0; row < 20000; row++) {
+    const gsize n = row % 5 == 0 ? (gsize) (sonar_rng_uniform (&rng) * 1025)
+        : 181;
+    const int kind = row % 4;
+    const float gain = 1.0f + 3.0f * (float) sonar_rng_uniform (&rng);
+    float want;
+
+    for (gsize i = 0; i < n; i++) {
+      const double a = sonar_rng_gaussian (&rng), b =
+          sonar_rng_gaussian (&rng);
+      float v = (float) hypot (a, b);
+      if (kind == 1 && sonar_rng_uniform (&rng) < 0.1)
+        v *= 30.0f;             /* a crowd crossing the row */
+      else if (kind == 2)
+        v = floorf (3.0f * v);  /* ties */
+      else if (kind == 3 && sonar_rng_uniform (&rng) < 0.3)
+        v = 0.0f;
+      values[i] = v;
+    }
+    want = censored_quartile_reference (values, n, gain);
+    for (guint g = 0; g < G_N_ELEMENTS (offsets); g++) {
+      float got;
+      memcpy (copy, values, sizeof (float) * n);
+      got = sonar_cluster_censored_quartile (copy, n, gain, want *
+          offsets[g], scratch);
+      if (memcmp (&got, &want, sizeof (float)) != 0)
+        g_error ("row %d (n %" G_GSIZE_FORMAT ", kind %d), guess x %g: "
+            "%.9g, want %.9g", row, n, kind, offsets[g], got, want);
+    }
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -828,6 +910,7 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/bad-params", test_bad_params);
   g_test_add_func ("/cluster/retune", test_retune);
   g_test_add_func ("/cluster/floor-gain", test_floor_gain);
+  g_test_add_func ("/cluster/censored-quartile", test_censored_quartile);
   g_test_add_func ("/cluster/speed", test_speed);
   return g_test_run ();
 }

@@ -835,8 +835,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
     const float *in = image + d * g->n_range;
     float *compensated = c->compensated ? c->compensated + d * g->n_range :
         NULL;
-    /* Without branches (vectorised): the row maxima's update as a
-     * select. */
+    /* The row maxima's update as a select, without branches. */
     if (compensated) {
       for (guint i = 0; i < g->n_range; i++) {
         const float v = in[i] * c->range[i] * c->range[i];

@@ -278,16 +278,15 @@ run_grid (Crowd * c, guint n)
 
 /* The 5 x 5, 10 x 10 and 14 x 14 grids: the objects found are right (no
  * false object, still objects reported still within 5 cm/s, 7 on the
- * largest), and at
- * least as many of all and of those the oracle puts 13 dB above their
- * interference are found as measured with velocityest's pooled test
- * (pooled-snr 14.5 dB): 15, 29 and 61 of the objects, 5 of 7, 7 of 11 and
- * 10 of 17 of the detectable ones (before it, 15, 21 and 26 found, the
- * same of the detectable); each larger grid gives more, not fewer. The goal of issue 12 is
- * all of the detectable ones: the misses are echoes the others'
- * cross-talk leaves below both coherence tests, and objects 8 cm apart
- * at 0.6 m that wardcluster merges into one centroid between them
- * (README, Status). */
+ * largest), and at least as many of all and of those the oracle puts 13
+ * dB above their interference are found as measured with velocityest's
+ * pooled test (pooled-snr 14.5 dB): 15, 29 and 61 of the objects, 5 of 7,
+ * 7 of 11 and 10 of 17 of the detectable ones (before it, 15, 21 and 26
+ * found, the same of the detectable); each larger grid gives more, not
+ * fewer. The goal of issue 12 is all of the detectable ones: the misses
+ * are echoes the others' cross-talk leaves below both coherence tests,
+ * and objects 8 cm apart at 0.6 m that wardcluster merges into one
+ * centroid between them (README, Status). */
 static void
 test_grids (void)
 {

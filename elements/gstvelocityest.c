@@ -547,7 +547,7 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "pixel alone measures with 7 degrees of freedom, the pool with "
           "21 or more; min-coherence still holds. Real echoes of a crowd "
           "passing this way stand 14.5-17 dB above the pool, cross-talk "
-          "ghosts 14.2 at most", 0.0, 100.0,
+          "ghosts 14.2 at most: the default leaves 1.8 dB over them", 0.0, 100.0,
           d.pooled_snr_db, tunable));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "

@@ -25,9 +25,14 @@
 GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
 #define GST_CAT_DEFAULT ward_cluster_debug
 
-/* Centroids per ping, the strongest kept (docs/CONTRACTS.md, section 8):
- * more is noise clustered into dust, not reflectors. */
-#define MAX_CENTROIDS 256
+/* Centroids per ping, the strongest kept (max-centroids; docs/CONTRACTS.md,
+ * section 8): more is noise clustered into dust, not reflectors. The
+ * default holds a 20 x 20 grid of objects (400, each its own centroid);
+ * the array is allocated when the caps are set, (max-centroids + 1) x
+ * sizeof (SonarCentroid) (96) bytes: 0.1 MB at the default, 0.4 MB at
+ * most. */
+#define DEFAULT_MAX_CENTROIDS 1024
+#define MAX_MAX_CENTROIDS 4096
 #define DEFAULT_POST_MESSAGES TRUE
 
 /* From the core's table of linkage methods (sonar-linkage.c). */
@@ -83,6 +88,7 @@ enum
   PROP_DEPTH,
   PROP_DISTANCE,
   PROP_MAX_PEAKS,
+  PROP_MAX_CENTROIDS,
   PROP_RANGE_COMPENSATION,
   PROP_POST_MESSAGES,
 };
@@ -99,8 +105,10 @@ struct _GstWardCluster
   SonarClusterer *clusterer;
   SonarImageGrid grid;
   guint hypotheses;             /* the energyscape caps' */
-  /* One more than are kept: room for one tells when some were dropped. */
-  SonarCentroid centroids[MAX_CENTROIDS + 1];
+  guint max_centroids;          /* the property (object lock) */
+  guint capacity;               /* centroids kept, set when configured */
+  /* capacity + 1: room for one more tells when some were dropped. */
+  SonarCentroid *centroids;
   gboolean warned_dropped;      /* the bus warning is posted once */
 };
 
@@ -138,6 +146,11 @@ gst_ward_cluster_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->clusterer = sonar_clusterer_new (&self->grid, &params, error);
   if (!self->clusterer)
     return NULL;
+  GST_OBJECT_LOCK (self);
+  self->capacity = self->max_centroids;
+  GST_OBJECT_UNLOCK (self);
+  g_free (self->centroids);
+  self->centroids = g_new (SonarCentroid, self->capacity + 1);
   self->warned_dropped = FALSE;
   return gst_caps_ref (in_caps);
 }
@@ -147,6 +160,7 @@ gst_ward_cluster_unconfigure (GstSonarFilter * filter)
 {
   g_clear_pointer (&GST_WARD_CLUSTER (filter)->clusterer,
       sonar_clusterer_free);
+  g_clear_pointer (&GST_WARD_CLUSTER (filter)->centroids, g_free);
 }
 
 /* Thresholds and the stop criterion set while playing take effect at the
@@ -198,17 +212,17 @@ gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
   ping = header->ping_index;
   n = sonar_clusterer_process (self->clusterer,
       (const float *) (map.data + sizeof (SonarEnergyscapeHeader)),
-      self->centroids, MAX_CENTROIDS + 1);
+      self->centroids, self->capacity + 1);
   gst_buffer_unmap (buffer, &map);
-  if (n > MAX_CENTROIDS) {
-    n = MAX_CENTROIDS;
+  if (n > self->capacity) {
+    n = self->capacity;
     if (!self->warned_dropped) {
       self->warned_dropped = TRUE;
       GST_ELEMENT_WARNING (self, STREAM, FAILED, ("wardcluster: ping %"
               G_GUINT64_FORMAT " has more than %u centroids: only the %u "
               "strongest are kept, on this ping and any other (a smaller pfa, "
               "a higher threshold, or stop=distance with a larger distance, "
-              "gives fewer)", ping, MAX_CENTROIDS, MAX_CENTROIDS), (NULL));
+              "gives fewer)", ping, self->capacity, self->capacity), (NULL));
     }
   }
   GST_LOG_OBJECT (self, "ping %" G_GUINT64_FORMAT ": %u peaks, %u centroids",
@@ -266,6 +280,9 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       self->post_messages = g_value_get_boolean (value);
       break;
+    case PROP_MAX_CENTROIDS:
+      self->max_centroids = g_value_get_uint (value);
+      break;
     case PROP_RANGE_COMPENSATION:
       p->range_compensation = g_value_get_boolean (value);
       break;
@@ -320,6 +337,9 @@ gst_ward_cluster_get_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, self->post_messages);
       break;
+    case PROP_MAX_CENTROIDS:
+      g_value_set_uint (value, self->max_centroids);
+      break;
     case PROP_RANGE_COMPENSATION:
       g_value_set_boolean (value, p->range_compensation);
       break;
@@ -335,6 +355,7 @@ gst_ward_cluster_init (GstWardCluster * self)
 {
   sonar_cluster_params_init_default (&self->params);
   self->post_messages = DEFAULT_POST_MESSAGES;
+  self->max_centroids = DEFAULT_MAX_CENTROIDS;
 }
 
 static void
@@ -406,6 +427,11 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           "ping, the strongest kept (complete and average linkage keep a "
           "distance matrix of 8 x max-peaks^2 bytes)", 1, 4096,
           d.max_peaks, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_CENTROIDS,
+      g_param_spec_uint ("max-centroids", "Maximum centroids", "Centroids "
+          "kept per ping, the strongest (more post one warning); held in "
+          "(max-centroids + 1) x 96 bytes", 1, MAX_MAX_CENTROIDS,
+          DEFAULT_MAX_CENTROIDS, flags));
   g_object_class_install_property (gobject_class, PROP_RANGE_COMPENSATION,
       g_param_spec_boolean ("range-compensation", "Range compensation",
           "Threshold and cluster the image times range squared, undoing the "

@@ -71,14 +71,15 @@ test_min_agreeing_emitters (void)
 }
 
 /* Noise clustered with no merging gives more than the 256 centroids a
- * ping keeps: the strongest 256 are kept and one warning says so. */
+ * ping keeps at max-centroids=256: the strongest 256 are kept and one
+ * warning says so. */
 static void
 test_centroids_dropped_warning (void)
 {
   GstElement *pipeline = gst_parse_launch ("sonarsrc scene=empty "
       "num-buffers=3 ! dopplerbank velocity-step=0.5 ! mimobeamform "
       "coarse-spacing=0 ! wardcluster stop=distance distance=0 pfa=1 "
-      "sidelobe-threshold=-200 max-peaks=4096 ! appsink name=sink "
+      "sidelobe-threshold=-200 max-peaks=4096 max-centroids=256 ! appsink name=sink "
       "sync=false", NULL);
   GstElement *sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
   GstBus *bus = gst_element_get_bus (pipeline);

@@ -41,7 +41,7 @@ G_BEGIN_DECLS
 
 /* mimobeamform's, wardcluster's and velocityest's. */
 #define HYPOTHESIS_SPACING 0.3
-#define MAX_CENTROIDS 256
+#define MAX_CENTROIDS 1024
 
 /* How test-pipeline.c scores: a detection this close to a true object
  * matches it. */

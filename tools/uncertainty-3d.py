@@ -70,11 +70,30 @@ def ratio(per_point, field):
     return 1.0 / math.sqrt(sum_z2 / dof) if sum_z2 > 0 else math.nan, dof
 
 
+def print_points(per_point):
+    """Per point and coordinate: mean - truth, scatter, median sigma."""
+    for k, p in enumerate(per_point):
+        if len(p) < 2:
+            continue
+        truth = dict(zip(("range", "azimuth", "elevation"), POINTS[k][:3]))
+        cells = []
+        for f in FIELDS[:3]:
+            values = [d[f] for d in p]
+            sigma = statistics.median(d[f + "_sigma"] for d in p)
+            cells.append(f"{f} {statistics.fmean(values) - truth[f]:+.4f} "
+                         f"sd {statistics.stdev(values):.4f} "
+                         f"sigma {sigma:.4f}")
+        print(f"    point {k}: " + "; ".join(cells))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("noise", type=float, nargs="+",
                         help="sonarsrc noise-amplitude values")
     parser.add_argument("--pings", type=int, default=24)
+    parser.add_argument("--per-point", action="store_true",
+                        help="also print each point's mean, scatter and "
+                        "median sigma per coordinate")
     args = parser.parse_args()
     print(f"{'noise':>6} {'found':>11} {'image SNR':>9} " + " ".join(
         f"{f + ' sigma':>22} {'ratio':>5}" for f in FIELDS) + f" {'dof':>4}")
@@ -94,6 +113,8 @@ def main():
                 cells.append(f"{sigma:>22.3g} {r:>5.2f}")
             print(f"{noise:>6} {found:>11} {snr:>9.1f} " + " ".join(cells)
                   + f" {dof:>4}")
+            if args.per_point:
+                print_points(per_point)
     return 0
 
 

@@ -8,6 +8,11 @@
 #include <math.h>
 #include <string.h>
 
+/* glibc defines C11's CMPLXF for GCC only; clang has the same builtin. */
+#ifndef CMPLXF
+#define CMPLXF(x, y) __builtin_complex ((float) (x), (float) (y))
+#endif
+
 /* Re-seeding the rotation from double precision every this many bins keeps
  * float rounding from accumulating. */
 #define RESEED_INTERVAL 64
@@ -101,6 +106,36 @@ steer_sum_generic (const SonarComplex * x, guint n,
       p *= rotation;
     }
   }
+  return sum;
+}
+
+/* steer_sum_generic ()'s phasors, bin by bin. */
+static void
+steer_phasors_generic (float *re, float *im, guint n, double phase0,
+    double dphase)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      re[k] = crealf (p);
+      im[k] = cimagf (p);
+      p *= rotation;
+    }
+  }
+}
+
+/* steer_sum_generic () on the phasors of steer_phasors_generic (). */
+static SonarComplex
+steer_sum_phasors_generic (const SonarComplex * x, const float *re,
+    const float *im, guint n)
+{
+  SonarComplex sum = 0.0f;
+
+  for (guint k = 0; k < n; k++)
+    sum += x[k] * CMPLXF (re[k], im[k]);
   return sum;
 }
 
@@ -363,32 +398,117 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
   }
 }
 
+/* The steering sum's pieces, shared by steer_sum_avx2 () and the sum on
+ * a phasor table (steer_phasors_avx2 (), steer_sum_phasors_avx2 ()), so
+ * that the two are the same operations bit for bit whatever the compiler
+ * fuses: not inlined, each compiled once. */
+
+/* Lanes for a ramp from @phase0. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_start_avx2 (Lanes * p, double phase0, double dphase)
+{
+  lanes_init (p, phase0, dphase);
+}
+
+/* The phasors of the @count (a multiple of LANES, at most
+ * RESEED_INTERVAL) bins from a reseed into @re, @im. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_fill_avx2 (Lanes * p, float *re, float *im, guint count)
+{
+  lanes_seed (p);
+  for (guint k = 0; k < count; k += LANES) {
+    memcpy (re + k, &p->re, sizeof p->re);
+    memcpy (im + k, &p->im, sizeof p->im);
+    LANES_ADVANCE (*p);
+  }
+}
+
+/* The phasors of the bins @whole to @n - 1 after the whole vectors. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_tail_avx2 (Lanes * p, float *re, float *im, guint whole, guint n)
+{
+  for (guint k = whole; k < n; k++) {
+    const SonarComplex phasor = LANES_TAIL_PHASOR (*p, k, whole);
+    re[k - whole] = crealf (phasor);
+    im[k - whole] = cimagf (phasor);
+  }
+}
+
+/* (@sum_re, @sum_im) += the lane products of @count (a multiple of
+ * LANES) values of @x and phasors. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_accumulate_avx2 (Vec * sum_re, Vec * sum_im, const SonarComplex * x,
+    const float *re, const float *im, guint count)
+{
+  for (guint k = 0; k < count; k += LANES) {
+    Vec xr, xi, pr, pi;
+    LOAD_SPLIT (x + k, xr, xi);
+    memcpy (&pr, re + k, sizeof pr);
+    memcpy (&pi, im + k, sizeof pi);
+    *sum_re += xr * pr - xi * pi;
+    *sum_im += xr * pi + xi * pr;
+  }
+}
+
+/* The lanes' sum, then the @count tail values of @x on their phasors. */
+static AVX2_TARGET __attribute__ ((noinline)) SonarComplex
+ramp_finish_avx2 (Vec sum_re, Vec sum_im, const SonarComplex * x,
+    const float *re, const float *im, guint count)
+{
+  SonarComplex sum = 0.0f;
+
+  for (int l = 0; l < LANES; l++)
+    sum += sum_re[l] + I * sum_im[l];
+  for (guint k = 0; k < count; k++)
+    sum += x[k] * (re[k] + I * im[k]);
+  return sum;
+}
+
 AVX2_TARGET static SonarComplex
 steer_sum_avx2 (const SonarComplex * x, guint n, double phase0,
     double dphase)
 {
   const guint whole = n - n % LANES;
+  float re[RESEED_INTERVAL], im[RESEED_INTERVAL];
   Vec sum_re = { 0 }, sum_im = { 0 };
-  SonarComplex sum = 0.0f;
   Lanes p;
 
-  lanes_init (&p, phase0, dphase);
+  ramp_start_avx2 (&p, phase0, dphase);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p);
-    for (guint k = k0; k < k1; k += LANES) {
-      Vec xr, xi;
-      LOAD_SPLIT (x + k, xr, xi);
-      sum_re += xr * p.re - xi * p.im;
-      sum_im += xr * p.im + xi * p.re;
-      LANES_ADVANCE (p);
-    }
+    const guint count = MIN (whole, k0 + RESEED_INTERVAL) - k0;
+    ramp_fill_avx2 (&p, re, im, count);
+    ramp_accumulate_avx2 (&sum_re, &sum_im, x + k0, re, im, count);
   }
-  for (int l = 0; l < LANES; l++)
-    sum += sum_re[l] + I * sum_im[l];
-  for (guint k = whole; k < n; k++)
-    sum += x[k] * LANES_TAIL_PHASOR (p, k, whole);
-  return sum;
+  ramp_tail_avx2 (&p, re, im, whole, n);
+  return ramp_finish_avx2 (sum_re, sum_im, x + whole, re, im, n - whole);
+}
+
+/* steer_sum_avx2 ()'s phasors. */
+AVX2_TARGET static void
+steer_phasors_avx2 (float *re, float *im, guint n, double phase0,
+    double dphase)
+{
+  const guint whole = n - n % LANES;
+  Lanes p;
+
+  ramp_start_avx2 (&p, phase0, dphase);
+  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL)
+    ramp_fill_avx2 (&p, re + k0, im + k0, MIN (whole, k0 +
+            RESEED_INTERVAL) - k0);
+  ramp_tail_avx2 (&p, re + whole, im + whole, whole, n);
+}
+
+/* steer_sum_avx2 () on the phasors of steer_phasors_avx2 (). */
+AVX2_TARGET static SonarComplex
+steer_sum_phasors_avx2 (const SonarComplex * x, const float *re,
+    const float *im, guint n)
+{
+  const guint whole = n - n % LANES;
+  Vec sum_re = { 0 }, sum_im = { 0 };
+
+  ramp_accumulate_avx2 (&sum_re, &sum_im, x, re, im, whole);
+  return ramp_finish_avx2 (sum_re, sum_im, x + whole, re + whole,
+      im + whole, n - whole);
 }
 
 #endif /* HAVE_AVX2_KERNELS */
@@ -486,6 +606,22 @@ const SonarSteerSumImpl sonar_kernel_steer_sum_impls[] = {
   {NULL, NULL, NULL}
 };
 
+const SonarSteerPhasorsImpl sonar_kernel_steer_phasors_impls[] = {
+  {"generic", steer_phasors_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_phasors_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+const SonarSteerSumPhasorsImpl sonar_kernel_steer_sum_phasors_impls[] = {
+  {"generic", steer_sum_phasors_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_sum_phasors_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
 /* ORC compiles for the running CPU, or runs its C backup where it cannot:
  * always available. */
 const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
@@ -506,6 +642,8 @@ static struct
   SonarSteerSumSplitFn steer_sum_split;
   SonarSteerBlockSumsConjFn steer_block_sums_conj;
   SonarSteerSumFn steer_sum;
+  SonarSteerPhasorsFn steer_phasors;
+  SonarSteerSumPhasorsFn steer_sum_phasors;
   SonarMultiplySplitFn multiply_split;
   SonarEnvelopeFn envelope;
 } chosen;
@@ -528,6 +666,9 @@ choose (void)
     LAST_AVAILABLE (sonar_kernel_steer_block_sums_conj_impls,
         chosen.steer_block_sums_conj);
     LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
+    LAST_AVAILABLE (sonar_kernel_steer_phasors_impls, chosen.steer_phasors);
+    LAST_AVAILABLE (sonar_kernel_steer_sum_phasors_impls,
+        chosen.steer_sum_phasors);
     LAST_AVAILABLE (sonar_kernel_multiply_split_impls,
         chosen.multiply_split);
     LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
@@ -562,6 +703,22 @@ sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
 {
   choose ();
   return chosen.steer_sum (x, n, phase0, dphase);
+}
+
+void
+sonar_kernel_steer_phasors (float *re, float *im, guint n, double phase0,
+    double dphase)
+{
+  choose ();
+  chosen.steer_phasors (re, im, n, phase0, dphase);
+}
+
+SonarComplex
+sonar_kernel_steer_sum_phasors (const SonarComplex * x, const float *re,
+    const float *im, guint n)
+{
+  choose ();
+  return chosen.steer_sum_phasors (x, re, im, n);
 }
 
 void

@@ -55,6 +55,14 @@
  * within the ping's (0.06 rad). */
 #define GATE_BLOCK 8
 
+/* Phasor tables of the lag reads (lag_read ()), at most: a window reads
+ * its lags at offsets of whole and quarter range steps from its blocks'
+ * centre, the same few dozen for every emitter, velocity and centroid,
+ * and a lag read's ramp costs more to set up (its sincos, reseeds) than
+ * to sum. A power of two; filled to three quarters at most, beyond which
+ * the rare offsets left are read without a table. */
+#define LAG_TABLES 64
+
 /* The templates' spectra on the gate's bins, shared by a pool's
  * estimators: [velocity][emitter][bin], split, divided by gate_m. */
 typedef struct
@@ -129,7 +137,19 @@ struct _SonarVelocityEstimator
    * offset (m) they are centred at. */
   guint blocks_emitter, blocks_velocity;
   double blocks_range, blocks_centre;
+
+  /* The lag reads' phasor tables (lag_read ()), hashed by offset: its
+   * bits and the blocks' kind (LAG_WHOLE or LAG_GATED; 0: free), and
+   * lag_stride floats each of re and im. */
+  guint64 *lag_offsets;
+  guint8 *lag_kinds;
+  float *lag_re, *lag_im;
+  guint lag_stride, n_lag_tables;
 };
+
+/* The blocks a lag is read from: of the whole ping's bins, of the gate's. */
+enum
+{ LAG_WHOLE = 1, LAG_GATED = 2 };
 
 void
 sonar_velocity_params_init_default (SonarVelocityParams * p)
@@ -370,6 +390,14 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
       PRESCREEN_SPACING, est->hypotheses);
   gate_init (est, share);
+  est->lag_stride = sonar_steering_n_blocks (&est->steering, LAG_BLOCK);
+  if (est->gate_size)
+    est->lag_stride = MAX (est->lag_stride,
+        sonar_steering_n_blocks (&est->gate_steering, GATE_BLOCK));
+  est->lag_offsets = g_new0 (guint64, LAG_TABLES);
+  est->lag_kinds = g_new0 (guint8, LAG_TABLES);
+  est->lag_re = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
+  est->lag_im = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
   return est;
 }
 
@@ -402,6 +430,10 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->wanted);
   g_free (est->done);
   g_free (est->hypotheses);
+  g_free (est->lag_offsets);
+  g_free (est->lag_kinds);
+  g_free (est->lag_re);
+  g_free (est->lag_im);
   if (est->gate_templates && g_atomic_int_dec_and_test
       (&est->gate_templates->ref)) {
     g_free (est->gate_templates->re);
@@ -568,6 +600,41 @@ emitter_blocks (SonarVelocityEstimator * est, guint n, guint v, double range)
   }
 }
 
+/* sonar_steering_blocks_at () of est->blocks (of @kind, on @steering by
+ * blocks of @block bins) at @offset m, bit for bit, its phasors made once
+ * per offset (est->lag_re, _im). */
+static SonarComplex
+lag_read (SonarVelocityEstimator * est, const SonarSteering * steering,
+    guint block, guint8 kind, double offset)
+{
+  guint64 bits;
+  guint slot;
+
+  memcpy (&bits, &offset, sizeof bits);
+  /* Fibonacci hashing: the offsets' bits differ most in their high
+   * mantissa and exponent. */
+  slot = (guint) (((bits ^ kind) * G_GUINT64_CONSTANT (0x9E3779B97F4A7C15))
+      >> 57) & (LAG_TABLES - 1);
+  for (;; slot = (slot + 1) & (LAG_TABLES - 1)) {
+    const gsize at = (gsize) slot * est->lag_stride;
+    if (est->lag_kinds[slot] == kind && est->lag_offsets[slot] == bits)
+      return sonar_steering_blocks_sum (steering, est->blocks, block,
+          est->lag_re + at, est->lag_im + at);
+    if (est->lag_kinds[slot] == 0) {
+      if (4 * (est->n_lag_tables + 1) > 3 * LAG_TABLES)
+        break;
+      sonar_steering_blocks_phasors (steering, block, offset,
+          est->lag_re + at, est->lag_im + at);
+      est->lag_kinds[slot] = kind;
+      est->lag_offsets[slot] = bits;
+      est->n_lag_tables++;
+      return sonar_steering_blocks_sum (steering, est->blocks, block,
+          est->lag_re + at, est->lag_im + at);
+    }
+  }
+  return sonar_steering_blocks_at (steering, est->blocks, block, offset);
+}
+
 /* The output in est->blocks at the lag of @offset m further in range.
  * Gated blocks further than a range step from it are centred first a
  * step beyond it, where the next lags read (the window's, from the first
@@ -580,12 +647,12 @@ output_at (SonarVelocityEstimator * est, double offset)
     if (fabs (offset - est->blocks_centre) > 1.001 * step)
       gated_blocks (est, offset + (offset > est->blocks_centre ? step :
               -step));
-    return sonar_steering_blocks_at (&est->gate_steering, est->blocks,
-        GATE_BLOCK, offset - est->blocks_centre) * (2.0f /
+    return lag_read (est, &est->gate_steering, GATE_BLOCK, LAG_GATED,
+        offset - est->blocks_centre) * (2.0f /
         ((float) est->band.fft_size * est->gate_size));
   }
-  return sonar_steering_blocks_at (&est->steering, est->blocks, LAG_BLOCK,
-      offset) * (2.0f / est->band.fft_size);
+  return lag_read (est, &est->steering, LAG_BLOCK, LAG_WHOLE, offset) *
+      (2.0f / est->band.fft_size);
 }
 
 static double parabola_offset (double a, double b, double c);

@@ -99,6 +99,9 @@ struct _SonarVelocityEstimator
   gboolean spread;              /* the members reach beyond window_ranges */
   double complex *lag_sums;     /* [lag - lag_first]: sums over the emitters */
   double *lag_powers;           /* [lag - lag_first] */
+  /* window_peak ()'s reads at the window's lags, [lag - lag_first], and
+   * the blocks' centre each was read at. */
+  double *peak_values, *peak_centres;
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
   double *scratch;              /* [velocity] */
@@ -376,6 +379,8 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
       LAG_BLOCK);
   est->lag_sums = g_new (double complex, 2 * MAX_WINDOW_RANGES + 1);
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->peak_values = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->peak_centres = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
@@ -424,6 +429,8 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->blocks);
   g_free (est->lag_sums);
   g_free (est->lag_powers);
+  g_free (est->peak_values);
+  g_free (est->peak_centres);
   g_free (est->acf);
   g_free (est->log_product);
   g_free (est->scratch);
@@ -844,6 +851,14 @@ coherent_enough (const SonarVelocityEstimator * est, double coherence,
       (1.0 / ISOLATED_COHERENCE - 1.0) / (est->n_emitters - 1.0));
 }
 
+/* Whether @a and @b are the same double, bit for bit (a lag read's
+ * output depends on its offset's bits, the sign of a zero included). */
+static gboolean
+same_bits (double a, double b)
+{
+  return memcmp (&a, &b, sizeof a) == 0;
+}
+
 /* Envelope peak of emitter @n's output at velocity index @v over the
  * window's lags around @range. The image's range bins are about
  * one envelope width apart: their sampled maximum would scallop
@@ -855,23 +870,40 @@ static double
 window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
 {
   const double step = est->grid.range_step;
+  double *values = est->peak_values - est->lag_first;
+  double *centres = est->peak_centres - est->lag_first;
   double fine[9], best_value = -1.0, best_lag = 0.0;
-  int best = 4;
+  int best = 4, best_dr = 0;
 
   emitter_blocks (est, n, v, range);
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
     const double y = cabsf (output_at (est, dr * step));
+    values[dr] = y;
+    centres[dr] = est->blocks_centre;
     if (y > best_value) {
       best_value = y;
       best_lag = dr * step;
+      best_dr = dr;
     }
   }
   /* Quarter steps from -1 to +1 bin around the best. */
   if (est->gated && best_lag != est->blocks_centre)
     gated_blocks (est, best_lag);
-  for (int q = 0; q < 9; q++)
-    fine[q] = q == 4 ? best_value : cabsf (output_at (est,
-            best_lag + (q - 4) * 0.25 * step));
+  for (int q = 0; q < 9; q++) {
+    const double offset = best_lag + (q - 4) * 0.25 * step;
+    const int dr = best_dr + (q == 0 ? -1 : 1);
+    if (q == 4) {
+      fine[q] = best_value;
+    } else if ((q == 0 || q == 8) && dr >= est->lag_first
+        && dr <= est->lag_last && same_bits (offset, dr * step)
+        && same_bits (centres[dr], est->blocks_centre)) {
+      /* The same lag on the same blocks as a window lag read above (as
+       * the offset is exactly that lag's): the same output. */
+      fine[q] = values[dr];
+    } else {
+      fine[q] = cabsf (output_at (est, offset));
+    }
+  }
   for (int q = 1; q < 8; q++)
     if (fine[q] > fine[best])
       best = q;

@@ -8,6 +8,11 @@
 #include <math.h>
 #include <string.h>
 
+/* glibc defines C11's CMPLXF for GCC only; clang has the same builtin. */
+#ifndef CMPLXF
+#define CMPLXF(x, y) __builtin_complex ((float) (x), (float) (y))
+#endif
+
 /* Re-seeding the rotation from double precision every this many bins keeps
  * float rounding from accumulating. */
 #define RESEED_INTERVAL 64
@@ -101,6 +106,36 @@ steer_sum_generic (const SonarComplex * x, guint n,
       p *= rotation;
     }
   }
+  return sum;
+}
+
+/* steer_sum_generic ()'s phasors, bin by bin. */
+static void
+steer_phasors_generic (float *re, float *im, guint n, double phase0,
+    double dphase)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      re[k] = crealf (p);
+      im[k] = cimagf (p);
+      p *= rotation;
+    }
+  }
+}
+
+/* steer_sum_generic () on the phasors of steer_phasors_generic (). */
+static SonarComplex
+steer_sum_phasors_generic (const SonarComplex * x, const float *re,
+    const float *im, guint n)
+{
+  SonarComplex sum = 0.0f;
+
+  for (guint k = 0; k < n; k++)
+    sum += x[k] * CMPLXF (re[k], im[k]);
   return sum;
 }
 
@@ -222,6 +257,13 @@ lanes_seed (Lanes * p)
   (SonarComplex) (e_[0] + I * e_[4]);                                    \
 })
 
+/* The sums of the lanes of each of eight vectors @v, into the lanes of
+ * one, in the order of LANES_SUM () (lanes l and l + 4, then those two
+ * apart, then neighbours: float additions are commutative, so each sum
+ * is bit for bit LANES_SUM ()'s), at 14 additions for the eight instead
+ * of 24: lane b of the result sums v[b]. */
+#define LANES_SUM8(v) ({                                                   const Vec x0_ = __builtin_shufflevector ((v)[0], (v)[4], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[0], (v)[4], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x1_ = __builtin_shufflevector ((v)[2], (v)[6], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[2], (v)[6], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x2_ = __builtin_shufflevector ((v)[1], (v)[5], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[1], (v)[5], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x3_ = __builtin_shufflevector ((v)[3], (v)[7], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[3], (v)[7], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec z0_ = __builtin_shufflevector (x0_, x1_, 0, 1, 8, 9, 4, 5,         12, 13) + __builtin_shufflevector (x0_, x1_, 2, 3, 10, 11, 6, 7,         14, 15);                                                             const Vec z1_ = __builtin_shufflevector (x2_, x3_, 0, 1, 8, 9, 4, 5,         12, 13) + __builtin_shufflevector (x2_, x3_, 2, 3, 10, 11, 6, 7,         14, 15);                                                             __builtin_shufflevector (z0_, z1_, 0, 8, 2, 10, 4, 12, 6, 14) +              __builtin_shufflevector (z0_, z1_, 1, 9, 3, 11, 5, 13, 7, 15);     })
+
 /* Every lane moves LANES bins on. */
 #define LANES_ADVANCE(p) G_STMT_START {                                 \
   const Vec re_ = (p).re * (p).step_re - (p).im * (p).step_im;          \
@@ -322,6 +364,69 @@ steer_sum_split_avx2 (float *out_re, float *out_im, const float *x_re,
   }
 }
 
+/* The eight blocks of one vector each of a reseed interval (the gated lag
+ * sums), summed across their lanes together (LANES_SUM8 ()), bit for bit
+ * the sums of steer_block_sums_conj_avx2 ()'s general loop. Apart, not
+ * inlined: the compiler's fused multiply-adds of the general loop and of
+ * the last block stay as they were. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+block_sums8_avx2 (SonarComplex * out, const float *a_re, const float *a_im,
+    const float *b_re, const float *b_im, Lanes * p)
+{
+  Vec sums_re[RESEED_INTERVAL / LANES], sums_im[RESEED_INTERVAL / LANES];
+  Vec total_re, total_im;
+
+  for (guint b = 0; b < RESEED_INTERVAL / LANES; b++) {
+    const guint k = b * LANES;
+    Vec ar, ai, br, bi, tr, ti, sum_re = { 0 }, sum_im = { 0 };
+    memcpy (&ar, a_re + k, sizeof ar);
+    memcpy (&ai, a_im + k, sizeof ai);
+    memcpy (&br, b_re + k, sizeof br);
+    memcpy (&bi, b_im + k, sizeof bi);
+    tr = ar * br + ai * bi;
+    ti = ai * br - ar * bi;
+    sum_re += tr * p->re - ti * p->im;
+    sum_im += tr * p->im + ti * p->re;
+    LANES_ADVANCE (*p);
+    sums_re[b] = sum_re;
+    sums_im[b] = sum_im;
+  }
+  total_re = LANES_SUM8 (sums_re);
+  total_im = LANES_SUM8 (sums_im);
+  for (guint b = 0; b < RESEED_INTERVAL / LANES; b++)
+    out[b] = total_re[b] + I * total_im[b];
+}
+
+/* The last, shorter block of steer_block_sums_conj_avx2 (): the sum of
+ * (a_re + i a_im) conj (b_re + i b_im) (lane_re + i lane_im) over @n
+ * bins, spelt out as GCC compiled its complex products when this block
+ * was inline ((x + 0 y) for x + I y, the first product fused, the
+ * second not), so that the block sums stayed bit for bit what they were
+ * when the blocks of one vector got their own path (block_sums8_avx2 ()):
+ * an inline loop's fusing changes with the code around it. */
+#if defined(__clang__)
+#define NO_CONTRACT
+#else
+#define NO_CONTRACT __attribute__ ((optimize ("fp-contract=off")))
+#endif
+static AVX2_TARGET NO_CONTRACT __attribute__ ((noinline)) SonarComplex
+block_tail_avx2 (const float *a_re, const float *a_im, const float *b_re,
+    const float *b_im, const float *lane_re, const float *lane_im, guint n)
+{
+  float sum_re = 0.0f, sum_im = 0.0f;
+
+  for (guint k = 0; k < n; k++) {
+    const float are = fmaf (a_im[k], 0.0f, a_re[k]);
+    const float bre = fmaf (-b_im[k], 0.0f, b_re[k]);
+    const float tre = fmaf (bre, are, a_im[k] * b_im[k]);
+    const float tim = fmaf (-are, b_im[k], a_im[k] * bre);
+    const float pre = fmaf (lane_im[k], 0.0f, lane_re[k]);
+    sum_re += tre * pre - tim * lane_im[k];
+    sum_im += tre * lane_im[k] + tim * pre;
+  }
+  return CMPLXF (sum_re, sum_im);
+}
+
 /* Block sums: the lane products are summed over a block, then across the
  * lanes. */
 AVX2_TARGET static void
@@ -336,6 +441,11 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
     lanes_seed (&p);
+    if (block == LANES && k1 - k0 == RESEED_INTERVAL) {
+      block_sums8_avx2 (out + k0 / LANES, a_re + k0, a_im + k0, b_re + k0,
+          b_im + k0, &p);
+      continue;
+    }
     for (guint kb = k0; kb < k1; kb += block) {
       Vec sum_re = { 0 }, sum_im = { 0 };
       for (guint k = kb; k < kb + block; k += LANES) {
@@ -355,12 +465,84 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
   }
   /* The last, shorter block. */
   if (whole < n) {
-    SonarComplex sum = 0.0f;
-    for (guint k = whole; k < n; k++)
-      sum += (a_re[k] + I * a_im[k]) * (b_re[k] - I * b_im[k]) *
-          LANES_TAIL_PHASOR (p, k, whole);
-    out[whole / block] = sum;
+    float lane_re[RESEED_INTERVAL], lane_im[RESEED_INTERVAL];
+    for (guint t = 0; t < n - whole; t++) {
+      if (t == 0 && whole % RESEED_INTERVAL == 0)
+        lanes_seed (&p);
+      else if (t > 0 && t % LANES == 0)
+        LANES_ADVANCE (p);
+      lane_re[t] = p.re[t % LANES];
+      lane_im[t] = p.im[t % LANES];
+    }
+    out[whole / block] = block_tail_avx2 (a_re + whole, a_im + whole,
+        b_re + whole, b_im + whole, lane_re, lane_im, n - whole);
   }
+}
+
+/* The steering sum's pieces, shared by steer_sum_avx2 () and the sum on
+ * a phasor table (steer_phasors_avx2 (), steer_sum_phasors_avx2 ()), so
+ * that the two are the same operations bit for bit whatever the compiler
+ * fuses: not inlined, each compiled once. */
+
+/* Lanes for a ramp from @phase0. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_start_avx2 (Lanes * p, double phase0, double dphase)
+{
+  lanes_init (p, phase0, dphase);
+}
+
+/* The phasors of the @count (a multiple of LANES, at most
+ * RESEED_INTERVAL) bins from a reseed into @re, @im. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_fill_avx2 (Lanes * p, float *re, float *im, guint count)
+{
+  lanes_seed (p);
+  for (guint k = 0; k < count; k += LANES) {
+    memcpy (re + k, &p->re, sizeof p->re);
+    memcpy (im + k, &p->im, sizeof p->im);
+    LANES_ADVANCE (*p);
+  }
+}
+
+/* The phasors of the bins @whole to @n - 1 after the whole vectors. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_tail_avx2 (Lanes * p, float *re, float *im, guint whole, guint n)
+{
+  for (guint k = whole; k < n; k++) {
+    const SonarComplex phasor = LANES_TAIL_PHASOR (*p, k, whole);
+    re[k - whole] = crealf (phasor);
+    im[k - whole] = cimagf (phasor);
+  }
+}
+
+/* (@sum_re, @sum_im) += the lane products of @count (a multiple of
+ * LANES) values of @x and phasors. */
+static AVX2_TARGET __attribute__ ((noinline)) void
+ramp_accumulate_avx2 (Vec * sum_re, Vec * sum_im, const SonarComplex * x,
+    const float *re, const float *im, guint count)
+{
+  for (guint k = 0; k < count; k += LANES) {
+    Vec xr, xi, pr, pi;
+    LOAD_SPLIT (x + k, xr, xi);
+    memcpy (&pr, re + k, sizeof pr);
+    memcpy (&pi, im + k, sizeof pi);
+    *sum_re += xr * pr - xi * pi;
+    *sum_im += xr * pi + xi * pr;
+  }
+}
+
+/* The lanes' sum, then the @count tail values of @x on their phasors. */
+static AVX2_TARGET __attribute__ ((noinline)) SonarComplex
+ramp_finish_avx2 (Vec sum_re, Vec sum_im, const SonarComplex * x,
+    const float *re, const float *im, guint count)
+{
+  SonarComplex sum = 0.0f;
+
+  for (int l = 0; l < LANES; l++)
+    sum += sum_re[l] + I * sum_im[l];
+  for (guint k = 0; k < count; k++)
+    sum += x[k] * (re[k] + I * im[k]);
+  return sum;
 }
 
 AVX2_TARGET static SonarComplex
@@ -368,27 +550,46 @@ steer_sum_avx2 (const SonarComplex * x, guint n, double phase0,
     double dphase)
 {
   const guint whole = n - n % LANES;
+  float re[RESEED_INTERVAL], im[RESEED_INTERVAL];
   Vec sum_re = { 0 }, sum_im = { 0 };
-  SonarComplex sum = 0.0f;
   Lanes p;
 
-  lanes_init (&p, phase0, dphase);
+  ramp_start_avx2 (&p, phase0, dphase);
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
-    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
-    lanes_seed (&p);
-    for (guint k = k0; k < k1; k += LANES) {
-      Vec xr, xi;
-      LOAD_SPLIT (x + k, xr, xi);
-      sum_re += xr * p.re - xi * p.im;
-      sum_im += xr * p.im + xi * p.re;
-      LANES_ADVANCE (p);
-    }
+    const guint count = MIN (whole, k0 + RESEED_INTERVAL) - k0;
+    ramp_fill_avx2 (&p, re, im, count);
+    ramp_accumulate_avx2 (&sum_re, &sum_im, x + k0, re, im, count);
   }
-  for (int l = 0; l < LANES; l++)
-    sum += sum_re[l] + I * sum_im[l];
-  for (guint k = whole; k < n; k++)
-    sum += x[k] * LANES_TAIL_PHASOR (p, k, whole);
-  return sum;
+  ramp_tail_avx2 (&p, re, im, whole, n);
+  return ramp_finish_avx2 (sum_re, sum_im, x + whole, re, im, n - whole);
+}
+
+/* steer_sum_avx2 ()'s phasors. */
+AVX2_TARGET static void
+steer_phasors_avx2 (float *re, float *im, guint n, double phase0,
+    double dphase)
+{
+  const guint whole = n - n % LANES;
+  Lanes p;
+
+  ramp_start_avx2 (&p, phase0, dphase);
+  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL)
+    ramp_fill_avx2 (&p, re + k0, im + k0, MIN (whole, k0 +
+            RESEED_INTERVAL) - k0);
+  ramp_tail_avx2 (&p, re + whole, im + whole, whole, n);
+}
+
+/* steer_sum_avx2 () on the phasors of steer_phasors_avx2 (). */
+AVX2_TARGET static SonarComplex
+steer_sum_phasors_avx2 (const SonarComplex * x, const float *re,
+    const float *im, guint n)
+{
+  const guint whole = n - n % LANES;
+  Vec sum_re = { 0 }, sum_im = { 0 };
+
+  ramp_accumulate_avx2 (&sum_re, &sum_im, x, re, im, whole);
+  return ramp_finish_avx2 (sum_re, sum_im, x + whole, re + whole,
+      im + whole, n - whole);
 }
 
 #endif /* HAVE_AVX2_KERNELS */
@@ -486,6 +687,22 @@ const SonarSteerSumImpl sonar_kernel_steer_sum_impls[] = {
   {NULL, NULL, NULL}
 };
 
+const SonarSteerPhasorsImpl sonar_kernel_steer_phasors_impls[] = {
+  {"generic", steer_phasors_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_phasors_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+const SonarSteerSumPhasorsImpl sonar_kernel_steer_sum_phasors_impls[] = {
+  {"generic", steer_sum_phasors_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_sum_phasors_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
 /* ORC compiles for the running CPU, or runs its C backup where it cannot:
  * always available. */
 const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
@@ -506,6 +723,8 @@ static struct
   SonarSteerSumSplitFn steer_sum_split;
   SonarSteerBlockSumsConjFn steer_block_sums_conj;
   SonarSteerSumFn steer_sum;
+  SonarSteerPhasorsFn steer_phasors;
+  SonarSteerSumPhasorsFn steer_sum_phasors;
   SonarMultiplySplitFn multiply_split;
   SonarEnvelopeFn envelope;
 } chosen;
@@ -528,6 +747,9 @@ choose (void)
     LAST_AVAILABLE (sonar_kernel_steer_block_sums_conj_impls,
         chosen.steer_block_sums_conj);
     LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
+    LAST_AVAILABLE (sonar_kernel_steer_phasors_impls, chosen.steer_phasors);
+    LAST_AVAILABLE (sonar_kernel_steer_sum_phasors_impls,
+        chosen.steer_sum_phasors);
     LAST_AVAILABLE (sonar_kernel_multiply_split_impls,
         chosen.multiply_split);
     LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
@@ -562,6 +784,22 @@ sonar_kernel_steer_sum (const SonarComplex * x, guint n, double phase0,
 {
   choose ();
   return chosen.steer_sum (x, n, phase0, dphase);
+}
+
+void
+sonar_kernel_steer_phasors (float *re, float *im, guint n, double phase0,
+    double dphase)
+{
+  choose ();
+  chosen.steer_phasors (re, im, n, phase0, dphase);
+}
+
+SonarComplex
+sonar_kernel_steer_sum_phasors (const SonarComplex * x, const float *re,
+    const float *im, guint n)
+{
+  choose ();
+  return chosen.steer_sum_phasors (x, re, im, n);
 }
 
 void

@@ -73,6 +73,29 @@ typedef SonarComplex (*SonarSteerSumFn) (const SonarComplex * x, guint n,
 typedef SONAR_KERNEL_IMPL (SonarSteerSumFn) SonarSteerSumImpl;
 extern const SonarSteerSumImpl sonar_kernel_steer_sum_impls[];
 
+/* The phasors sonar_kernel_steer_sum () applies to bins 0 to @n - 1 for
+ * @phase0 and @dphase, into @re and @im (n each), and that sum on them:
+ * sonar_kernel_steer_sum_phasors (x, re, im, n) is bit for bit
+ * sonar_kernel_steer_sum (x, n, phase0, dphase) (each implementation
+ * reproduces its own namesake's phasors and order of operations). A
+ * caller that sums many inputs on one ramp (the velocity stage's lag
+ * reads, whose ramps depend on the lag offset only) makes the phasors
+ * once: the ramp's set-up (its sincos and reseeds) costs more than the
+ * sum of a few dozen bins. */
+void sonar_kernel_steer_phasors (float *re, float *im, guint n,
+    double phase0, double dphase);
+typedef void (*SonarSteerPhasorsFn) (float *re, float *im, guint n,
+    double phase0, double dphase);
+typedef SONAR_KERNEL_IMPL (SonarSteerPhasorsFn) SonarSteerPhasorsImpl;
+extern const SonarSteerPhasorsImpl sonar_kernel_steer_phasors_impls[];
+
+SonarComplex sonar_kernel_steer_sum_phasors (const SonarComplex * x,
+    const float *re, const float *im, guint n);
+typedef SonarComplex (*SonarSteerSumPhasorsFn) (const SonarComplex * x,
+    const float *re, const float *im, guint n);
+typedef SONAR_KERNEL_IMPL (SonarSteerSumPhasorsFn) SonarSteerSumPhasorsImpl;
+extern const SonarSteerSumPhasorsImpl sonar_kernel_steer_sum_phasors_impls[];
+
 /* out[k] = (a_re[k] + i a_im[k]) (b_re[k] + i b_im[k]): split operands,
  * interleaved product. */
 void sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,

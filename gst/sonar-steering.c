@@ -92,12 +92,51 @@ sonar_steering_emitter_blocks (const SonarSteering * s,
       s->dk * path, block);
 }
 
+/* The ramp of sonar_steering_blocks_at (): the phase at each block's
+ * centre bin, stepping a block at a time. */
+static void
+blocks_ramp (const SonarSteering * s, guint block, double offset,
+    double *phase0, double *dphase)
+{
+  const double path = 2.0 * offset;
+
+  *phase0 = (s->k0 + s->dk * 0.5 * (block - 1)) * path;
+  *dphase = s->dk * block * path;
+}
+
 SonarComplex
 sonar_steering_blocks_at (const SonarSteering * s,
     const SonarComplex * blocks, guint block, double offset)
 {
-  const double path = 2.0 * offset;
+  double phase0, dphase;
 
-  return sonar_kernel_steer_sum (blocks, (s->n_bins + block - 1) / block,
-      (s->k0 + s->dk * 0.5 * (block - 1)) * path, s->dk * block * path);
+  blocks_ramp (s, block, offset, &phase0, &dphase);
+  return sonar_kernel_steer_sum (blocks, sonar_steering_n_blocks (s, block),
+      phase0, dphase);
+}
+
+guint
+sonar_steering_n_blocks (const SonarSteering * s, guint block)
+{
+  return (s->n_bins + block - 1) / block;
+}
+
+void
+sonar_steering_blocks_phasors (const SonarSteering * s, guint block,
+    double offset, float *re, float *im)
+{
+  double phase0, dphase;
+
+  blocks_ramp (s, block, offset, &phase0, &dphase);
+  sonar_kernel_steer_phasors (re, im, sonar_steering_n_blocks (s, block),
+      phase0, dphase);
+}
+
+SonarComplex
+sonar_steering_blocks_sum (const SonarSteering * s,
+    const SonarComplex * blocks, guint block, const float *re,
+    const float *im)
+{
+  return sonar_kernel_steer_sum_phasors (blocks, re, im,
+      sonar_steering_n_blocks (s, block));
 }

@@ -101,6 +101,20 @@ void sonar_steering_emitter_blocks (const SonarSteering * steering,
 SonarComplex sonar_steering_blocks_at (const SonarSteering * steering,
     const SonarComplex * blocks, guint block, double offset);
 
+/* ceil (n_bins / @block): the blocks of sonar_steering_emitter_blocks (). */
+guint sonar_steering_n_blocks (const SonarSteering * steering, guint block);
+
+/* sonar_steering_blocks_at () in two steps: the phasors of its lag
+ * @offset into @re and @im (sonar_steering_n_blocks () each), then the
+ * sum of @blocks on them, bit for bit the same output. The phasors depend
+ * on the offset alone: a caller that reads the same offsets on many
+ * blocks makes them once (sonar_kernel_steer_phasors ()). */
+void sonar_steering_blocks_phasors (const SonarSteering * steering,
+    guint block, double offset, float *re, float *im);
+SonarComplex sonar_steering_blocks_sum (const SonarSteering * steering,
+    const SonarComplex * blocks, guint block, const float *re,
+    const float *im);
+
 G_END_DECLS
 
 #endif

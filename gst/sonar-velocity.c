@@ -55,6 +55,14 @@
  * within the ping's (0.06 rad). */
 #define GATE_BLOCK 8
 
+/* Phasor tables of the lag reads (lag_read ()), at most: a window reads
+ * its lags at offsets of whole and quarter range steps from its blocks'
+ * centre, the same few dozen for every emitter, velocity and centroid,
+ * and a lag read's ramp costs more to set up (its sincos, reseeds) than
+ * to sum. A power of two; filled to three quarters at most, beyond which
+ * the rare offsets left are read without a table. */
+#define LAG_TABLES 64
+
 /* The templates' spectra on the gate's bins, shared by a pool's
  * estimators: [velocity][emitter][bin], split, divided by gate_m. */
 typedef struct
@@ -91,6 +99,9 @@ struct _SonarVelocityEstimator
   gboolean spread;              /* the members reach beyond window_ranges */
   double complex *lag_sums;     /* [lag - lag_first]: sums over the emitters */
   double *lag_powers;           /* [lag - lag_first] */
+  /* window_peak ()'s reads at the window's lags, [lag - lag_first], and
+   * the blocks' centre each was read at. */
+  double *peak_values, *peak_centres;
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
   double *scratch;              /* [velocity] */
@@ -129,7 +140,19 @@ struct _SonarVelocityEstimator
    * offset (m) they are centred at. */
   guint blocks_emitter, blocks_velocity;
   double blocks_range, blocks_centre;
+
+  /* The lag reads' phasor tables (lag_read ()), hashed by offset: its
+   * bits and the blocks' kind (LAG_WHOLE or LAG_GATED; 0: free), and
+   * lag_stride floats each of re and im. */
+  guint64 *lag_offsets;
+  guint8 *lag_kinds;
+  float *lag_re, *lag_im;
+  guint lag_stride, n_lag_tables;
 };
+
+/* The blocks a lag is read from: of the whole ping's bins, of the gate's. */
+enum
+{ LAG_WHOLE = 1, LAG_GATED = 2 };
 
 void
 sonar_velocity_params_init_default (SonarVelocityParams * p)
@@ -356,6 +379,8 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
       LAG_BLOCK);
   est->lag_sums = g_new (double complex, 2 * MAX_WINDOW_RANGES + 1);
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->peak_values = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->peak_centres = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
@@ -370,6 +395,14 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
       PRESCREEN_SPACING, est->hypotheses);
   gate_init (est, share);
+  est->lag_stride = sonar_steering_n_blocks (&est->steering, LAG_BLOCK);
+  if (est->gate_size)
+    est->lag_stride = MAX (est->lag_stride,
+        sonar_steering_n_blocks (&est->gate_steering, GATE_BLOCK));
+  est->lag_offsets = g_new0 (guint64, LAG_TABLES);
+  est->lag_kinds = g_new0 (guint8, LAG_TABLES);
+  est->lag_re = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
+  est->lag_im = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
   return est;
 }
 
@@ -396,12 +429,18 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->blocks);
   g_free (est->lag_sums);
   g_free (est->lag_powers);
+  g_free (est->peak_values);
+  g_free (est->peak_centres);
   g_free (est->acf);
   g_free (est->log_product);
   g_free (est->scratch);
   g_free (est->wanted);
   g_free (est->done);
   g_free (est->hypotheses);
+  g_free (est->lag_offsets);
+  g_free (est->lag_kinds);
+  g_free (est->lag_re);
+  g_free (est->lag_im);
   if (est->gate_templates && g_atomic_int_dec_and_test
       (&est->gate_templates->ref)) {
     g_free (est->gate_templates->re);
@@ -568,6 +607,41 @@ emitter_blocks (SonarVelocityEstimator * est, guint n, guint v, double range)
   }
 }
 
+/* sonar_steering_blocks_at () of est->blocks (of @kind, on @steering by
+ * blocks of @block bins) at @offset m, bit for bit, its phasors made once
+ * per offset (est->lag_re, _im). */
+static SonarComplex
+lag_read (SonarVelocityEstimator * est, const SonarSteering * steering,
+    guint block, guint8 kind, double offset)
+{
+  guint64 bits;
+  guint slot;
+
+  memcpy (&bits, &offset, sizeof bits);
+  /* Fibonacci hashing: the offsets' bits differ most in their high
+   * mantissa and exponent. */
+  slot = (guint) (((bits ^ kind) * G_GUINT64_CONSTANT (0x9E3779B97F4A7C15))
+      >> 57) & (LAG_TABLES - 1);
+  for (;; slot = (slot + 1) & (LAG_TABLES - 1)) {
+    const gsize at = (gsize) slot * est->lag_stride;
+    if (est->lag_kinds[slot] == kind && est->lag_offsets[slot] == bits)
+      return sonar_steering_blocks_sum (steering, est->blocks, block,
+          est->lag_re + at, est->lag_im + at);
+    if (est->lag_kinds[slot] == 0) {
+      if (4 * (est->n_lag_tables + 1) > 3 * LAG_TABLES)
+        break;
+      sonar_steering_blocks_phasors (steering, block, offset,
+          est->lag_re + at, est->lag_im + at);
+      est->lag_kinds[slot] = kind;
+      est->lag_offsets[slot] = bits;
+      est->n_lag_tables++;
+      return sonar_steering_blocks_sum (steering, est->blocks, block,
+          est->lag_re + at, est->lag_im + at);
+    }
+  }
+  return sonar_steering_blocks_at (steering, est->blocks, block, offset);
+}
+
 /* The output in est->blocks at the lag of @offset m further in range.
  * Gated blocks further than a range step from it are centred first a
  * step beyond it, where the next lags read (the window's, from the first
@@ -580,12 +654,12 @@ output_at (SonarVelocityEstimator * est, double offset)
     if (fabs (offset - est->blocks_centre) > 1.001 * step)
       gated_blocks (est, offset + (offset > est->blocks_centre ? step :
               -step));
-    return sonar_steering_blocks_at (&est->gate_steering, est->blocks,
-        GATE_BLOCK, offset - est->blocks_centre) * (2.0f /
+    return lag_read (est, &est->gate_steering, GATE_BLOCK, LAG_GATED,
+        offset - est->blocks_centre) * (2.0f /
         ((float) est->band.fft_size * est->gate_size));
   }
-  return sonar_steering_blocks_at (&est->steering, est->blocks, LAG_BLOCK,
-      offset) * (2.0f / est->band.fft_size);
+  return lag_read (est, &est->steering, LAG_BLOCK, LAG_WHOLE, offset) *
+      (2.0f / est->band.fft_size);
 }
 
 static double parabola_offset (double a, double b, double c);
@@ -777,6 +851,14 @@ coherent_enough (const SonarVelocityEstimator * est, double coherence,
       (1.0 / ISOLATED_COHERENCE - 1.0) / (est->n_emitters - 1.0));
 }
 
+/* Whether @a and @b are the same double, bit for bit (a lag read's
+ * output depends on its offset's bits, the sign of a zero included). */
+static gboolean
+same_bits (double a, double b)
+{
+  return memcmp (&a, &b, sizeof a) == 0;
+}
+
 /* Envelope peak of emitter @n's output at velocity index @v over the
  * window's lags around @range. The image's range bins are about
  * one envelope width apart: their sampled maximum would scallop
@@ -788,23 +870,40 @@ static double
 window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
 {
   const double step = est->grid.range_step;
+  double *values = est->peak_values - est->lag_first;
+  double *centres = est->peak_centres - est->lag_first;
   double fine[9], best_value = -1.0, best_lag = 0.0;
-  int best = 4;
+  int best = 4, best_dr = 0;
 
   emitter_blocks (est, n, v, range);
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
     const double y = cabsf (output_at (est, dr * step));
+    values[dr] = y;
+    centres[dr] = est->blocks_centre;
     if (y > best_value) {
       best_value = y;
       best_lag = dr * step;
+      best_dr = dr;
     }
   }
   /* Quarter steps from -1 to +1 bin around the best. */
   if (est->gated && best_lag != est->blocks_centre)
     gated_blocks (est, best_lag);
-  for (int q = 0; q < 9; q++)
-    fine[q] = q == 4 ? best_value : cabsf (output_at (est,
-            best_lag + (q - 4) * 0.25 * step));
+  for (int q = 0; q < 9; q++) {
+    const double offset = best_lag + (q - 4) * 0.25 * step;
+    const int dr = best_dr + (q == 0 ? -1 : 1);
+    if (q == 4) {
+      fine[q] = best_value;
+    } else if ((q == 0 || q == 8) && dr >= est->lag_first
+        && dr <= est->lag_last && same_bits (offset, dr * step)
+        && same_bits (centres[dr], est->blocks_centre)) {
+      /* The same lag on the same blocks as a window lag read above (as
+       * the offset is exactly that lag's): the same output. */
+      fine[q] = values[dr];
+    } else {
+      fine[q] = cabsf (output_at (est, offset));
+    }
+  }
   for (int q = 1; q < 8; q++)
     if (fine[q] > fine[best])
       best = q;

@@ -195,6 +195,52 @@ test_steer_sum (gconstpointer data)
   }
 }
 
+/* The phasor tables and the sums on them against the steering sum of
+ * the same name, bit for bit (the velocity stage reads its lags either
+ * way), at every length and at phases of the lag reads' size and far
+ * larger; and the generic phasors against exp(i phase) in double. */
+static void
+test_steer_phasors (gconstpointer data)
+{
+  const SonarSteerPhasorsImpl *impl = data;
+  const guint i = impl - sonar_kernel_steer_phasors_impls;
+  const SonarSteerSumPhasorsImpl *sum = &sonar_kernel_steer_sum_phasors_impls[i];
+  const SonarSteerSumImpl *direct = &sonar_kernel_steer_sum_impls[i];
+  static const double offsets[] = { 0.0, -0.0049, 0.0025, 0.0098, -0.0196,
+    0.37, -3.25, 1000.5
+  };
+  SonarRng rng;
+  SonarComplex x[2882];
+  float re[2882], im[2882];
+
+  g_assert_cmpstr (sum->name, ==, impl->name);
+  g_assert_cmpstr (direct->name, ==, impl->name);
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 21, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    for (guint o = 0; o < G_N_ELEMENTS (offsets); o++) {
+      const guint n = lengths[t];
+      /* The lag reads' ramps: the band's centre phase per block and
+       * 8 or 16 bins' steps, times two ways of the offset. */
+      const double phase0 = 366.4 * 2.0 * offsets[o];
+      const double dphase = 0.3814 * 16.0 * 2.0 * offsets[o];
+      SonarComplex a, b;
+
+      impl->fn (re, im, n, phase0, dphase);
+      for (guint k = 0; k < n; k++) {
+        g_assert_cmpfloat (fabs (re[k] - cos (phase0 + k * dphase)), <, 1e-5);
+        g_assert_cmpfloat (fabs (im[k] - sin (phase0 + k * dphase)), <, 1e-5);
+      }
+      for (int r = 0; r < 3; r++) {
+        random_spectrum (&rng, x, n);
+        a = sum->fn (x, re, im, n);
+        b = direct->fn (x, n, phase0, dphase);
+        g_assert_cmpmem (&a, sizeof a, &b, sizeof b);
+      }
+    }
+  }
+}
+
 /* The use the block sums are made for: a matched filter's output at lag
  * offsets of up to two range bins (the velocity stage's window and its
  * quarter-bin refinement), summed over 16-bin blocks at the blocks'
@@ -408,6 +454,8 @@ main (int argc, char **argv)
       sonar_kernel_steer_block_sums_conj_impls,
       test_long_sums_against_double);
   ADD_IMPL_TESTS ("steer-sum", sonar_kernel_steer_sum_impls, test_steer_sum);
+  ADD_IMPL_TESTS ("steer-phasors", sonar_kernel_steer_phasors_impls,
+      test_steer_phasors);
   ADD_IMPL_TESTS ("multiply-split", sonar_kernel_multiply_split_impls,
       test_multiply_split);
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Tests of the command-line tools: the README's demo (tools/demo, its
-bus-message printer tools/print-messages.py), sonar-waveforms, the ambiguity function
+bus-message printer tools/print-messages.py, which runs the pipeline and reads
+the messages from the bus), sonar-waveforms, the ambiguity function
 (tools/ambiguity.py, tools/plot-ambiguity.py), the energyscape reader and
 plotter (tools/energyscape.py, tools/plot-energyscape.py), the tracks
 plotter (tools/plot-tracks.py) and the benchmark (sonar-bench,
@@ -534,7 +535,7 @@ def plot_tracks_writes_png():
 def demo_prints_truth_and_errors():
     """tools/demo, the README's first command, on the default scene: every
     ping's ground truth and each detection matched to its true object
-    (tools/print-messages.py reads the bus messages' fields), within 5 mm
+    (tools/print-messages.py reads them from the bus), within 5 mm
     and 0.01 m/s, and the picture drawn"""
     env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
     result = subprocess.run([str(TOOLS / "demo")], capture_output=True,
@@ -548,6 +549,35 @@ def demo_prints_truth_and_errors():
     for _, distance, error in matches:
         assert float(distance) <= 0.005 and abs(float(error)) <= 0.01, out
     assert_png(SOURCE_DIR / "out" / "default.png")
+
+
+@test
+def print_messages_reads_the_bus():
+    """tools/print-messages.py runs a pipeline and reads sonarsrc's truth
+    from the bus as structures: the --truth file holds each ping's
+    reflectors (the default scene's three, the first still at 1.5 m,
+    -30 degrees); an element's error is printed with its element and
+    ends the run with status 1"""
+    env = dict(os.environ, GST_PLUGIN_PATH_1_0=str(BUILD_DIR / "elements"))
+    truth = TMP / "truth.jsonl"
+    result = subprocess.run(
+        [PYTHON, str(TOOLS / "print-messages.py"), "--truth", str(truth),
+         "sonarsrc", "num-buffers=2", "!", "fakesink"],
+        capture_output=True, text=True, timeout=60, env=env)
+    assert result.returncode == 0, result.stderr
+    pings = [json.loads(line) for line in truth.read_text().splitlines()]
+    assert [p["ping"] for p in pings] == [0, 1], pings
+    first = pings[0]["reflectors"][0]
+    assert len(pings[0]["reflectors"]) == 3, pings
+    assert abs(first["range"] - 1.5) < 1e-9, first
+    assert abs(first["azimuth"] + 30.0) < 1e-9, first
+    result = subprocess.run(
+        [PYTHON, str(TOOLS / "print-messages.py"), "filesrc",
+         f"location={TMP / 'missing.wav'}", "!", "fakesink"],
+        capture_output=True, text=True, timeout=60, env=env)
+    assert result.returncode == 1, result
+    assert ("ERROR: from element /GstPipeline:pipeline0/GstFileSrc:filesrc0"
+            ": Resource not found." in result.stderr), result.stderr
 
 
 if __name__ == "__main__":

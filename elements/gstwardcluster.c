@@ -21,6 +21,7 @@
 #endif
 
 #include "gstwardcluster.h"
+#include "sonar-workers.h"
 
 GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
 #define GST_CAT_DEFAULT ward_cluster_debug
@@ -90,6 +91,7 @@ enum
   PROP_MAX_PEAKS,
   PROP_MAX_CENTROIDS,
   PROP_RANGE_COMPENSATION,
+  PROP_THREADS,
   PROP_POST_MESSAGES,
 };
 
@@ -286,6 +288,9 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
     case PROP_RANGE_COMPENSATION:
       p->range_compensation = g_value_get_boolean (value);
       break;
+    case PROP_THREADS:
+      p->threads = g_value_get_uint (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -342,6 +347,9 @@ gst_ward_cluster_get_property (GObject * object, guint prop_id,
       break;
     case PROP_RANGE_COMPENSATION:
       g_value_set_boolean (value, p->range_compensation);
+      break;
+    case PROP_THREADS:
+      g_value_set_uint (value, p->threads);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -437,6 +445,11 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
           "Threshold and cluster the image times range squared, undoing the "
           "spreading loss (paper eq. 6), so far objects are kept",
           d.range_compensation, flags));
+  g_object_class_install_property (gobject_class, PROP_THREADS,
+      g_param_spec_uint ("threads", "Threads", "Workers sharing the passes "
+          "over an image (range compensation, noise floors; 0: one per "
+          "processor); the centroids do not depend on it", 0,
+          SONAR_MAX_WORKERS, d.threads, flags));
   g_object_class_install_property (gobject_class, PROP_POST_MESSAGES,
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-centroids\" element message per ping",

@@ -2,6 +2,7 @@
  * sonar-linkage.c's. */
 #include "sonar-cluster.h"
 #include "sonar-error.h"
+#include "sonar-workers.h"
 
 #include <gio/gio.h>
 #include <math.h>
@@ -30,17 +31,42 @@
  * both. */
 #define COLUMN_MARGIN 0.8
 
+/* The strongest peaks found: a min-heap (weakest on top) of at most
+ * max_peaks while scanning. Which are kept depends on the peaks alone
+ * (values, ties broken by pixel), not on the order they come in: the
+ * workers' heaps merged give the heap of one scan. */
+typedef struct
+{
+  float *value;
+  gsize *pixel;
+  guint n;                      /* kept */
+  guint n_found;                /* offered */
+} PeakHeap;
+
+/* One worker's scratch for the passes shared out (the compensation,
+ * noise_floors (), find_peaks ()): each writes only its own. */
+typedef struct
+{
+  float *columns;               /* FLOOR_BLOCK range bins' values over the
+                                 * directions, one column per bin */
+  float *bracketed;             /* select_bracketed ()'s: per direction, and
+                                 * at least column_bins */
+  float *row_max;               /* per range bin: its directions' strongest */
+  float *column_values;         /* one column block's values */
+  PeakHeap peaks;               /* its directions' peaks */
+} WorkerScratch;
+
 struct _SonarClusterer
 {
   SonarImageGrid grid;
   SonarClusterParams params;
+  SonarWorkers *workers;
+  WorkerScratch scratch[SONAR_MAX_WORKERS];
+  const float *image;           /* the call's image, for the workers */
   SonarLinkageWork *linkage;    /* the clustering of the peaks */
-  guint n_found;                /* peaks above the threshold, last call */
-  /* Peaks kept: a min-heap (weakest on top) while scanning, then sorted
-   * strongest first. */
-  guint n_peaks;
-  float *peak_value;
-  gsize *peak_pixel;
+  /* Peaks kept: the workers' heaps merged, then sorted strongest first. */
+  PeakHeap peaks;
+  float threshold;              /* the call's relative and absolute one */
   double *points;               /* 3 per peak: sensor frame, m */
   double *peak_range;           /* m */
   SonarVec3 *peak_direction;    /* unit */
@@ -52,8 +78,6 @@ struct _SonarClusterer
   float *floor;                 /* per range bin: threshold over the noise floor */
   float *row_max;               /* per range bin: strongest over the directions */
   float *sidelobe;              /* per range bin: the sidelobe threshold */
-  float *columns;               /* FLOOR_BLOCK range bins' values over the
-                                 * directions, one column per bin */
   /* Per direction and block of column_bins range bins: the lower
    * quartile of the block along the direction, of the image before range
    * compensation (its noise is flat over range); NaN until a pixel there
@@ -62,9 +86,6 @@ struct _SonarClusterer
   float *column_quartile;
   float column_gain;
   const float *raw;             /* the call's image before compensation */
-  float *column_values;         /* one block's values */
-  float *bracketed;             /* select_bracketed ()'s: per direction, and
-                                 * at least column_bins */
 };
 
 /* Range bins per block of the column floor: COLUMN_SPAN, at least
@@ -93,6 +114,7 @@ sonar_cluster_params_init_default (SonarClusterParams * p)
   p->depth = 3;
   p->distance = 0.1;
   p->max_peaks = 2000;
+  p->threads = 0;
 }
 
 static gboolean
@@ -127,6 +149,8 @@ validate (const SonarImageGrid * g, const SonarClusterParams * p,
     problem = "distance must be finite and >= 0 m";
   else if (p->max_peaks < 1 || p->max_peaks > MAX_PEAKS)
     problem = "max-peaks must be 1 to 4096";
+  else if (p->threads > SONAR_MAX_WORKERS)
+    problem = "threads must be 0 to " G_STRINGIFY (SONAR_MAX_WORKERS);
   if (problem) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "cluster: %s", problem);
@@ -156,8 +180,8 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->grid = *grid;
   c->params = *params;
   c->linkage = sonar_linkage_work_new (m, 3, params->linkage);
-  c->peak_value = g_new (float, m);
-  c->peak_pixel = g_new (gsize, m);
+  c->peaks.value = g_new (float, m);
+  c->peaks.pixel = g_new (gsize, m);
   c->points = g_new (double, 3 * (gsize) m);
   c->peak_range = g_new (double, m);
   c->peak_direction = g_new (SonarVec3, m);
@@ -175,11 +199,21 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->n_column_blocks = (grid->n_range + c->column_bins - 1) / c->column_bins;
   c->column_quartile = g_new (float, (gsize) grid->n_azimuth *
       grid->n_elevation * c->n_column_blocks);
-  c->column_values = g_new (float, c->column_bins);
-  c->bracketed = g_new (float, MAX ((gsize) grid->n_azimuth *
-          grid->n_elevation, c->column_bins));
-  c->columns = g_new (float, (gsize) FLOOR_BLOCK * grid->n_azimuth *
-      grid->n_elevation);
+  c->workers = sonar_workers_new (params->threads, error);
+  if (!c->workers) {
+    sonar_clusterer_free (c);
+    return NULL;
+  }
+  for (guint w = 0; w < sonar_workers_count (c->workers); w++) {
+    const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
+    WorkerScratch *ws = &c->scratch[w];
+    ws->columns = g_new (float, (gsize) FLOOR_BLOCK * n_dirs);
+    ws->bracketed = g_new (float, MAX (n_dirs, c->column_bins));
+    ws->row_max = g_new (float, grid->n_range);
+    ws->column_values = g_new (float, c->column_bins);
+    ws->peaks.value = g_new (float, m);
+    ws->peaks.pixel = g_new (gsize, m);
+  }
   return c;
 }
 
@@ -193,10 +227,11 @@ sonar_clusterer_retune (SonarClusterer * c, const SonarClusterParams * p,
   if (p->hypotheses != c->params.hypotheses
       || p->linkage != c->params.linkage
       || p->max_peaks != c->params.max_peaks
+      || p->threads != c->params.threads
       || !p->range_compensation != !c->params.range_compensation) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, "cluster: "
-        "hypotheses, linkage, max-peaks and range-compensation are set when "
-        "the clusterer is made, not between pings");
+        "hypotheses, linkage, max-peaks, range-compensation and threads are "
+        "set when the clusterer is made, not between pings");
     return FALSE;
   }
   tuned.threshold_db = p->threshold_db;
@@ -218,9 +253,19 @@ sonar_clusterer_free (SonarClusterer * c)
 {
   if (!c)
     return;
+  sonar_workers_free (c->workers);
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
+    WorkerScratch *ws = &c->scratch[w];
+    g_free (ws->columns);
+    g_free (ws->bracketed);
+    g_free (ws->row_max);
+    g_free (ws->column_values);
+    g_free (ws->peaks.value);
+    g_free (ws->peaks.pixel);
+  }
   sonar_linkage_work_free (c->linkage);
-  g_free (c->peak_value);
-  g_free (c->peak_pixel);
+  g_free (c->peaks.value);
+  g_free (c->peaks.pixel);
   g_free (c->points);
   g_free (c->peak_range);
   g_free (c->peak_direction);
@@ -231,76 +276,70 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->range);
   g_free (c->row_max);
   g_free (c->sidelobe);
-  g_free (c->columns);
   g_free (c->column_quartile);
-  g_free (c->column_values);
-  g_free (c->bracketed);
   g_free (c);
 }
 
 guint
 sonar_clusterer_n_peaks (const SonarClusterer * c)
 {
-  return c->n_found;
+  return c->peaks.n_found;
 }
 
 /* Peak a is weaker than b: lower value, or equal and later in the image. */
 static inline gboolean
-weaker (const SonarClusterer * c, guint a, guint b)
+weaker (const PeakHeap * h, guint a, guint b)
 {
-  return c->peak_value[a] < c->peak_value[b] ||
-      (c->peak_value[a] == c->peak_value[b] &&
-      c->peak_pixel[a] > c->peak_pixel[b]);
+  return h->value[a] < h->value[b] ||
+      (h->value[a] == h->value[b] && h->pixel[a] > h->pixel[b]);
 }
 
 static inline void
-peak_swap (SonarClusterer * c, guint a, guint b)
+peak_swap (PeakHeap * h, guint a, guint b)
 {
-  const float v = c->peak_value[a];
-  const gsize p = c->peak_pixel[a];
+  const float v = h->value[a];
+  const gsize p = h->pixel[a];
 
-  c->peak_value[a] = c->peak_value[b];
-  c->peak_pixel[a] = c->peak_pixel[b];
-  c->peak_value[b] = v;
-  c->peak_pixel[b] = p;
+  h->value[a] = h->value[b];
+  h->pixel[a] = h->pixel[b];
+  h->value[b] = v;
+  h->pixel[b] = p;
 }
 
 static void
-peak_sift_down (SonarClusterer * c, guint size, guint i)
+peak_sift_down (PeakHeap * h, guint size, guint i)
 {
   guint child = 2 * i + 1;
 
   while (child < size) {
-    if (child + 1 < size && weaker (c, child + 1, child))
+    if (child + 1 < size && weaker (h, child + 1, child))
       child++;
-    if (!weaker (c, child, i))
+    if (!weaker (h, child, i))
       break;
-    peak_swap (c, i, child);
+    peak_swap (h, i, child);
     i = child;
     child = 2 * i + 1;
   }
 }
 
-/* Keeps the max_peaks strongest peaks in the min-heap. */
+/* Keeps the @capacity strongest peaks in the min-heap @h. */
 static void
-keep_peak (SonarClusterer * c, float value, gsize pixel)
+keep_peak (PeakHeap * h, guint capacity, float value, gsize pixel)
 {
-  const guint capacity = c->params.max_peaks;
-
-  c->n_found++;
-  if (c->n_peaks < capacity) {
-    guint i = c->n_peaks++;
-    c->peak_value[i] = value;
-    c->peak_pixel[i] = pixel;
-    while (i > 0 && weaker (c, i, (i - 1) / 2)) {
-      peak_swap (c, i, (i - 1) / 2);
+  h->n_found++;
+  if (h->n < capacity) {
+    guint i = h->n++;
+    h->value[i] = value;
+    h->pixel[i] = pixel;
+    while (i > 0 && weaker (h, i, (i - 1) / 2)) {
+      peak_swap (h, i, (i - 1) / 2);
       i = (i - 1) / 2;
     }
-  } else if (value > c->peak_value[0] || (value == c->peak_value[0]
-          && pixel < c->peak_pixel[0])) {
-    c->peak_value[0] = value;
-    c->peak_pixel[0] = pixel;
-    peak_sift_down (c, capacity, 0);
+  } else if (value > h->value[0] || (value == h->value[0]
+          && pixel < h->pixel[0])) {
+    h->value[0] = value;
+    h->pixel[0] = pixel;
+    peak_sift_down (h, capacity, 0);
   }
 }
 
@@ -554,12 +593,22 @@ sonar_cluster_floor_gain (double pfa, double k)
  * million pixels). A 3-D image's quartile is taken over every k-th
  * direction, at most FLOOR_DIRECTIONS of them: from a thousand samples a
  * quartile is steady to a few per cent. */
+/* Worker @w's share of the noise floors: a contiguous run of the range
+ * bins, its blocks of FLOOR_BLOCK gathered into its own columns. The
+ * floors do not depend on the share (an order statistic is exact
+ * whatever the guess that speeds it up). */
 static void
-noise_floors (SonarClusterer * c, const float *image)
+noise_floors_share (gpointer data, guint w, guint n_workers)
 {
+  SonarClusterer *c = data;
   const SonarImageGrid *g = &c->grid;
+  const float *image = c->image;
+  float *columns = c->scratch[w].columns;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
   const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
+  const guint n_blocks = (g->n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
+  const guint first = n_blocks * w / n_workers;
+  const guint end = n_blocks * (w + 1) / n_workers;
   const float gain = (float) sonar_cluster_floor_gain (c->params.pfa,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
   const float censor = (float) sonar_cluster_floor_gain (CENSOR_SHARE,
@@ -567,11 +616,8 @@ noise_floors (SonarClusterer * c, const float *image)
   gsize counts[FLOOR_BLOCK];
   float guess = NAN;
 
-  if (!(gain > 0.0f)) {
-    memset (c->floor, 0, sizeof (float) * g->n_range);
-    return;
-  }
-  for (guint i0 = 0; i0 < g->n_range; i0 += FLOOR_BLOCK) {
+  for (guint i0 = first * FLOOR_BLOCK; i0 < MIN (end * FLOOR_BLOCK,
+          g->n_range); i0 += FLOOR_BLOCK) {
     const guint block = MIN (FLOOR_BLOCK, g->n_range - i0);
     gsize n = 0;
     gboolean finite = TRUE;
@@ -580,7 +626,7 @@ noise_floors (SonarClusterer * c, const float *image)
     for (gsize d = 0; d < n_dirs; d += stride, n++) {
       const float *pixels = image + d * g->n_range + i0;
       for (guint b = 0; b < block; b++) {
-        c->columns[b * n_dirs + n] = pixels[b];
+        columns[b * n_dirs + n] = pixels[b];
         finite &= isfinite (pixels[b]);
       }
     }
@@ -592,7 +638,7 @@ noise_floors (SonarClusterer * c, const float *image)
         const float *pixels = image + d * g->n_range + i0;
         for (guint b = 0; b < block; b++)
           if (isfinite (pixels[b]))
-            c->columns[b * n_dirs + counts[b]++] = pixels[b];
+            columns[b * n_dirs + counts[b]++] = pixels[b];
       }
     }
     for (guint b = 0; b < block; b++) {
@@ -600,12 +646,26 @@ noise_floors (SonarClusterer * c, const float *image)
        * level they share; one bin's own is a sample of it, off by a few
        * per cent: neighbouring bins are nearly independent at the
        * band's range resolution). */
-      const float q = censored_quartile (c->columns + b * n_dirs,
-          counts[b], censor, guess, c->bracketed);
+      const float q = censored_quartile (columns + b * n_dirs, counts[b],
+          censor, guess, c->scratch[w].bracketed);
       guess = isfinite (guess) ? guess + 0.125f * (q - guess) : q;
       c->floor[i0 + b] = gain * q;
     }
   }
+}
+
+/* Per range bin, the CFAR threshold over its directions' noise floor. */
+static void
+noise_floors (SonarClusterer * c, const float *image)
+{
+  if (!(sonar_cluster_floor_gain (c->params.pfa,
+              sonar_cluster_effective_hypotheses (c->params.hypotheses)) >
+          0.0)) {
+    memset (c->floor, 0, sizeof (float) * c->grid.n_range);
+    return;
+  }
+  c->image = image;
+  sonar_workers_run (c->workers, noise_floors_share, c);
 }
 
 /* The lower quartile of block @b of direction @d's column, computed
@@ -613,7 +673,7 @@ noise_floors (SonarClusterer * c, const float *image)
  * select_bracketed () (a ridge's level changes little from block to
  * block). */
 static float
-column_quartile (SonarClusterer * c, gsize d, guint b)
+column_quartile (SonarClusterer * c, WorkerScratch * ws, gsize d, guint b)
 {
   float *q = &c->column_quartile[d * c->n_column_blocks + b];
 
@@ -626,9 +686,9 @@ column_quartile (SonarClusterer * c, gsize d, guint b)
     gsize count = 0;
     for (guint i = b * c->column_bins; i < i1; i++)
       if (isfinite (column[i]))
-        c->column_values[count++] = column[i];
-    *q = count > 0 ? select_bracketed (c->column_values, count, count / 4,
-        guess, 1.0f, 1.0f, c->bracketed) : 0.0f;
+        ws->column_values[count++] = column[i];
+    *q = count > 0 ? select_bracketed (ws->column_values, count, count / 4,
+        guess, 1.0f, 1.0f, ws->bracketed) : 0.0f;
   }
   return *q;
 }
@@ -647,15 +707,15 @@ column_quartile (SonarClusterer * c, gsize d, guint b)
  * Computed only for pixels that pass every other test: work grows with
  * what the image holds. */
 static float
-column_floor (SonarClusterer * c, gsize d, guint i)
+column_floor (SonarClusterer * c, WorkerScratch * ws, gsize d, guint i)
 {
   const guint b = i / c->column_bins;
-  float q = column_quartile (c, d, b);
+  float q = column_quartile (c, ws, d, b);
 
   if (b > 0)
-    q = MAX (q, column_quartile (c, d, b - 1));
+    q = MAX (q, column_quartile (c, ws, d, b - 1));
   if (b + 1 < c->n_column_blocks)
-    q = MAX (q, column_quartile (c, d, b + 1));
+    q = MAX (q, column_quartile (c, ws, d, b + 1));
   return c->column_gain * q;
 }
 
@@ -679,61 +739,89 @@ sidelobe_thresholds (SonarClusterer * c)
   }
 }
 
-/* The pixels of @image (range-compensated if so set) above @threshold,
- * their range bin's floor, their direction's column floor (of the
- * uncompensated image, so times r^2 when compensated) and their range's
- * sidelobe threshold. */
+/* Worker @w's share of find_peaks (): the peaks of its run of
+ * directions into its own heap. */
 static void
-find_peaks (SonarClusterer * c, const float *image, float threshold)
+find_peaks_share (gpointer data, guint w, guint n_workers)
 {
+  SonarClusterer *c = data;
+  WorkerScratch *ws = &c->scratch[w];
   const SonarImageGrid *g = &c->grid;
+  const float *image = c->image;
+  const float threshold = c->threshold;
+  const guint capacity = c->params.max_peaks;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
 
-  c->n_peaks = 0;
-  c->n_found = 0;
-  for (guint e = 0; e < g->n_elevation; e++)
-    for (guint a = 0; a < g->n_azimuth; a++)
-      for (guint i = 0; i < g->n_range; i++) {
-        const gsize p = ((gsize) e * g->n_azimuth + a) * g->n_range + i;
-        const float v = image[p];
-        const float r = c->range[i];
-        gboolean peak = TRUE;
-        if (!(v >= threshold) || !(v >= c->floor[i])
-            || !(v >= c->sidelobe[i]) || !isfinite (v)
-            || !(v >= column_floor (c, (gsize) e * g->n_azimuth + a, i) *
-                (c->compensated ? r * r : 1.0f)))
+  ws->peaks.n = ws->peaks.n_found = 0;
+  for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
+      d++) {
+    const guint e = d / g->n_azimuth, a = d % g->n_azimuth;
+    for (guint i = 0; i < g->n_range; i++) {
+      const gsize p = d * g->n_range + i;
+      const float v = image[p];
+      const float r = c->range[i];
+      gboolean peak = TRUE;
+      if (!(v >= threshold) || !(v >= c->floor[i])
+          || !(v >= c->sidelobe[i]) || !isfinite (v)
+          || !(v >= column_floor (c, ws, d, i) *
+              (c->compensated ? r * r : 1.0f)))
+        continue;
+      for (int de = -1; de <= 1 && peak; de++) {
+        if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
           continue;
-        for (int de = -1; de <= 1 && peak; de++) {
-          if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
+        for (int da = -1; da <= 1 && peak; da++) {
+          if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
             continue;
-          for (int da = -1; da <= 1 && peak; da++) {
-            if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
+          for (int di = -1; di <= 1; di++) {
+            gsize q;
+            float u;
+            if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
+                || (de == 0 && da == 0 && di == 0))
               continue;
-            for (int di = -1; di <= 1; di++) {
-              gsize q;
-              float u;
-              if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
-                  || (de == 0 && da == 0 && di == 0))
-                continue;
-              q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
-              u = image[q];
-              /* Equal values: the earlier pixel wins, a deterministic
-               * order. Non-finite neighbours do not count. */
-              if (isfinite (u) && (u > v || (u == v && q < p))) {
-                peak = FALSE;
-                break;
-              }
+            q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
+            u = image[q];
+            /* Equal values: the earlier pixel wins, a deterministic
+             * order. Non-finite neighbours do not count. */
+            if (isfinite (u) && (u > v || (u == v && q < p))) {
+              peak = FALSE;
+              break;
             }
           }
         }
-        if (peak)
-          keep_peak (c, v, p);
       }
+      if (peak)
+        keep_peak (&ws->peaks, capacity, v, p);
+    }
+  }
+}
 
+/* The pixels of @image (range-compensated if so set) above @threshold,
+ * their range bin's floor, their direction's column floor (of the
+ * uncompensated image, so times r^2 when compensated) and their range's
+ * sidelobe threshold that are local maxima, the max_peaks strongest of
+ * them into c->peaks, strongest first. */
+static void
+find_peaks (SonarClusterer * c, const float *image, float threshold)
+{
+  PeakHeap *h = &c->peaks;
+  guint found = 0;
+
+  c->image = image;
+  c->threshold = threshold;
+  sonar_workers_run (c->workers, find_peaks_share, c);
+  h->n = 0;
+  for (guint w = 0; w < sonar_workers_count (c->workers); w++) {
+    const PeakHeap *share = &c->scratch[w].peaks;
+    for (guint k = 0; k < share->n; k++)
+      keep_peak (h, c->params.max_peaks, share->value[k], share->pixel[k]);
+    found += share->n_found;
+  }
+  h->n_found = found;
   /* Heap sort of the min-heap: strongest first. */
-  for (guint size = c->n_peaks; size > 1; size--) {
-    peak_swap (c, 0, size - 1);
-    peak_sift_down (c, size - 1, 0);
+  for (guint size = h->n; size > 1; size--) {
+    peak_swap (h, 0, size - 1);
+    peak_sift_down (h, size - 1, 0);
   }
 }
 
@@ -764,8 +852,8 @@ locate_peaks (SonarClusterer * c, const float *image)
   const SonarImageGrid *g = &c->grid;
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
 
-  for (guint k = 0; k < c->n_peaks; k++) {
-    const gsize p = c->peak_pixel[k];
+  for (guint k = 0; k < c->peaks.n; k++) {
+    const gsize p = c->peaks.pixel[k];
     const guint i = p % g->n_range, a = (p / g->n_range) % g->n_azimuth;
     const guint e = p / stride_e;
     const double r = g->range_first + g->range_step *
@@ -812,6 +900,38 @@ refuse_links (SonarClusterer * c, const double *Z, guint n)
   }
 }
 
+/* Worker @w's share of the first pass: its run of directions compensated
+ * (when so set), and their strongest pixel per range bin into its
+ * row_max. */
+static void
+compensate_share (gpointer data, guint w, guint n_workers)
+{
+  SonarClusterer *c = data;
+  const SonarImageGrid *g = &c->grid;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  float *row_max = c->scratch[w].row_max;
+
+  memset (row_max, 0, sizeof (float) * g->n_range);
+  for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
+      d++) {
+    const float *in = c->image + d * g->n_range;
+    float *compensated = c->compensated ? c->compensated + d * g->n_range :
+        NULL;
+    /* The row maxima's update as a select, without branches. */
+    if (compensated) {
+      for (guint i = 0; i < g->n_range; i++) {
+        const float v = in[i] * c->range[i] * c->range[i];
+        compensated[i] = v;
+        row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+      }
+    } else {
+      for (guint i = 0; i < g->n_range; i++)
+        row_max[i] = in[i] > row_max[i] && isfinite (in[i]) ? in[i] :
+            row_max[i];
+    }
+  }
+}
+
 guint
 sonar_clusterer_process (SonarClusterer * c, const float *image,
     SonarCentroid * out, guint max_centroids)
@@ -827,32 +947,20 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   g_return_val_if_fail (out || max_centroids == 0, 0);
   g = &c->grid;
   n_pixels = sonar_image_grid_size (g);
-  /* One pass over the image: compensated (when so set), each range's
-   * strongest pixel over the directions (for the sidelobe thresholds),
-   * and so the image's. */
-  memset (c->row_max, 0, sizeof (float) * g->n_range);
-  for (gsize d = 0; d < n_pixels / g->n_range; d++) {
-    const float *in = image + d * g->n_range;
-    float *compensated = c->compensated ? c->compensated + d * g->n_range :
-        NULL;
-    /* The row maxima's update as a select, without branches. */
-    if (compensated) {
-      for (guint i = 0; i < g->n_range; i++) {
-        const float v = in[i] * c->range[i] * c->range[i];
-        compensated[i] = v;
-        c->row_max[i] = v > c->row_max[i] && isfinite (v) ? v : c->row_max[i];
-      }
-    } else {
-      for (guint i = 0; i < g->n_range; i++)
-        c->row_max[i] = in[i] > c->row_max[i] && isfinite (in[i]) ? in[i] :
-            c->row_max[i];
-    }
-  }
+  /* One pass over the image, shared out: compensated (when so set), each
+   * range's strongest pixel over the directions (for the sidelobe
+   * thresholds), and so the image's. */
+  c->image = image;
+  sonar_workers_run (c->workers, compensate_share, c);
+  memcpy (c->row_max, c->scratch[0].row_max, sizeof (float) * g->n_range);
+  for (guint w = 1; w < sonar_workers_count (c->workers); w++)
+    for (guint i = 0; i < g->n_range; i++)
+      c->row_max[i] = MAX (c->row_max[i], c->scratch[w].row_max[i]);
   if (c->compensated)
     image = c->compensated;
   for (guint i = 0; i < g->n_range; i++)
     max = MAX (max, c->row_max[i]);
-  c->n_found = c->n_peaks = 0;
+  c->peaks.n_found = c->peaks.n = 0;
   if (!(max > 0.0f))
     return 0;
   threshold = MAX (max * pow (10.0, c->params.threshold_db / 20.0),
@@ -866,7 +974,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   for (gsize k = 0; k < n_pixels / g->n_range * c->n_column_blocks; k++)
     c->column_quartile[k] = NAN;
   find_peaks (c, image, threshold);
-  n = c->n_peaks;
+  n = c->peaks.n;
   if (n == 0)
     return 0;
   locate_peaks (c, image);
@@ -883,10 +991,10 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
     c->slot[k] = -1;
   for (guint k = 0; k < n; k++) {
     const int label = c->labels[k];
-    const double v = c->peak_value[k], weight = v * v;
+    const double v = c->peaks.value[k], weight = v * v;
     SonarCentroid *o;
     if (c->slot[label] < 0) {
-      const gsize p = c->peak_pixel[k];
+      const gsize p = c->peaks.pixel[k];
       if (n_out == max_centroids)
         continue;
       c->slot[label] = n_out;

@@ -123,12 +123,16 @@ typedef struct
    * O(max_peaks), and 8 max_peaks^2 bytes for the distance matrix of the
    * complete and average linkages. */
   guint max_peaks;
+  /* Workers sharing the passes over the image (the compensation and the
+   * noise floors); 0: one per processor. The results do not depend on
+   * it. */
+  guint threads;
 } SonarClusterParams;
 
 /* Range compensation on; relative threshold off, sidelobes -16 dB, pfa
  * 1e-10 over the noise floors with one hypothesis, absolute off; Ward,
  * inconsistency
- * 1.0 over depth 3; distance 0.1 m; 2000 peaks. */
+ * 1.0 over depth 3; distance 0.1 m; 2000 peaks; a thread per processor. */
 void sonar_cluster_params_init_default (SonarClusterParams * params);
 
 typedef struct

@@ -15,6 +15,7 @@
 #include "sonar-rng.h"
 #include "sonar-test-util.h"
 #include "sonar-error.h"
+#include "sonar-workers.h"
 
 /* The synthetic images are not sonar echoes: no spreading loss to undo. */
 static void
@@ -524,6 +525,66 @@ test_3d (void)
   check_blobs (out, n, blobs, 2);
 }
 
+/* The passes shared between workers (compensation, noise floors, peaks)
+ * give the same peaks and centroids bit for bit with 1 to 7 threads, on
+ * a 3-D image with ridges and a few non-finite pixels (7 threads for 13
+ * blocks of floors): at the defaults (range compensation, the CFAR
+ * floors), and with the floors off and max-peaks 50, so that the noise's
+ * peaks fill every worker's heap and the merge keeps the strongest. */
+static void
+test_threads (void)
+{
+  const Blob blobs[] = {
+    {10.3, 1.2013, -5.2, 1.0, 3.0},
+    {-20.4, 0.9021, 12.3, 0.7, 3.0},
+    {3.1, 1.5007, 7.9, 0.05, 3.0},
+  };
+  SonarImageGrid g = { 61, -30.0, 1.0, 41, -20.0, 1.0, 400, 0.5, 0.003 };
+  const guint threads[] = { 1, 2, 3, 7 };
+  g_autofree float *image = render (&g, blobs, 3, 0.004, 0.1, 5);
+
+  image[1234] = NAN;
+  image[20 * g.n_range + 399] = INFINITY;
+  for (guint crowded = 0; crowded < 2; crowded++) {
+    SonarCentroid first[64], out[64];
+    guint n_first = 0, peaks_first = 0;
+
+    for (guint t = 0; t < G_N_ELEMENTS (threads); t++) {
+      SonarClusterParams p;
+      g_autoptr (GError) error = NULL;
+      g_autoptr (SonarClusterer) c = NULL;
+      guint n;
+
+      sonar_cluster_params_init_default (&p);
+      if (crowded) {
+        p.pfa = 1.0;
+        p.sidelobe_db = -200.0;
+        p.threshold_db = -60.0;
+        p.max_peaks = 50;
+      }
+      p.threads = threads[t];
+      c = sonar_clusterer_new (&g, &p, &error);
+      g_assert_no_error (error);
+      n = sonar_clusterer_process (c, image, t == 0 ? first : out, 64);
+      g_test_message ("%s, %u threads: %u centroids, %u peaks found",
+          crowded ? "floors off" : "defaults", threads[t], n,
+          sonar_clusterer_n_peaks (c));
+      if (t == 0) {
+        n_first = n;
+        peaks_first = sonar_clusterer_n_peaks (c);
+        if (crowded)
+          g_assert_cmpuint (peaks_first, >, 20 * p.max_peaks);
+        else
+          check_blobs (first, n, blobs, 3);
+        continue;
+      }
+      g_assert_cmpuint (n, ==, n_first);
+      g_assert_cmpuint (sonar_clusterer_n_peaks (c), ==, peaks_first);
+      g_assert_cmpmem (out, sizeof out[0] * n, first, sizeof first[0] * n);
+    }
+  }
+}
+
 static void
 test_degenerate (void)
 {
@@ -645,6 +706,9 @@ spoil (guint i, SonarImageGrid * g, SonarClusterParams * p)
     case 15:
       p->sidelobe_db = 1.0;
       break;
+    case 16:
+      p->threads = SONAR_MAX_WORKERS + 1;
+      break;
     default:
       return FALSE;
   }
@@ -703,8 +767,8 @@ test_retune (void)
   g_assert_false (sonar_clusterer_retune (c, &strict, &error));
   g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
   g_assert_cmpstr (error->message, ==, "cluster: hypotheses, linkage, "
-      "max-peaks and range-compensation are set when the clusterer is made, "
-      "not between pings");
+      "max-peaks, range-compensation and threads are set when the clusterer "
+      "is made, not between pings");
   g_clear_error (&error);
   strict = p;
   strict.pfa = 2.0;
@@ -905,6 +969,7 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/three-blobs-noisier", test_three_blobs_noisier);
   g_test_add_func ("/cluster/ridges", test_ridges);
   g_test_add_func ("/cluster/3d", test_3d);
+  g_test_add_func ("/cluster/threads", test_threads);
   g_test_add_func ("/cluster/degenerate", test_degenerate);
   g_test_add_func ("/cluster/max-centroids", test_max_centroids);
   g_test_add_func ("/cluster/bad-params", test_bad_params);

@@ -267,7 +267,8 @@ fft_flops (double n)
  *               per pass the transmit sum (8 per emitter and bin), the
  *               product (6 per bin), the inverse transform and the
  *               envelope (3 per range bin);
- *   clustering  two reads of the image at the measured read rate;
+ *   clustering  two reads of the image at the measured read rate (its
+ *               passes over the image are shared by the cores);
  *   velocity    per centroid and direction the prescreen searches
  *               (sonar_velocity_pool_work ()), per window direction: a
  *               focus (the receive sum, 8 flops per microphone and bin,
@@ -315,7 +316,7 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
   floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
   floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *
-      sizeof (float) / (b->read_gbs * 1e6);
+      sizeof (float) / (b->read_gbs * 1e6) / cores;
   floor_ms[STAGE_VELOCITY] = flops[STAGE_VELOCITY] * per_core_ms /
       MIN (cores, b->n_threads);
   /* Tracking's is a few small matrices per track: none is counted. */

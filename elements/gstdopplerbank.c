@@ -36,6 +36,7 @@
 
 #include "gstdopplerbank.h"
 #include "sonar-memory.h"
+#include "sonar-workers.h"
 
 #include <gio/gio.h>
 #include <gst/audio/audio.h>
@@ -62,6 +63,7 @@ enum
   PROP_PING_LENGTH,
   PROP_SPEED_OF_SOUND,
   PROP_SENSOR_FILE,
+  PROP_THREADS,
   PROP_MAX_MEMORY,
 };
 
@@ -75,6 +77,7 @@ struct _GstDopplerBank
   guint64 max_memory;
   guint ping_length_setting;
   double speed_of_sound;
+  guint threads;
 
   /* Configured state. */
   SonarSetup *setup;            /* the filter's: valid while configured */
@@ -82,7 +85,7 @@ struct _GstDopplerBank
   guint channels;
   guint ping_length;
   SonarBand band;
-  SonarSpectrum *analyzer;
+  SonarChannelSpectra *analyzer;
   float *converted;             /* one ping as float, for other formats */
   gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
   gboolean warned_non_finite, warned_overflow, warned_clipped;
@@ -179,7 +182,7 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GstCaps *out_caps;
   double v_min, v_max, v_step;
   guint64 max_memory, bank_bytes;
-  guint n_velocities;
+  guint n_velocities, threads;
   SonarBand ping_band;
 
   if (!in_caps || !recording_info_from_caps (&info, in_caps)) {
@@ -234,8 +237,14 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
             sizeof (gint32)));
   sonar_doppler_bank_prepare_ping_band (bank);
   self->band = *sonar_doppler_bank_band (bank);
-  self->analyzer = sonar_spectrum_new (&self->band);
   gst_sonar_filter_set_bank (filter, bank, &self->band);
+  GST_OBJECT_LOCK (self);
+  threads = self->threads;
+  GST_OBJECT_UNLOCK (self);
+  self->analyzer = sonar_channel_spectra_new (&self->band, self->channels,
+      threads, error);
+  if (!self->analyzer)
+    return NULL;
   {
     g_autofree char *problems = sonar_setup_check (setup);
     if (problems)
@@ -261,7 +270,7 @@ gst_doppler_bank_unconfigure (GstSonarFilter * filter)
 {
   GstDopplerBank *self = GST_DOPPLER_BANK (filter);
 
-  g_clear_pointer (&self->analyzer, sonar_spectrum_free);
+  g_clear_pointer (&self->analyzer, sonar_channel_spectra_free);
   g_clear_pointer (&self->converted, g_free);
   g_clear_pointer (&self->unpacked, g_free);
   self->setup = NULL;
@@ -416,9 +425,8 @@ ping_duration (GstDopplerBank * self)
 static GstBuffer *
 analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
 {
-  const gsize bins = self->band.n_bins;
   GstBuffer *out = gst_sonar_filter_new_buffer (GST_SONAR_FILTER (self),
-      sizeof (SonarComplex) * bins * self->channels);
+      sizeof (SonarComplex) * self->band.n_bins * self->channels);
   const float *samples;
   GstMapInfo map;
   guint n_bad = 0;
@@ -428,9 +436,8 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
 
   samples = tame_overflow (self, ping_samples (self, data, index), index);
   gst_buffer_map (out, &map, GST_MAP_WRITE);
-  for (guint j = 0; j < self->channels; j++)
-    sonar_spectrum_process (self->analyzer, samples + j, self->ping_length,
-        self->channels, (SonarComplex *) map.data + j * bins, &n_bad);
+  n_bad = sonar_channel_spectra_process (self->analyzer, samples,
+      self->ping_length, (SonarComplex *) map.data);
   gst_buffer_unmap (out, &map);
   if (n_bad > 0 && !self->warned_non_finite) {
     GST_ELEMENT_WARNING (self, STREAM, FORMAT,
@@ -657,6 +664,9 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
     case PROP_SPEED_OF_SOUND:
       self->speed_of_sound = g_value_get_double (value);
       break;
+    case PROP_THREADS:
+      self->threads = g_value_get_uint (value);
+      break;
     case PROP_MAX_MEMORY:
       self->max_memory = g_value_get_uint64 (value);
       break;
@@ -698,6 +708,9 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
       break;
     case PROP_SPEED_OF_SOUND:
       g_value_set_double (value, self->speed_of_sound);
+      break;
+    case PROP_THREADS:
+      g_value_set_uint (value, self->threads);
       break;
     case PROP_MAX_MEMORY:
       g_value_set_uint64 (value, self->max_memory);
@@ -782,6 +795,10 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
       g_param_spec_double ("speed-of-sound", "Speed of sound", "With "
           "waveforms-file: speed of sound, in m/s (a sensor file gives its "
           "own)", 100.0, 2000.0, SONAR_DEFAULT_SPEED_OF_SOUND, flags));
+  g_object_class_install_property (gobject_class, PROP_THREADS,
+      g_param_spec_uint ("threads", "Threads", "Workers sharing the "
+          "microphones' transforms of a ping (0: one per processor); the "
+          "spectra do not depend on it", 0, SONAR_MAX_WORKERS, 0, flags));
   g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
       sonar_memory_param_spec (flags));
 

@@ -1,6 +1,7 @@
 /* sonar-spectrum.c: see sonar-spectrum.h. */
 #include "sonar-spectrum.h"
 #include "sonar-fftw.h"
+#include "sonar-workers.h"
 
 #include <fftw3.h>
 #include <math.h>
@@ -121,4 +122,75 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
       sizeof (SonarComplex) * s->band.n_bins);
   if (n_bad)
     *n_bad += bad;
+}
+
+struct _SonarChannelSpectra
+{
+  SonarWorkers *workers;
+  SonarSpectrum *per_worker[SONAR_MAX_WORKERS];
+  guint n_bad[SONAR_MAX_WORKERS];
+  guint n_channels;
+  guint n_bins;
+  /* The call's, for the workers. */
+  const float *samples;
+  gsize length;
+  SonarComplex *out;
+};
+
+SonarChannelSpectra *
+sonar_channel_spectra_new (const SonarBand * band, guint n_channels,
+    guint threads, GError ** error)
+{
+  g_autoptr (SonarChannelSpectra) s = g_new0 (SonarChannelSpectra, 1);
+
+  s->n_channels = n_channels;
+  s->n_bins = band->n_bins;
+  /* No more workers than channels: each would plan for nothing. */
+  s->workers = sonar_workers_new (MIN (MIN (threads ? threads :
+              g_get_num_processors (), MAX (n_channels, 1)),
+          SONAR_MAX_WORKERS), error);
+  if (!s->workers)
+    return NULL;
+  for (guint w = 0; w < sonar_workers_count (s->workers); w++)
+    s->per_worker[w] = sonar_spectrum_new (band);
+  return g_steal_pointer (&s);
+}
+
+void
+sonar_channel_spectra_free (SonarChannelSpectra * s)
+{
+  if (!s)
+    return;
+  sonar_workers_free (s->workers);
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++)
+    sonar_spectrum_free (s->per_worker[w]);
+  g_free (s);
+}
+
+/* Worker @w's share: a contiguous run of the channels. */
+static void
+channel_spectra_share (gpointer data, guint w, guint n_workers)
+{
+  SonarChannelSpectra *s = data;
+
+  s->n_bad[w] = 0;
+  for (guint j = s->n_channels * w / n_workers;
+      j < s->n_channels * (w + 1) / n_workers; j++)
+    sonar_spectrum_process (s->per_worker[w], s->samples + j, s->length,
+        s->n_channels, s->out + (gsize) j * s->n_bins, &s->n_bad[w]);
+}
+
+guint
+sonar_channel_spectra_process (SonarChannelSpectra * s,
+    const float *samples, gsize length, SonarComplex * out)
+{
+  guint bad = 0;
+
+  s->samples = samples;
+  s->length = length;
+  s->out = out;
+  sonar_workers_run (s->workers, channel_spectra_share, s);
+  for (guint w = 0; w < sonar_workers_count (s->workers); w++)
+    bad += s->n_bad[w];
+  return bad;
 }

@@ -69,7 +69,27 @@ void sonar_spectrum_free (SonarSpectrum * spectrum);
 void sonar_spectrum_process (SonarSpectrum * spectrum, const float *signal,
     gsize length, gsize stride, SonarComplex * out, guint * n_bad);
 
+/* The spectra of every channel of a ping's interleaved recordings, the
+ * channels shared by workers (each with its own SonarSpectrum: FFTW's
+ * plans execute concurrently on separate arrays). */
+typedef struct _SonarChannelSpectra SonarChannelSpectra;
+
+/* For @n_channels channels on @band, @threads workers (0: one per
+ * processor). NULL with @error when the workers cannot be made. */
+SonarChannelSpectra *sonar_channel_spectra_new (const SonarBand * band,
+    guint n_channels, guint threads, GError ** error);
+void sonar_channel_spectra_free (SonarChannelSpectra * spectra);
+
+/* The spectra of @length frames of the channels interleaved in
+ * @samples into @out: channel j's n_bins from out + j n_bins, each as
+ * sonar_spectrum_process () makes it (bit for bit, whatever the
+ * workers). Returns how many samples were not finite (read as 0). */
+guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
+    const float *samples, gsize length, SonarComplex * out);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarSpectrum, sonar_spectrum_free)
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarChannelSpectra,
+    sonar_channel_spectra_free)
 
 G_END_DECLS
 

@@ -200,7 +200,7 @@ typedef struct
   const SonarBand *band;
   const SonarImageGrid *grid;
   guint n_emitters;             /* in the velocity product */
-  SonarSpectrum *analyzer;
+  SonarChannelSpectra *analyzer;
   SonarImager *imager;
   SonarClusterer *clusterer;
   SonarVelocityPool *workers;   /* METHOD_PROPOSED */
@@ -250,8 +250,8 @@ double measure_read_gbs (void);
 gboolean chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
     GError ** error);
 void chain_clear (Chain * ch);
-void chain_spectra (Chain * ch, const float *samples, guint n_mics,
-    gsize length);
+/* The spectra of @length frames of interleaved microphone samples. */
+void chain_spectra (Chain * ch, const float *samples, gsize length);
 void chain_imaging (Chain * ch);
 guint chain_run_ping (Chain * ch, const float *samples, guint n_mics,
     gsize length);

@@ -261,7 +261,8 @@ fft_flops (double n)
  * velocities evaluated, over the centroids) the velocity stage's. Each
  * stage on the cores it uses. The counts are the arithmetic of the
  * method as implemented, not of a cleverer one:
- *   spectra     a real transform per microphone (2.5 N log2 N);
+ *   spectra     a real transform per microphone (2.5 N log2 N), the
+ *               microphones shared by the cores;
  *   imaging     per unit the receive sum (8 flops per microphone and bin:
  *               a complex multiply-add, the phasor's rotation shared),
  *               per pass the transmit sum (8 per emitter and bin), the
@@ -313,7 +314,8 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
       work.block);
   flops[STAGE_VELOCITY] = centroids * window * (work.directions * focus +
       work.screens * screen) + evaluations * window * evaluation;
-  floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms;
+  floor_ms[STAGE_SPECTRA] = flops[STAGE_SPECTRA] * per_core_ms /
+      MIN (cores, J);
   floor_ms[STAGE_IMAGING] = flops[STAGE_IMAGING] * per_core_ms / cores;
   floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *
       sizeof (float) / (b->read_gbs * 1e6) / cores;
@@ -328,7 +330,7 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
 void
 chain_clear (Chain * ch)
 {
-  g_clear_pointer (&ch->analyzer, sonar_spectrum_free);
+  g_clear_pointer (&ch->analyzer, sonar_channel_spectra_free);
   g_clear_pointer (&ch->imager, sonar_imager_free);
   g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
   g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
@@ -369,7 +371,9 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
   indices = g_new (guint, nv + 2);
 
   heap = heap_mb ();
-  ch->analyzer = sonar_spectrum_new (ch->band);
+  ch->analyzer = sonar_channel_spectra_new (ch->band, n_mics, 0, error);
+  if (!ch->analyzer)
+    return FALSE;
   ch->spectra = g_new (SonarComplex, (gsize) n_mics * ch->band->n_bins);
   r->mb[STAGE_SPECTRA] = heap_mb () - heap;
 
@@ -443,11 +447,9 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
 }
 
 void
-chain_spectra (Chain * ch, const float *samples, guint n_mics, gsize length)
+chain_spectra (Chain * ch, const float *samples, gsize length)
 {
-  for (guint j = 0; j < n_mics; j++)
-    sonar_spectrum_process (ch->analyzer, samples + j, length, n_mics,
-        ch->spectra + (gsize) j * ch->band->n_bins, NULL);
+  sonar_channel_spectra_process (ch->analyzer, samples, length, ch->spectra);
 }
 
 void
@@ -608,7 +610,7 @@ chain_run_ping (Chain * ch, const float *samples, guint n_mics,
 {
   guint n;
 
-  chain_spectra (ch, samples, n_mics, length);
+  chain_spectra (ch, samples, length);
   chain_imaging (ch);
   n = sonar_clusterer_process (ch->clusterer, ch->image, ch->centroids,
       MAX_CENTROIDS);
@@ -764,7 +766,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     double velocity_cpu;
 
     stage_start (&clock);
-    chain_spectra (ch, samples, n_mics, length);
+    chain_spectra (ch, samples, length);
     t[STAGE_SPECTRA] = stage_stop (&clock, r, STAGE_SPECTRA);
     stage_start (&clock);
     chain_imaging (ch);

@@ -173,7 +173,7 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
     one.reflectors = &all[k];
     sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
     interleave (planar, n_mics, length, samples);
-    chain_spectra (ch, samples, n_mics, length);
+    chain_spectra (ch, samples, length);
     memcpy (own, ch->spectra, n_spectra * sizeof (SonarComplex));
     sonar_imager_process (imager, own, ch->n_templates, ch->hypotheses, -1,
         image);

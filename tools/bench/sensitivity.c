@@ -195,7 +195,7 @@ run_noise (Bench * b)
     sonar_simulator_render (sim, &scene, p, p / PING_RATE, planar, NULL);
     interleave (planar, n_mics, length, samples);
     if (p < n_dense) {
-      chain_spectra (dense, samples, n_mics, length);
+      chain_spectra (dense, samples, length);
       chain_imaging (dense);
       histogram_add_image (h_dense, dense->image, dense->grid, column);
     }

@@ -107,6 +107,27 @@ sonar_uncertainty_curvature (const double *values, guint n, guint p,
   return 2.0 * c;
 }
 
+double
+sonar_uncertainty_parabola_sigma (const double y[3], const double var[3],
+    double rho1, double rho2)
+{
+  const double c = y[0] - 2.0 * y[1] + y[2];
+  double u, w[3], v;
+
+  if (!(c < 0.0))
+    return NAN;
+  u = 0.5 * (y[0] - y[2]) / c;
+  /* du/dy of u = (y- - y+) / (2 c). */
+  w[0] = (1.0 - 2.0 * u) / (2.0 * c);
+  w[1] = 4.0 * u / (2.0 * c);
+  w[2] = -(1.0 + 2.0 * u) / (2.0 * c);
+  v = w[0] * w[0] * var[0] + w[1] * w[1] * var[1] + w[2] * w[2] * var[2] +
+      2.0 * rho1 * (w[0] * w[1] * sqrt (var[0] * var[1]) +
+      w[1] * w[2] * sqrt (var[1] * var[2])) +
+      2.0 * rho2 * w[0] * w[2] * sqrt (var[0] * var[2]);
+  return v > 0.0 ? sqrt (v) : NAN;
+}
+
 /* Second derivative of ln (image) at pixel @p along an axis of @stride
  * (index @i of @n along it), per step^2; NaN at an edge or where the
  * samples are no peak. */

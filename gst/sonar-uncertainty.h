@@ -96,6 +96,17 @@ double sonar_noise_meter_power (SonarNoiseMeter * meter, const float *image);
 double sonar_uncertainty_curvature (const double *values, guint n, guint p,
     guint half);
 
+/* 1-sigma, in grid steps, of the sub-step offset that wardcluster reads
+ * off three log samples @y (y-, y0, y+, natural log of the envelope):
+ * u = (y- - y+) / (2 (y- - 2 y0 + y+)), linearised (du = w . dy,
+ * w = (1 - 2u, 4u, -(1 + 2u)) / (2 (y- - 2 y0 + y+))) for noise of
+ * variance @var[k] on sample k, correlation @rho1 between neighbours and
+ * @rho2 between the outer two: sqrt (w^T C w). For an envelope A_k + n_k
+ * in circular noise of power E|n|^2, var[k] = E|n|^2 / (2 A_k^2). NaN
+ * where the samples are no peak. */
+double sonar_uncertainty_parabola_sigma (const double y[3],
+    const double var[3], double rho1, double rho2);
+
 /* Fills @out for an estimate @e at @centroid of @image: @noise_power from
  * sonar_noise_meter_power (), @n_emitters the curves in e's
  * product. */

@@ -1,7 +1,8 @@
 /* test-uncertainty.c: the detections' uncertainties (sonar-uncertainty.h):
  * the curvature fit, the noise read off an image of known noise, the
- * sigmas of a peak of known shape, and the bound they use against the
- * scatter of the peak's estimate over many noisy trials. The whole
+ * sigmas of a peak of known shape, the bound they use against the
+ * scatter of the peak's estimate over many noisy trials, and the linear
+ * propagation of correlated noise through the three-sample parabola. The whole
  * chain's sigmas against its scatter: tests/test_results.py and
  * sonar-bench --sweep uncertainty. */
 #include <math.h>
@@ -166,6 +167,72 @@ test_bound_against_scatter (void)
   }
 }
 
+/* The propagation through the three-sample parabola
+ * (sonar_uncertainty_parabola_sigma ()): three samples of a Gaussian peak
+ * A_k = exp (-(k - x0)^2 / (2 s^2)) plus circular complex noise
+ * correlated rho1 between neighbours and rho2 between the outer two (the
+ * Cholesky factor of that matrix applied to white noise), at 40 dB. Over
+ * 4000 trials the offset's scatter matches the formula within 5 % (its
+ * own statistical spread 1.1 %), while the formula without the
+ * correlations misses it by more than 15 %: the test sees the
+ * correlations. */
+#define PROPAGATION_TRIALS 4000
+
+static void
+check_propagation (double x0, double s, double rho1, double rho2)
+{
+  const double power = 1e-4;
+  /* Cholesky factor of [[1 r1 r2] [r1 1 r1] [r2 r1 1]]. */
+  const double l10 = rho1, l11 = sqrt (1.0 - rho1 * rho1);
+  const double l20 = rho2, l21 = (rho1 - rho2 * rho1) / l11;
+  const double l22 = sqrt (1.0 - l20 * l20 - l21 * l21);
+  double a[3], y[3], var[3], sum = 0.0, sum2 = 0.0, scatter, sigma, plain;
+  SonarRng rng;
+
+  for (int k = 0; k < 3; k++) {
+    a[k] = exp (-(k - 1 - x0) * (k - 1 - x0) / (2 * s * s));
+    y[k] = log (a[k]);
+    var[k] = power / (2 * a[k] * a[k]);
+  }
+  sonar_rng_init (&rng, 17, 0);
+  for (guint t = 0; t < PROPAGATION_TRIALS; t++) {
+    double z[2][3], l[3], u;
+    for (int part = 0; part < 2; part++)
+      for (int k = 0; k < 3; k++)
+        z[part][k] = sqrt (power / 2) * sonar_rng_gaussian (&rng);
+    for (int k = 0; k < 3; k++) {
+      const double *lk = k == 0 ? (double[]) { 1, 0, 0 } : k == 1 ?
+          (double[]) { l10, l11, 0 } : (double[]) { l20, l21, l22 };
+      const double re = lk[0] * z[0][0] + lk[1] * z[0][1] + lk[2] * z[0][2];
+      const double im = lk[0] * z[1][0] + lk[1] * z[1][1] + lk[2] * z[1][2];
+      l[k] = log (hypot (a[k] + re, im));
+    }
+    u = 0.5 * (l[0] - l[2]) / (l[0] - 2 * l[1] + l[2]);
+    sum += u;
+    sum2 += u * u;
+  }
+  scatter = sqrt (sum2 / PROPAGATION_TRIALS - (sum / PROPAGATION_TRIALS) *
+      (sum / PROPAGATION_TRIALS));
+  sigma = sonar_uncertainty_parabola_sigma (y, var, rho1, rho2);
+  plain = sonar_uncertainty_parabola_sigma (y, var, 0.0, 0.0);
+  g_test_message ("x0 %.2f rho %.2f %.2f: scatter %.5f, propagated %.5f, "
+      "uncorrelated %.5f steps", x0, rho1, rho2, scatter, sigma, plain);
+  g_assert_cmpfloat_with_epsilon (scatter / sigma, 1.0, 0.05);
+  g_assert_cmpfloat (fabs (scatter / plain - 1.0), >, 0.15);
+}
+
+static void
+test_propagation (void)
+{
+  const double flat[3] = { 0.0, 0.0, 0.0 }, var[3] = { 1, 1, 1 };
+
+  check_propagation (0.2, 1.0, 0.6, 0.2);
+  check_propagation (0.0, 0.8, 0.2, -0.5);
+  /* No peak, no sigma. */
+  g_assert_true (isnan (sonar_uncertainty_parabola_sigma (flat, var, 0.5,
+              0.1)));
+}
+
 int
 main (int argc, char **argv)
 {
@@ -174,5 +241,6 @@ main (int argc, char **argv)
   g_test_add_func ("/uncertainty/noise-power", test_noise_power);
   g_test_add_func ("/uncertainty/known-peak", test_sigmas_of_a_known_peak);
   g_test_add_func ("/uncertainty/bound", test_bound_against_scatter);
+  g_test_add_func ("/uncertainty/propagation", test_propagation);
   return g_test_run ();
 }

@@ -144,6 +144,51 @@ log_curvature (const float *image, gsize p, gsize stride, guint i, guint n)
   return k < 0.0 ? k : NAN;
 }
 
+/* With SONAR_UNCERTAINTY_SAMPLES set (read once), each measurement
+ * prints its inputs to stderr, one line: "sonar-uncertainty-samples:",
+ * the noise power, the peak's range, azimuth and elevation indices, the
+ * centroid's range, azimuth, elevation, the estimate's, then the image at
+ * -2 .. 2 steps from the peak along range, azimuth and elevation (NaN off
+ * the grid). tools/uncertainty-3d.py --samples reads them. */
+static gboolean
+print_samples (void)
+{
+  static gsize once = 0;
+
+  if (g_once_init_enter (&once))
+    g_once_init_leave (&once, g_getenv ("SONAR_UNCERTAINTY_SAMPLES") ? 2 :
+        1);
+  return once == 2;
+}
+
+static void
+write_samples (const float *image, const SonarImageGrid * grid, gsize p,
+    const guint index[3], double noise_power,
+    const SonarCentroid * centroid, const SonarVelocityEstimate * e)
+{
+  const gsize strides[3] = { 1, grid->n_range,
+    (gsize) grid->n_azimuth * grid->n_range
+  };
+  const guint sizes[3] = { grid->n_range, grid->n_azimuth,
+    grid->n_elevation
+  };
+  double v[15];
+
+  for (int axis = 0; axis < 3; axis++)
+    for (int k = -2; k <= 2; k++) {
+      const long j = (long) index[axis] + k;
+      v[5 * axis + k + 2] = j >= 0 && j < (long) sizes[axis] ?
+          image[(gssize) p + k * (gssize) strides[axis]] : NAN;
+    }
+  g_printerr ("sonar-uncertainty-samples: %.9g %u %u %u %.6f %.4f %.4f "
+      "%.6f %.4f %.4f", noise_power, index[0], index[1], index[2],
+      centroid->range, centroid->azimuth, centroid->elevation, e->range,
+      e->azimuth, e->elevation);
+  for (int k = 0; k < 15; k++)
+    g_printerr (" %.9g", v[k]);
+  g_printerr ("\n");
+}
+
 /* sqrt (1 / (2 snr |kappa|)), NaN without a curvature. */
 static double
 sigma (double snr, double kappa)
@@ -190,6 +235,10 @@ sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
       fabs (grid->elevation_step) * sigma (snr, log_curvature (image, p,
           stride_e, el, grid->n_elevation)) :
       NAN;
+  if (print_samples ()) {
+    const guint index[3] = { i, a, el };
+    write_samples (image, grid, p, index, noise_power, centroid, e);
+  }
   /* Each emitter's curve carries g / N of the MIMO image's SNR. */
   out->radial_velocity_sigma = n_emitters > 0 ? sigma (snr *
       SONAR_UNCERTAINTY_EMITTER_SNR_GAIN / n_emitters,

@@ -9,6 +9,19 @@ the rms deviation from each point's mean over the pings (a fixed bias per
 point is left out, as the sigmas leave it out), pooled over the points.
 
     /usr/bin/python3 tools/uncertainty-3d.py --pings 24 0.12 0.5 1.2
+
+--samples also reads what sonar_uncertainty_measure () saw
+(SONAR_UNCERTAINTY_SAMPLES, gst/sonar-uncertainty.c): per coordinate,
+pooled over the points (each one's most frequent peak pixel), the log
+samples y-, y0, y+ of wardcluster's parabola: their noise variances over
+the one the noise meter predicts, E|n|^2 / (2 A_k^2) ("gamma"), their
+correlations between neighbours (rho1) and between the outer two (rho2)
+beside those of noise shaped like the peak itself (exp (kappa / 2),
+exp (2 kappa), kappa the mean log curvature), and the scatter of the
+parabola's offset (the centroid's coordinate, before velocityest) against
+the Cramér-Rao sigma and against the propagation through the parabola
+with that peak-shaped noise (ratio = sigma / scatter); and how often
+velocityest's direction search moved the centroid.
 """
 
 import argparse
@@ -30,8 +43,10 @@ FIELDS = ("range", "azimuth", "elevation", "radial_velocity")
 MATCH_DEGREES = 3.0
 
 
-def run(noise, pings, folder):
-    """Per point, the valid detections of @pings pings at @noise."""
+def run(noise, pings, folder, samples=False):
+    """Per point, the valid detections of @pings pings at @noise (with
+    @samples, also each one's samples line, as a list of numbers, under
+    "samples")."""
     scene = folder / "points-3d.json"
     scene.write_text(json.dumps({
         "dimensions": 3,
@@ -44,11 +59,19 @@ def run(noise, pings, folder):
     env = dict(os.environ)
     build = os.environ.get("SONAR_BUILD_DIR", str(ROOT / "build"))
     env["GST_PLUGIN_PATH_1_0"] = str(pathlib.Path(build) / "elements")
+    if samples:
+        env["SONAR_UNCERTAINTY_SAMPLES"] = "1"
     out = subprocess.run(["gst-launch-1.0", "-q", *launch.split()],
                          capture_output=True, text=True, check=True, env=env)
+    # velocityest measures every detection it reports, in order.
+    lines = iter([[float(v) for v in line.split()[1:]]
+                  for line in out.stderr.splitlines()
+                  if line.startswith("sonar-uncertainty-samples:")])
     per_point = [[] for _ in POINTS]
     for line in out.stdout.splitlines():
         for d in json.loads(line)["detections"]:
+            if samples:
+                d["samples"] = next(lines)
             for k, (_, a, e, _) in enumerate(POINTS):
                 if (abs(d["azimuth"] - a) < MATCH_DEGREES
                         and abs(d["elevation"] - e) < MATCH_DEGREES):
@@ -86,11 +109,100 @@ def print_points(per_point):
         print(f"    point {k}: " + "; ".join(cells))
 
 
+def pooled_covariance(rows):
+    """3 x 3 covariance of rows of three values each, about their mean."""
+    n = len(rows)
+    mean = [statistics.fmean(r[k] for r in rows) for k in range(3)]
+    return [[sum((r[j] - mean[j]) * (r[k] - mean[k]) for r in rows) / (n - 1)
+             for k in range(3)] for j in range(3)], mean
+
+
+def parabola_sigma(y, var, rho1, rho2):
+    """sonar_uncertainty_parabola_sigma (), in steps."""
+    c = y[0] - 2 * y[1] + y[2]
+    if not c < 0:
+        return math.nan
+    u = 0.5 * (y[0] - y[2]) / c
+    w = [(1 - 2 * u) / (2 * c), 4 * u / (2 * c), -(1 + 2 * u) / (2 * c)]
+    rho = [[1, rho1, rho2], [rho1, 1, rho1], [rho2, rho1, 1]]
+    v = sum(w[j] * w[k] * rho[j][k] * math.sqrt(var[j] * var[k])
+            for j in range(3) for k in range(3))
+    return math.sqrt(v) if v > 0 else math.nan
+
+
+def print_samples(per_point):
+    """--samples: the parabola's inputs against the noise models."""
+    for axis, name in enumerate(("range", "azimuth", "elevation")):
+        gamma_sum = [0.0, 0.0, 0.0]
+        cov = [[0.0] * 3 for _ in range(3)]
+        kappas, moved, total = [], 0, 0
+        z2 = {"CRB": 0.0, "peak-shaped": 0.0}
+        dof = 0
+        for p in per_point:
+            s = [d["samples"] for d in p]
+            if len(s) < 3:
+                continue
+            total += len(s)
+            if axis:
+                # Its search moves by multiples of a quarter step.
+                moved += sum(abs(v[7 + axis] - v[4 + axis]) > 0.25
+                             for v in s)
+            pixel = statistics.mode(int(v[1 + axis]) for v in s)
+            s = [v for v in s if int(v[1 + axis]) == pixel
+                 and all(x > 0 for x in v[10 + 5 * axis + 1:
+                                          10 + 5 * axis + 4])]
+            if len(s) < 3:
+                continue
+            logs = [[math.log(x) for x in v[10 + 5 * axis + 1:
+                                             10 + 5 * axis + 4]] for v in s]
+            c, mean = pooled_covariance(logs)
+            noise = statistics.median(v[0] for v in s)
+            predicted = [noise / (2 * math.exp(2 * m)) for m in mean]
+            for j in range(3):
+                for k in range(3):
+                    cov[j][k] += (len(s) - 1) * c[j][k] / math.sqrt(
+                        predicted[j] * predicted[k])
+            kappa = mean[0] - 2 * mean[1] + mean[2]
+            kappas.append(kappa)
+            offsets = []
+            sigmas = {"CRB": [], "peak-shaped": []}
+            for v, y in zip(s, logs):
+                k = y[0] - 2 * y[1] + y[2]
+                offsets.append(0.5 * (y[0] - y[2]) / k)
+                snr = math.exp(2 * y[1]) / v[0]
+                sigmas["CRB"].append(math.sqrt(1 / (2 * snr * -k)))
+                var = [v[0] / (2 * math.exp(2 * x)) for x in y]
+                sigmas["peak-shaped"].append(parabola_sigma(
+                    y, var, math.exp(k / 2), math.exp(2 * k)))
+            m = statistics.fmean(offsets)
+            for key, values in sigmas.items():
+                z2[key] += sum(((o - m) / sg) ** 2
+                               for o, sg in zip(offsets, values))
+            dof += len(s) - 1
+        if not dof:
+            continue
+        cov = [[x / dof for x in row] for row in cov]
+        d = [math.sqrt(cov[k][k]) for k in range(3)]
+        kappa = statistics.fmean(kappas)
+        print(f"    {name}: gamma {cov[0][0]:.2f} {cov[1][1]:.2f} "
+              f"{cov[2][2]:.2f}, rho1 {cov[0][1] / d[0] / d[1]:.2f} "
+              f"{cov[1][2] / d[1] / d[2]:.2f} (peak-shaped "
+              f"{math.exp(kappa / 2):.2f}), rho2 "
+              f"{cov[0][2] / d[0] / d[2]:.2f} ({math.exp(2 * kappa):.2f}); "
+              f"parabola's ratio: CRB {1 / math.sqrt(z2['CRB'] / dof):.2f}, "
+              f"peak-shaped propagation "
+              f"{1 / math.sqrt(z2['peak-shaped'] / dof):.2f} ({dof} dof)"
+              + (f"; moved by velocityest {moved}/{total}" if axis else ""))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("noise", type=float, nargs="+",
                         help="sonarsrc noise-amplitude values")
     parser.add_argument("--pings", type=int, default=24)
+    parser.add_argument("--samples", action="store_true",
+                        help="also print the parabola's samples against "
+                        "the noise models (see above)")
     parser.add_argument("--per-point", action="store_true",
                         help="also print each point's mean, scatter and "
                         "median sigma per coordinate")
@@ -99,7 +211,8 @@ def main():
         f"{f + ' sigma':>22} {'ratio':>5}" for f in FIELDS) + f" {'dof':>4}")
     with tempfile.TemporaryDirectory() as folder:
         for noise in args.noise:
-            per_point = run(noise, args.pings, pathlib.Path(folder))
+            per_point = run(noise, args.pings, pathlib.Path(folder),
+                            args.samples)
             found = "/".join(str(len(p)) for p in per_point)
             detections = [d for p in per_point for d in p]
             if not detections:
@@ -115,6 +228,8 @@ def main():
                   + f" {dof:>4}")
             if args.per_point:
                 print_points(per_point)
+            if args.samples:
+                print_samples(per_point)
     return 0
 
 

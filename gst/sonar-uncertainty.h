@@ -35,7 +35,24 @@
  * highest SNR measured (42 dB in the image); the grid's interpolation
  * bias is fixed per place, a bias, which these sigmas leave out. Above
  * about 40 dB the image's own sidelobe floor lifts the noise read and the
- * sigmas are conservative (1.3 times the scatter at 42 dB). */
+ * sigmas are conservative (1.3 times the scatter at 42 dB).
+ *
+ * On a 3-D image (2 degree grid) the elevation's sigma is 1.2-1.6 times
+ * its scatter (README, Robot-ready results). What was measured there
+ * (tools/uncertainty-3d.py --samples) and why this bound is still what
+ * is reported: the scatter of wardcluster's offset follows the linear
+ * propagation of the log samples' noise through its three-sample
+ * parabola (sonar_uncertainty_parabola_sigma ()) with their measured
+ * covariance; neighbours correlate as noise shaped like the peak itself
+ * would (exp (kappa / 2) per step), in 2-D and 3-D; but the peak pixel's
+ * noise is 0.3-0.95 of the variance the meter's power predicts,
+ * depending on the place far more than on the SNR (0.55 pooled, in 2-D
+ * as in 3-D). Propagation with peak-shaped noise alone is no better than
+ * this bound (3-D range 1.3, elevation 1.6-1.7); with one pooled factor
+ * for the peak's noise (0.55) the 3-D ratios come to 0.66-1.26 but every
+ * 2-D one falls to 0.75-0.80. Not done: a per-detection model of the
+ * peak's own noise (likely the maximum over Doppler hypotheses: an echo
+ * on one hypothesis or between two makes a different peak). */
 #ifndef SONAR_UNCERTAINTY_H
 #define SONAR_UNCERTAINTY_H
 

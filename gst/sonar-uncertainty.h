@@ -51,8 +51,10 @@
  * this bound (3-D range 1.3, elevation 1.6-1.7); with one pooled factor
  * for the peak's noise (0.55) the 3-D ratios come to 0.66-1.26 but every
  * 2-D one falls to 0.75-0.80. Not done: a per-detection model of the
- * peak's own noise (likely the maximum over Doppler hypotheses: an echo
- * on one hypothesis or between two makes a different peak). */
+ * peak's own noise. Its factor is a property of the place (the same at
+ * every SNR); not the noise's power there (flat within 5 % over the
+ * image), nor the maximum over Doppler hypotheses (a one-hypothesis
+ * image spreads as much); cause unknown. */
 #ifndef SONAR_UNCERTAINTY_H
 #define SONAR_UNCERTAINTY_H
 

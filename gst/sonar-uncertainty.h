@@ -44,17 +44,16 @@
  * propagation of the log samples' noise through its three-sample
  * parabola (sonar_uncertainty_parabola_sigma ()) with their measured
  * covariance; neighbours correlate as noise shaped like the peak itself
- * would (exp (kappa / 2) per step), in 2-D and 3-D; but the peak pixel's
- * noise is 0.3-0.95 of the variance the meter's power predicts,
- * depending on the place far more than on the SNR (0.55 pooled, in 2-D
- * as in 3-D). Propagation with peak-shaped noise alone is no better than
- * this bound (3-D range 1.3, elevation 1.6-1.7); with one pooled factor
- * for the peak's noise (0.55) the 3-D ratios come to 0.66-1.26 but every
- * 2-D one falls to 0.75-0.80. Not done: a per-detection model of the
- * peak's own noise. Its factor is a property of the place (the same at
- * every SNR); not the noise's power there (flat within 5 % over the
- * image), nor the maximum over Doppler hypotheses (a one-hypothesis
- * image spreads as much); cause unknown. */
+ * would (exp (kappa / 2) per step) for the still 3-D points. On a
+ * one-hypothesis image the peak's noise is the meter's and that
+ * propagation fits (range 1.06, azimuth 0.89, elevation 1.30 where this
+ * bound gives 0.64, 0.80, 1.22); on the detection image the meter (K_eff
+ * calibrated with this bound on the 2-D scatter) reads about 1.7 times
+ * the peak's noise, and the 2-D sweep's moving echoes have peaks broader
+ * than the noise's own correlation, so peak-shaped propagation with one
+ * noise factor puts the 3-D ratios at 0.66-1.26 but every 2-D one at
+ * 0.75-0.80. Not done: the noise's own correlation per axis in the
+ * propagation, with K_eff from a one-hypothesis image. */
 #ifndef SONAR_UNCERTAINTY_H
 #define SONAR_UNCERTAINTY_H
 

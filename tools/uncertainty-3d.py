@@ -43,7 +43,7 @@ FIELDS = ("range", "azimuth", "elevation", "radial_velocity")
 MATCH_DEGREES = 3.0
 
 
-def run(noise, pings, folder, samples=False):
+def run(noise, pings, folder, samples=False, imager=""):
     """Per point, the valid detections of @pings pings at @noise (with
     @samples, also each one's samples line, as a list of numbers, under
     "samples")."""
@@ -54,7 +54,8 @@ def run(noise, pings, folder, samples=False):
                         "elevation": e, "strength": s}
                        for r, a, e, s in POINTS]}))
     launch = (f"sonarsrc scene-file={scene} num-buffers={pings} "
-              f"noise-amplitude={noise} ! dopplerbank ! mimobeamform ! "
+              f"noise-amplitude={noise} ! dopplerbank ! mimobeamform "
+              f"{imager} ! "
               f"wardcluster ! velocityest ! fdsink")
     env = dict(os.environ)
     build = os.environ.get("SONAR_BUILD_DIR", str(ROOT / "build"))
@@ -203,6 +204,9 @@ def main():
     parser.add_argument("--samples", action="store_true",
                         help="also print the parabola's samples against "
                         "the noise models (see above)")
+    parser.add_argument("--mimobeamform", default="",
+                        help="its properties, e.g. \"mode=fixed "
+                        "velocity=0\" (one hypothesis)")
     parser.add_argument("--per-point", action="store_true",
                         help="also print each point's mean, scatter and "
                         "median sigma per coordinate")
@@ -212,7 +216,7 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         for noise in args.noise:
             per_point = run(noise, args.pings, pathlib.Path(folder),
-                            args.samples)
+                            args.samples, args.mimobeamform)
             found = "/".join(str(len(p)) for p in per_point)
             detections = [d for p in per_point for d in p]
             if not detections:

@@ -48,8 +48,10 @@
  * one-hypothesis image the peak's noise is the meter's and that
  * propagation fits (range 1.06, azimuth 0.89, elevation 1.30 where this
  * bound gives 0.64, 0.80, 1.22); on the detection image the meter (K_eff
- * calibrated with this bound on the 2-D scatter) reads about 1.7 times
- * the peak's noise, and the 2-D sweep's moving echoes have peaks broader
+ * calibrated with this bound on the 2-D scatter) reads 1.5-1.9 times the
+ * one-hypothesis noise, which is the peak's (more at higher SNR, where
+ * more of the image is interpolated), and the 2-D sweep's moving echoes
+ * have peaks broader
  * than the noise's own correlation, so peak-shaped propagation with one
  * noise factor puts the 3-D ratios at 0.66-1.26 but every 2-D one at
  * 0.75-0.80. Not done: the noise's own correlation per axis in the

@@ -220,12 +220,19 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
         g_printerr ("crowded: %s: missed an object %.1f dB above its "
             "interference at %.3f m %+.1f deg: no centroid\n", name,
             margin[k], truths[k].range, truths[k].azimuth);
-      else
+      else {
+        const SonarCentroid *c = &ch->centroids[near];
         g_printerr ("crowded: %s: missed an object %.1f dB above its "
             "interference at %.3f m %+.1f deg: coherence %.2f, %u "
-            "agreeing emitters\n", name, margin[k], truths[k].range,
-            truths[k].azimuth, ch->results[2 * near].coherence,
-            ch->results[2 * near].agreeing_emitters);
+            "agreeing emitters (centroid %.3f m %+.1f deg, %u peaks, "
+            "the strongest at %.3f m %+.1f deg)\n", name, margin[k],
+            truths[k].range, truths[k].azimuth,
+            ch->results[2 * near].coherence,
+            ch->results[2 * near].agreeing_emitters, c->range, c->azimuth,
+            c->n_members, ch->grid->range_first + c->peak_range_index *
+            ch->grid->range_step, ch->grid->azimuth_first +
+            c->peak_azimuth_index * ch->grid->azimuth_step);
+      }
     }
   }
   for (guint d = 0; d < ch->n_detections; d++) {

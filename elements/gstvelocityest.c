@@ -223,8 +223,21 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   d.valid = e->valid;
   d.peak_db = e->peak_db;
   d.variance = e->variance;
-  sonar_uncertainty_measure (image, &self->grid, noise_power, centroid, e,
-      self->n_emitters, &u);
+  {
+    /* An echo velocityest found away from the centroid's strongest member
+     * (a blend of two echoes, sonar-velocity.c) is measured at its own
+     * direction's pixel. */
+    const SonarImageGrid *g = &self->grid;
+    SonarCentroid own = *centroid;
+    const double step = fabs (g->azimuth_step);
+    if (step > 0.0 && fabs (e->azimuth - (g->azimuth_first +
+                centroid->peak_azimuth_index * g->azimuth_step)) > 1.5 * step)
+      own.peak_azimuth_index = (guint) CLAMP (lround ((e->azimuth -
+                  g->azimuth_first) / g->azimuth_step), 0,
+          (long) g->n_azimuth - 1);
+    sonar_uncertainty_measure (image, &self->grid, noise_power, &own, e,
+        self->n_emitters, &u);
+  }
   d.amplitude = u.amplitude_db;
   d.snr = u.snr_db;
   /* The range is moved on to the instant at the estimated velocity

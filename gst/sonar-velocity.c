@@ -37,6 +37,14 @@
 /* Range steps of the window, at most. */
 #define MAX_WINDOW_RANGES 256
 
+/* Image direction steps between a centroid and its strongest member
+ * peak from which on the centroid may be a blend of two echoes the image
+ * resolves (estimate ()): the MIMO beam is about 2 degrees wide (-3 dB),
+ * the default grid's step 1 degree. BLEND_SEARCH: steps either side of
+ * the other members' mean searched for their echo's peak. */
+#define BLEND_STEPS 2.0
+#define BLEND_SEARCH 2
+
 /* -3 dB in amplitude. */
 #define AGREEMENT_RATIO 0.7071067811865476
 
@@ -1221,15 +1229,16 @@ refine_alone (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
   est->lag_last = last;
 }
 
-/* sonar_velocity_estimate () on split spectra. */
+/* estimate () at (@azimuth, @elevation) instead of the centroid's
+ * direction (its range and span of ranges kept). */
 static guint
-estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
-    const SonarCentroid * centroid, SonarVelocityEstimate * out,
+estimate_at (SonarVelocityEstimator * est,
+    const SonarSplitSpectra * mic_spectra, const SonarCentroid * centroid,
+    double azimuth, double elevation, SonarVelocityEstimate * out,
     float *curves)
 {
   const guint nv = est->n_velocities;
   const double range = centroid->range;
-  double azimuth = centroid->azimuth, elevation = centroid->elevation;
   double *lp = est->log_product;
   double median, lowest, floor_level, spread, strength;
   guint peak = 0, count = 1;
@@ -1335,6 +1344,110 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
     for (guint v = 0; v < nv; v++)
       curves[(gsize) est->n_emitters * nv + v] = (float) (20.0 / G_LN10 *
           lp[v] / est->n_emitters);
+  }
+  return count;
+}
+
+/* The direction of @centroid's strongest member peak. */
+static void
+strongest_direction (const SonarVelocityEstimator * est,
+    const SonarCentroid * centroid, double *azimuth, double *elevation)
+{
+  const SonarImageGrid *g = &est->grid;
+
+  *azimuth = g->azimuth_first + MIN (centroid->peak_azimuth_index,
+      g->n_azimuth - 1) * g->azimuth_step;
+  *elevation = g->n_elevation > 1 ? g->elevation_first +
+      MIN (centroid->peak_elevation_index, g->n_elevation - 1) *
+      g->elevation_step : centroid->elevation;
+}
+
+/* Degrees between two directions. */
+static double
+angle_between (double az_a, double el_a, double az_b, double el_b)
+{
+  const double d = sonar_vec3_dot (sonar_vec3_from_direction (az_a, el_a),
+      sonar_vec3_from_direction (az_b, el_b));
+
+  return acos (CLAMP (d, -1.0, 1.0)) * (180.0 / G_PI);
+}
+
+/* sonar_velocity_estimate () on split spectra. A centroid is the
+ * energy-weighted mean of its member peaks: when they lie further apart
+ * than the beam (BLEND_STEPS image steps and more between the centroid
+ * and its strongest member), the centroid may be a blend of two echoes
+ * the image resolves, between them and on neither. When the estimate at
+ * the centroid fails, the echo is looked for at the strongest member
+ * peak, and, found there, the other members' weighted mean direction is
+ * looked at for a second. */
+static guint
+estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
+    const SonarCentroid * centroid, SonarVelocityEstimate * out,
+    float *curves)
+{
+  const SonarImageGrid *g = &est->grid;
+  const double step = g->n_elevation > 1 ? MIN (g->azimuth_step,
+      g->elevation_step) : g->azimuth_step;
+  double az, el;
+  guint count;
+
+  count = estimate_at (est, mic_spectra, centroid, centroid->azimuth,
+      centroid->elevation, out, curves);
+  if (out[0].valid || centroid->n_members < 2)
+    return count;
+  strongest_direction (est, centroid, &az, &el);
+  if (angle_between (az, el, centroid->azimuth, centroid->elevation) <
+      BLEND_STEPS * step - 1e-9)
+    return count;
+  count = estimate_at (est, mic_spectra, centroid, az, el, out, curves);
+  if (!out[0].valid || count > 1)
+    return count;
+  {
+    /* The other members' weighted mean: the centroid's direction vector
+     * times its energy less the strongest peak's share. */
+    const double w = centroid->peak_value * centroid->peak_value;
+    const SonarVec3 rest = sonar_vec3_sub (sonar_vec3_scale
+        (sonar_vec3_from_direction (centroid->azimuth, centroid->elevation),
+            centroid->energy), sonar_vec3_scale (sonar_vec3_from_direction
+            (az, el), w));
+    double raz, rel;
+    SonarVelocityEstimate other[2];
+    if (!(centroid->energy > w) || sonar_vec3_norm (rest) <= 0.0)
+      return count;
+    sonar_vec3_to_direction (rest, &raz, &rel);
+    if (g->n_elevation <= 1)
+      rel = centroid->elevation;
+    /* On the image's grid. */
+    raz = g->azimuth_first + lround ((raz - g->azimuth_first) /
+        g->azimuth_step) * g->azimuth_step;
+    if (angle_between (raz, rel, az, el) < BLEND_STEPS * step - 1e-9)
+      return count;
+    {
+      /* The mean of the members lies within a couple of steps of their
+       * echo's peak (the members of the strongest echo but its top pull
+       * it over): the strongest sum at the detection hypotheses along
+       * azimuth there, no nearer the strongest member than BLEND_STEPS. */
+      const double a0 = raz;
+      double best = -1.0;
+      for (int i = -BLEND_SEARCH; i <= BLEND_SEARCH; i++) {
+        const double a = CLAMP (a0 + i * g->azimuth_step, -90.0, 90.0);
+        double strength;
+        if (angle_between (a, rel, az, el) < BLEND_STEPS * step - 1e-9)
+          continue;
+        coherence_over (est, mic_spectra, centroid->range, a, rel,
+            est->hypotheses, est->n_hypotheses, &strength, NULL, NULL, NULL);
+        if (strength > best) {
+          best = strength;
+          raz = a;
+        }
+      }
+    }
+    estimate_at (est, mic_spectra, centroid, raz, rel, other, NULL);
+    if (other[0].valid) {
+      out[1] = other[0];
+      out[1].second = TRUE;
+      count = 2;
+    }
   }
   return count;
 }

@@ -9,7 +9,9 @@
  * are not peaked (sidelobes, cross-talk ghosts) are dropped
  * (keep-rejected=true keeps them, marked "valid": false). Two separate
  * peaks in one centroid (objects a few centimetres apart in range, of
- * different speeds) give two detections.
+ * different speeds) give two detections. In a crowd, the centroids that
+ * fail though they stand out of the pooled interference are estimated
+ * again with the accepted echoes' models cancelled (sonar-velocity.h).
  *
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
@@ -560,7 +562,10 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "pixel alone measures with 7 degrees of freedom, the pool with "
           "21 or more; min-coherence still holds. Real echoes of a crowd "
           "passing this way stand 14.5-17 dB above the pool, cross-talk "
-          "ghosts 14.2 at most: the default leaves 1.8 dB over them", 0.0, 100.0,
+          "ghosts 14.2 at most: the default leaves 1.8 dB over them. A "
+          "centroid that fails though its emitters' shared power stands "
+          "this far above the pool is estimated once more with the "
+          "accepted echoes cancelled (0 turns that off too)", 0.0, 100.0,
           d.pooled_snr_db, tunable));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "

@@ -9,7 +9,9 @@
  * are not peaked (sidelobes, cross-talk ghosts) are dropped
  * (keep-rejected=true keeps them, marked "valid": false). Two separate
  * peaks in one centroid (objects a few centimetres apart in range, of
- * different speeds) give two detections.
+ * different speeds) give two detections. In a crowd, the centroids that
+ * fail though they stand out of the pooled interference are estimated
+ * again with the accepted echoes' models cancelled (sonar-velocity.h).
  *
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
@@ -223,8 +225,21 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   d.valid = e->valid;
   d.peak_db = e->peak_db;
   d.variance = e->variance;
-  sonar_uncertainty_measure (image, &self->grid, noise_power, centroid, e,
-      self->n_emitters, &u);
+  {
+    /* An echo velocityest found away from the centroid's strongest member
+     * (a blend of two echoes, sonar-velocity.c) is measured at its own
+     * direction's pixel. */
+    const SonarImageGrid *g = &self->grid;
+    SonarCentroid own = *centroid;
+    const double step = fabs (g->azimuth_step);
+    if (step > 0.0 && fabs (e->azimuth - (g->azimuth_first +
+                centroid->peak_azimuth_index * g->azimuth_step)) > 1.5 * step)
+      own.peak_azimuth_index = (guint) CLAMP (lround ((e->azimuth -
+                  g->azimuth_first) / g->azimuth_step), 0,
+          (long) g->n_azimuth - 1);
+    sonar_uncertainty_measure (image, &self->grid, noise_power, &own, e,
+        self->n_emitters, &u);
+  }
   d.amplitude = u.amplitude_db;
   d.snr = u.snr_db;
   /* The range is moved on to the instant at the estimated velocity
@@ -547,7 +562,10 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "pixel alone measures with 7 degrees of freedom, the pool with "
           "21 or more; min-coherence still holds. Real echoes of a crowd "
           "passing this way stand 14.5-17 dB above the pool, cross-talk "
-          "ghosts 14.2 at most: the default leaves 1.8 dB over them", 0.0, 100.0,
+          "ghosts 14.2 at most: the default leaves 1.8 dB over them. A "
+          "centroid that fails though its emitters' shared power stands "
+          "this far above the pool is estimated once more with the "
+          "accepted echoes cancelled (0 turns that off too)", 0.0, 100.0,
           d.pooled_snr_db, tunable));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "

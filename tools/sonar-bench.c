@@ -131,6 +131,11 @@ parse_options (Options * o, int *argc, char ***argv)
     {"split-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_split_pings,
         "Pings per separation and velocity difference of the split sweep "
           "(default 10)", "N"},
+    {"crowded-cancel-bound", 0, 0, G_OPTION_ARG_NONE,
+          &crowded_cancel_bound,
+          "The crowded sweep also estimates the failed centroids again on "
+          "the recording less the true echoes of the objects found, in "
+          "rounds: the bound of successive cancellation", NULL},
     {"threads", 't', 0, G_OPTION_ARG_INT, &o->threads,
         "Velocity workers, as velocityest's threads (default 0: one per "
           "processor)", "N"},

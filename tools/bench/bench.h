@@ -280,6 +280,8 @@ gboolean run_split (Bench * b);
 gboolean run_uncertainty (Bench * b);
 
 /* crowded.c */
+extern gboolean crowded_cancel_bound;
+
 gboolean run_crowded (Bench * b);
 
 /* output.c */

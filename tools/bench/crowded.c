@@ -36,6 +36,10 @@
 #define GRID_AZIMUTH_STEP 8.0
 #define GRID_RANGE_FIRST 0.6
 #define GRID_RANGE_STEP 0.22
+/* cancel_bound ()'s rounds at most. */
+#define CANCEL_ROUNDS 6
+
+gboolean crowded_cancel_bound = FALSE;
 
 static const guint grid_sides[] = { 5, 10, 14, 20 };
 static const guint random_sizes[] = { 25, 50, 100, 150 };
@@ -116,7 +120,97 @@ typedef struct
   double sum_error, max_error, chain_ms, oracle_s;
   double worst_missed_db;       /* the highest margin of a detectable
                                  * object not found, dB (-inf: none) */
+  /* cancel_bound (): objects found besides the chain's, of them
+   * detectable, false objects. */
+  guint bound_found, bound_detectable, bound_false;
 } CrowdRow;
+
+/* The bound of successive cancellation (--crowded-cancel-bound): the
+ * centroids whose estimates all failed estimated again on the recording
+ * less the true, noise-free echoes of the objects found so far, in rounds
+ * (each round cancels what the last found) until one finds nothing more
+ * or CANCEL_ROUNDS: what cancelling the accepted echoes could give with
+ * perfect models of them. Adds to @row's bound_ counts; @found: the
+ * objects found by the chain. */
+static void
+cancel_bound (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
+    const SonarScene * scene,
+    const SonarTruth * truths, const SonarComplex * whole,
+    const gboolean * detectable, const gboolean * found, guint n_centroids,
+    const char *name, CrowdRow * row)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  const guint n = scene->n_reflectors;
+  const gsize n_spectra = (gsize) n_mics * ch->band->n_bins;
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  g_autofree SonarComplex *residual = g_memdup2 (whole, n_spectra *
+      sizeof (SonarComplex));
+  g_autofree SonarCentroid *failed = g_new (SonarCentroid, n_centroids + 1);
+  g_autofree guint *index = g_new (guint, n_centroids + 1);
+  g_autofree SonarVelocityEstimate *results = g_new (SonarVelocityEstimate,
+      2 * (n_centroids + 1));
+  g_autofree guint *counts = g_new (guint, n_centroids + 1);
+  g_autofree gboolean *known = g_memdup2 (found, MAX (n, 1) *
+      sizeof (gboolean));
+  g_autofree gboolean *cancelled = g_new0 (gboolean, MAX (n, 1));
+  g_autofree gboolean *done = g_new0 (gboolean, n_centroids + 1);
+  SonarScene one = *scene;
+
+  one.n_reflectors = 1;
+  for (guint c = 0; c < n_centroids; c++)
+    for (guint i = 0; i < ch->counts[c]; i++)
+      done[c] |= ch->results[2 * c + i].valid;
+  for (guint round = 0; round < CANCEL_ROUNDS; round++) {
+    guint n_failed = 0, gained = 0;
+    for (guint k = 0; k < n; k++) {
+      if (!known[k] || cancelled[k])
+        continue;
+      cancelled[k] = TRUE;
+      one.reflectors = &scene->reflectors[k];
+      sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
+      interleave (planar, n_mics, length, samples);
+      chain_spectra (ch, samples, n_mics, length);
+      for (gsize b = 0; b < n_spectra; b++)
+        residual[b] -= ch->spectra[b];
+    }
+    for (guint c = 0; c < n_centroids; c++)
+      if (!done[c]) {
+        index[n_failed] = c;
+        failed[n_failed++] = ch->centroids[c];
+      }
+    sonar_velocity_pool_estimate (ch->workers, residual, failed, n_failed,
+        results, counts);
+    for (guint c = 0; c < n_failed; c++)
+      for (guint i = 0; i < counts[c]; i++) {
+        const SonarVelocityEstimate *e = &results[2 * c + i];
+        const SonarVec3 at = sonar_vec3_scale (sonar_vec3_from_direction
+            (e->azimuth, e->elevation), e->range);
+        int near = -1;
+        if (!e->valid)
+          continue;
+        done[index[c]] = TRUE;
+        for (guint k = 0; k < n && near < 0; k++)
+          if (sonar_vec3_norm (sonar_vec3_sub (at, truths[k].position)) <
+              MATCH_DISTANCE)
+            near = k;
+        if (near < 0) {
+          row->bound_false++;
+          g_printerr ("crowded: %s: cancellation bound: false object at "
+              "%.3f m %+.1f deg, coherence %.2f (round %u)\n", name,
+              e->range, e->azimuth, e->coherence, round + 1);
+        } else if (!known[near]) {
+          known[near] = TRUE;
+          gained++;
+          row->bound_found++;
+          row->bound_detectable += detectable[near];
+        }
+      }
+    if (!gained)
+      break;
+  }
+}
 
 /* One scene: the chain's ping, then the oracle per object. */
 static gboolean
@@ -138,6 +232,7 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
   g_autofree float *image = NULL;
   g_autofree gboolean *detectable = g_new0 (gboolean, MAX (n, 1));
   g_autofree double *margin = g_new (double, MAX (n, 1));
+  g_autofree gboolean *found = g_new0 (gboolean, MAX (n, 1));
   gboolean used[2 * MAX_CENTROIDS] = { FALSE };
   SonarReflector *all = scene->reflectors;
   SonarScene one = *scene;
@@ -189,6 +284,7 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
   }
   row->oracle_s = (now_ms () - start) / 1000.0;
 
+
   for (guint k = 0; k < n; k++) {
     int best = -1;
     double best_distance = MATCH_DISTANCE;
@@ -204,6 +300,7 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
       const double err = fabs (ch->velocities[best] -
           truths[k].radial_velocity);
       used[best] = TRUE;
+      found[k] = TRUE;
       row->found++;
       row->found_detectable += detectable[k];
       row->sum_error += err;
@@ -220,12 +317,19 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
         g_printerr ("crowded: %s: missed an object %.1f dB above its "
             "interference at %.3f m %+.1f deg: no centroid\n", name,
             margin[k], truths[k].range, truths[k].azimuth);
-      else
+      else {
+        const SonarCentroid *c = &ch->centroids[near];
         g_printerr ("crowded: %s: missed an object %.1f dB above its "
             "interference at %.3f m %+.1f deg: coherence %.2f, %u "
-            "agreeing emitters\n", name, margin[k], truths[k].range,
-            truths[k].azimuth, ch->results[2 * near].coherence,
-            ch->results[2 * near].agreeing_emitters);
+            "agreeing emitters (centroid %.3f m %+.1f deg, %u peaks, "
+            "the strongest at %.3f m %+.1f deg)\n", name, margin[k],
+            truths[k].range, truths[k].azimuth,
+            ch->results[2 * near].coherence,
+            ch->results[2 * near].agreeing_emitters, c->range, c->azimuth,
+            c->n_members, ch->grid->range_first + c->peak_range_index *
+            ch->grid->range_step, ch->grid->azimuth_first +
+            c->peak_azimuth_index * ch->grid->azimuth_step);
+      }
     }
   }
   for (guint d = 0; d < ch->n_detections; d++) {
@@ -246,6 +350,9 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
           ch->velocities[d]);
     }
   }
+  if (crowded_cancel_bound)
+    cancel_bound (ch, quiet, setup, scene, truths, whole, detectable, found,
+        n_centroids, name, row);
   return TRUE;
 }
 
@@ -313,6 +420,10 @@ run_crowded (Bench * b)
         "%8.1f\n", name, row.objects, row.centroids, row.detectable, row.found, row.found_detectable,
         row.false_objects, row.found ? row.sum_error / row.found : NAN,
         row.max_error, row.worst_missed_db, row.chain_ms, row.oracle_s);
+    if (crowded_cancel_bound)
+      g_print ("%-10s cancellation bound: %u found (%u of the oracle's), %u "
+          "false objects\n", "", row.found + row.bound_found,
+          row.found_detectable + row.bound_detectable, row.bound_false);
     if (b->csv)
       write_sensitivity_row (b->csv, "crowded", name, grid ? "grid" :
           "random", 1, row.found, row.objects, row.false_objects,

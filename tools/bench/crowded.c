@@ -171,7 +171,7 @@ cancel_bound (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
       one.reflectors = &scene->reflectors[k];
       sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
       interleave (planar, n_mics, length, samples);
-      chain_spectra (ch, samples, n_mics, length);
+      chain_spectra (ch, samples, length);
       for (gsize b = 0; b < n_spectra; b++)
         residual[b] -= ch->spectra[b];
     }

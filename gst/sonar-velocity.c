@@ -1885,7 +1885,7 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   sonar_workers_run (pool->workers, estimate_share, pool);
   pool->screens = NULL;
   drop_duplicates (pool->estimators[0], n_centroids, results, counts);
-  if (est_pooled (pool))
+  if (est_pooled (pool) && n_centroids > 0)
     pool_cancel (pool, centroids, n_centroids, results, counts);
 }
 

@@ -75,6 +75,7 @@ enum
   PROP_FOCUS_ZONES,
   PROP_COARSE_SPACING,
   PROP_REFINE_DB,
+  PROP_REFINE_PFA,
   PROP_MODE,
   PROP_VELOCITY,
   PROP_HYPOTHESIS_SPACING,
@@ -97,7 +98,7 @@ struct _GstMimoBeamform
   double hypothesis_spacing;
   int emitter;
   guint64 max_memory;
-  gboolean retune;              /* refine-db, velocity or emitter changed
+  gboolean retune;              /* refine-db/-pfa, velocity or emitter changed
                                  * while playing: at the next ping (object
                                  * lock) */
 
@@ -273,7 +274,7 @@ gst_mimo_beamform_unconfigure (GstSonarFilter * filter)
   g_clear_pointer (&self->hypotheses, g_free);
 }
 
-/* refine-db, velocity (mode=fixed) and emitter set while playing take
+/* refine-db, refine-pfa, velocity (mode=fixed) and emitter set while playing take
  * effect at the next ping; a value the sensor or bank cannot take is a
  * warning, and the image stays as it was. */
 static void
@@ -281,7 +282,7 @@ retune (GstMimoBeamform * self)
 {
   GstSonarFilter *filter = GST_SONAR_FILTER (self);
   SonarDopplerBank *bank = gst_sonar_filter_get_bank (filter);
-  double refine_db, velocity;
+  double refine_db, refine_pfa, velocity;
   int emitter;
   GError *error = NULL;
   guint i;
@@ -293,11 +294,12 @@ retune (GstMimoBeamform * self)
   }
   self->retune = FALSE;
   refine_db = self->params.refine_db;
+  refine_pfa = self->params.refine_pfa;
   velocity = self->velocity;
   emitter = self->emitter;
   GST_OBJECT_UNLOCK (self);
 
-  if (!sonar_imager_set_refine_db (self->imager, refine_db, &error)
+  if (!sonar_imager_set_refine (self->imager, refine_db, refine_pfa, &error)
       || !emitter_exists (gst_sonar_filter_get_setup (filter), emitter,
           &error)
       || (self->active_mode == IMAGE_MODE_FIXED
@@ -423,6 +425,9 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
     case PROP_REFINE_DB:
       p->refine_db = g_value_get_double (value);
       break;
+    case PROP_REFINE_PFA:
+      p->refine_pfa = g_value_get_double (value);
+      break;
     case PROP_MODE:
       self->mode = g_value_get_enum (value);
       break;
@@ -494,6 +499,9 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
       break;
     case PROP_REFINE_DB:
       g_value_set_double (value, p->refine_db);
+      break;
+    case PROP_REFINE_PFA:
+      g_value_set_double (value, p->refine_pfa);
       break;
     case PROP_MODE:
       g_value_set_enum (value, self->mode);
@@ -604,6 +612,15 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "coarse image's maximum (weighted by range^2) down to which the "
           "directions around a coarse one are imaged in full (more: fewer "
           "echoes missed, more work)", 0.1, 200.0, d.refine_db, tunable));
+  g_object_class_install_property (gobject_class, PROP_REFINE_PFA,
+      g_param_spec_double ("refine-pfa", "Refine false-alarm rate", "Also "
+          "image in full around a coarse direction where a pixel stands "
+          "over its range's noise floor (wardcluster's) by what noise alone "
+          "exceeds with this probability per coarse pixel, so that an echo "
+          "far below the strongest is not only interpolated (its peak half "
+          "a coarse step off, rejected by velocityest); more: fewer echoes "
+          "missed, more work; 0: off (refine-db alone)", 0.0, 0.999,
+          d.refine_pfa, tunable));
   g_object_class_install_property (gobject_class, PROP_MODE,
       g_param_spec_enum ("mode", "Mode", "Which Doppler hypotheses to image",
           GST_TYPE_SONAR_IMAGE_MODE, DEFAULT_MODE, flags));

@@ -21,15 +21,6 @@
  * default 2.7 mm step. At least COLUMN_MIN_BINS bins. */
 #define COLUMN_SPAN 0.15
 #define COLUMN_MIN_BINS 16
-/* The column floor's factor over the noise floor's (amplitude, -2 dB): an
- * object sits in its own ridge, and seen between the directions of a
- * coarse grid it loses more than the ridge does (the ridge adds up only
- * over the microphones, a wider beam). Measured: at 0.7 a 79-degree
- * point's ridge gives a peak (tests/test-velocityest.c, wide angles), at
- * 1.0 a point 3 degrees off a 6-degree grid is lost
- * (tests/test-stability.c, two reflectors 1 cm apart); 0.75-0.9 keep
- * both. */
-#define COLUMN_MARGIN 0.8
 
 /* The strongest peaks found: a min-heap (weakest on top) of at most
  * max_peaks while scanning. Which are kept depends on the peaks alone
@@ -88,10 +79,8 @@ struct _SonarClusterer
   const float *raw;             /* the call's image before compensation */
 };
 
-/* Range bins per block of the column floor: COLUMN_SPAN, at least
- * COLUMN_MIN_BINS (at most the grid's). */
-static guint
-column_block_length (const SonarImageGrid * g)
+guint
+sonar_cluster_column_bins (const SonarImageGrid * g)
 {
   const guint bins = MAX (COLUMN_MIN_BINS, (guint) lround (COLUMN_SPAN /
           MAX (g->range_step, 1e-9)));
@@ -195,7 +184,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
     c->range[i] = (float) (grid->range_first + i * grid->range_step);
   c->row_max = g_new (float, grid->n_range);
   c->sidelobe = g_new (float, grid->n_range);
-  c->column_bins = column_block_length (grid);
+  c->column_bins = sonar_cluster_column_bins (grid);
   c->n_column_blocks = (grid->n_range + c->column_bins - 1) / c->column_bins;
   c->column_quartile = g_new (float, (gsize) grid->n_azimuth *
       grid->n_elevation * c->n_column_blocks);
@@ -968,7 +957,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   noise_floors (c, image);
   sidelobe_thresholds (c);
   c->raw = raw;
-  c->column_gain = (float) (COLUMN_MARGIN * sonar_cluster_floor_gain
+  c->column_gain = (float) (SONAR_CLUSTER_COLUMN_MARGIN * sonar_cluster_floor_gain
       (c->params.pfa, sonar_cluster_effective_hypotheses
           (c->params.hypotheses)));
   for (gsize k = 0; k < n_pixels / g->n_range * c->n_column_blocks; k++)

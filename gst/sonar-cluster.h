@@ -96,7 +96,7 @@ typedef struct
    * in 30,000 pings. At 1e-8 (0.85 dB more sensitive) 1000 noise-only
    * pings gave 2 false objects: noise that high looks like an object to
    * velocityest's tests. The column floor uses the
-   * same factor less 2 dB (COLUMN_MARGIN, sonar-cluster.c). */
+   * same factor less 2 dB (SONAR_CLUSTER_COLUMN_MARGIN). */
   double pfa;
   /* The Doppler hypotheses each pixel is the maximum of (the energyscape
    * caps' "hypotheses"; 1: one envelope): the maximum of K noise
@@ -227,6 +227,20 @@ float sonar_select_kth (float *v, gsize n, gsize k);
  * it nor on the values' order (tests/test-cluster.c, censored-quartile). */
 float sonar_cluster_censored_quartile (float *values, gsize n, float gain,
     float guess, float *scratch);
+
+/* The column floor's factor over the noise floor's (amplitude, -2 dB): an
+ * object sits in its own ridge, and seen between the directions of a
+ * coarse grid it loses more than the ridge does (the ridge adds up only
+ * over the microphones, a wider beam). Measured: at 0.7 a 79-degree
+ * point's ridge gives a peak (tests/test-velocityest.c, wide angles), at
+ * 1.0 a point 3 degrees off a 6-degree grid is lost
+ * (tests/test-stability.c, two reflectors 1 cm apart); 0.75-0.9 keep
+ * both. */
+#define SONAR_CLUSTER_COLUMN_MARGIN 0.8
+
+/* Range bins per block of the column floor (sonar-cluster.c: 0.15 m, at
+ * least 16 bins, at most the grid's). */
+guint sonar_cluster_column_bins (const SonarImageGrid * grid);
 
 /* Peaks found by the last process call (before the max_peaks cap). */
 guint sonar_clusterer_n_peaks (const SonarClusterer * c);

@@ -1,5 +1,6 @@
 /* sonar-imager.c: see sonar-imager.h. */
 #include "sonar-imager.h"
+#include "sonar-cluster.h"
 #include "sonar-error.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
@@ -50,6 +51,9 @@ typedef struct
   /* Coarse pass: per UNIT (coarse direction, zone) x hypothesis, the
    * hypothesis's r^2-weighted peak over the zone; else NULL. */
   float *zone_peaks;
+  /* Coarse pass: per (coarse unit of the call, range bin), the hypothesis
+   * whose envelope the image holds; else NULL. */
+  guint16 *best_hypothesis;
   /* Fine pass: per UNIT (coarse direction, zone) x hypothesis, whether a
    * unit with that coarse corner images the hypothesis; NULL: all. */
   const guint8 *wanted;
@@ -76,6 +80,16 @@ struct _SonarImager
    * arrays: UNIT (d, z), z <= n_zones, the coarse zone n_zones. */
   guint coarse_azimuth, coarse_elevation;      /* grid steps per coarse step */
   float refine_ratio;           /* 10^(-refine_db / 20) */
+  double refine_pfa;            /* the noise gate's pfa; 0: off */
+  guint n_coarse;               /* coarse directions */
+  float *range_floor;           /* [range bin] the noise gate over them */
+  float *range_top;             /* [range bin] their strongest */
+  /* wardcluster's column floor on the coarse directions: blocks of
+   * column_bins range bins, [direction x block] lower quartiles (NaN:
+   * not yet taken this call), column_values one block's values. */
+  guint column_bins, n_column_blocks;
+  float *column_quartile, *column_values;
+  float *floor_values, *floor_scratch;  /* [coarse direction] */
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
   guint8 *hot;                  /* [direction x zone]: coarse, at the level */
@@ -93,6 +107,7 @@ struct _SonarImager
   guint hypothesis_capacity;
   float *zone_peaks;
   guint8 *wanted;
+  guint16 *best_hypothesis;     /* [coarse direction x range bin] */
   /* Directions are shared out between workers, each with its scratch. */
   SonarWorkers *workers;
   Scratch scratch[SONAR_MAX_WORKERS];
@@ -108,6 +123,7 @@ sonar_imager_params_init_default (SonarImagerParams * p)
   p->range_resolution = 0.005;
   p->focus_zones = 4;
   p->refine_db = 20.0;
+  p->refine_pfa = 1e-5;
   p->threads = 0;
 }
 
@@ -171,6 +187,8 @@ validate_params (const SonarImagerParams * p, double range_max,
     problem = "the coarse spacing must be 0 to 90 degrees";
   else if (!(p->refine_db > 0.0 && p->refine_db <= 200.0))
     problem = "refine-db must be in (0, 200] dB";
+  else if (!(p->refine_pfa >= 0.0 && p->refine_pfa < 1.0))
+    problem = "refine-pfa must be in [0, 1)";
   if (problem) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "imager: %s", problem);
@@ -235,6 +253,9 @@ init_zones (SonarImager * im, const SonarImagerParams * p, double range_max)
         n_range);
 }
 
+static void coarse_corners (const SonarImager * im, guint d,
+    guint corners[4]);
+
 SonarImager *
 sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     const SonarImagerParams * p, GError ** error)
@@ -293,6 +314,25 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
       (p->coarse_spacing / grid->elevation_step), 1, 64) : 1;
   init_zones (im, p, range_max);
   im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
+  im->refine_pfa = p->refine_pfa;
+  im->n_coarse = 0;
+  for (guint d = 0; d < im->n_directions; d++) {
+    guint corners[4];
+    coarse_corners (im, d, corners);
+    im->n_coarse += corners[0] == d && corners[3] == d;
+  }
+  im->range_floor = g_new (float, grid->n_range);
+  im->range_top = g_new (float, grid->n_range);
+  im->best_hypothesis = g_new (guint16, (gsize) im->n_coarse *
+      grid->n_range);
+  im->column_bins = sonar_cluster_column_bins (grid);
+  im->n_column_blocks = (grid->n_range + im->column_bins - 1) /
+      im->column_bins;
+  im->column_quartile = g_new (float, (gsize) im->n_directions *
+      im->n_column_blocks);
+  im->column_values = g_new (float, im->column_bins);
+  im->floor_values = g_new (float, im->n_coarse);
+  im->floor_scratch = g_new (float, im->n_coarse);
   im->range_weight = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++) {
     const double r = grid->range_first + i * grid->range_step;
@@ -345,6 +385,13 @@ sonar_imager_free (SonarImager * im)
   g_free (im->zones);
   g_free (im->directions);
   g_free (im->range_weight);
+  g_free (im->range_floor);
+  g_free (im->range_top);
+  g_free (im->best_hypothesis);
+  g_free (im->column_quartile);
+  g_free (im->column_values);
+  g_free (im->floor_values);
+  g_free (im->floor_scratch);
   g_free (im->units);
   g_free (im->hot);
   g_free (im->imaged);
@@ -479,7 +526,9 @@ image_units (gpointer data, guint w, guint n_workers)
       lags = scratch->lags + im->first_lag + first;
       if (job->zone_peaks) {
         /* Coarse unit (the whole range): each zone's peak of this
-         * hypothesis, then the maximum over the hypotheses. */
+         * hypothesis, then the maximum over the hypotheses and which. */
+        guint16 *best = job->best_hypothesis + (gsize) u * n_range + first;
+
         sonar_kernel_envelope (scratch->envelope, lags, count, job->scale,
             FALSE);
         for (guint zz = 0; zz < im->n_zones; zz++) {
@@ -490,8 +539,11 @@ image_units (gpointer data, guint w, guint n_workers)
           job->zone_peaks[UNIT (im, d, zz) * n_hyp + h] = peak;
         }
         for (guint i = 0; i < count; i++)
-          job->image[pixels + i] = first_hypothesis ? scratch->envelope[i] :
-              MAX (job->image[pixels + i], scratch->envelope[i]);
+          if (first_hypothesis || scratch->envelope[i] > job->image[pixels +
+                  i]) {
+            job->image[pixels + i] = scratch->envelope[i];
+            best[i] = (guint16) h;
+          }
       } else {
         sonar_kernel_envelope (job->image + h * job->stride + pixels, lags,
             count, job->scale, job->stride == 0 && !first_hypothesis);
@@ -554,6 +606,169 @@ mark_hot (SonarImager * im, guint n_coarse)
   }
 }
 
+/* The lower quartile of block @b of direction @d's coarse column. */
+static float
+column_quartile (SonarImager * im, const float *image, guint d, guint b)
+{
+  float *q = &im->column_quartile[(gsize) d * im->n_column_blocks + b];
+
+  if (isnan (*q)) {
+    const guint n_range = im->grid.n_range;
+    const guint i0 = b * im->column_bins;
+    const guint n = MIN (i0 + im->column_bins, n_range) - i0;
+    memcpy (im->column_values, image + (gsize) d * n_range + i0,
+        n * sizeof (float));
+    *q = sonar_select_kth (im->column_values, n, n / 4);
+  }
+  return *q;
+}
+
+/* wardcluster's floor along coarse direction @d at range bin @i, over
+ * @gain: its block's and neighbours' largest quartile (sonar-cluster.c,
+ * column_floor ()), a strong echo's cross-talk ridge along it. */
+static float
+column_gate (SonarImager * im, const float *image, guint d, guint i,
+    float gain)
+{
+  const guint b = i / im->column_bins;
+  float q = column_quartile (im, image, d, b);
+
+  if (b > 0)
+    q = MAX (q, column_quartile (im, image, d, b - 1));
+  if (b + 1 < im->n_column_blocks)
+    q = MAX (q, column_quartile (im, image, d, b + 1));
+  return (float) SONAR_CLUSTER_COLUMN_MARGIN * gain * q;
+}
+
+/* Whether coarse direction @d's pixel at range bin @i is at least its
+ * coarse neighbours' along azimuth and elevation: a peak of the coarse
+ * image (a flank's unit has a stronger neighbour, refined if it passes). */
+static gboolean
+coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
+{
+  const guint n_az = im->grid.n_azimuth, n_el = im->grid.n_elevation;
+  const guint n_range = im->grid.n_range, a = d % n_az, e = d / n_az;
+  const float v = image[(gsize) d * n_range + i];
+  guint lo, hi, other;
+
+  if (a > 0) {
+    coarse_bracket (a - 1, n_az, im->coarse_azimuth, &lo, &hi);
+    if (image[(gsize) (e * n_az + lo) * n_range + i] > v)
+      return FALSE;
+  }
+  if (a + 1 < n_az) {
+    coarse_bracket (a + 1, n_az, im->coarse_azimuth, &lo, &hi);
+    if (image[(gsize) (e * n_az + hi) * n_range + i] > v)
+      return FALSE;
+  }
+  if (e > 0) {
+    coarse_bracket (e - 1, n_el, im->coarse_elevation, &lo, &other);
+    if (image[(gsize) (lo * n_az + a) * n_range + i] > v)
+      return FALSE;
+  }
+  if (e + 1 < n_el) {
+    coarse_bracket (e + 1, n_el, im->coarse_elevation, &other, &hi);
+    if (image[(gsize) (hi * n_az + a) * n_range + i] > v)
+      return FALSE;
+  }
+  return TRUE;
+}
+
+/* From the coarse image (the maximum over the hypotheses): a (coarse
+ * direction, zone) is hot when one of its pixels could pass wardcluster's
+ * tests once imaged in full: it exceeds its range bin's noise floor over
+ * the coarse directions (wardcluster's censored lower quartile,
+ * sonar-cluster.h) times what noise exceeds with probability refine_pfa,
+ * and is within wardcluster's default sidelobe level of the strongest
+ * coarse pixel within SONAR_CLUSTER_SIDELOBE_RANGE of its range (a strong
+ * echo's sidelobes stand over the noise in every direction at its range,
+ * and no peak is kept there), and over its direction's floor along the
+ * range (a cross-talk ridge), and is a peak among its coarse
+ * neighbours. An interpolated pixel never exceeds its coarse corners, so
+ * every peak wardcluster would find over this gate is
+ * refined, however far below the strongest. The unit images the
+ * hypotheses that made its pixels over the gate and their neighbours
+ * (they are about a Doppler main lobe apart: between coarse directions
+ * the best may be the next). */
+static void
+mark_hot_over_noise (SonarImager * im, guint n_coarse)
+{
+  const SonarImageGrid *grid = &im->grid;
+  const guint n_range = grid->n_range, n_hyp = im->job.n_hypotheses;
+  const double k_eff = sonar_cluster_effective_hypotheses (n_hyp);
+  const float gain = (float) sonar_cluster_floor_gain (im->refine_pfa,
+      k_eff);
+  const float censor = (float) sonar_cluster_floor_gain
+      (SONAR_CLUSTER_CENSOR_SHARE, k_eff);
+  const int reach = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
+      grid->range_step);
+  const float *image = im->job.image;
+  SonarClusterParams cluster;
+  float sidelobe, guess = NAN;
+
+  sonar_cluster_params_init_default (&cluster);
+  sidelobe = (float) pow (10.0, cluster.sidelobe_db / 20.0);
+  for (gsize k = 0; k < (gsize) im->n_directions * im->n_column_blocks; k++)
+    im->column_quartile[k] = NAN;
+  /* range_floor: first each range bin's strongest coarse pixel, then the
+   * gate. */
+  for (guint i = 0; i < n_range; i++) {
+    float top = 0.0f;
+    for (guint u = 0; u < n_coarse; u++) {
+      const float v = image[(gsize) UNIT_DIRECTION (im, im->units[u]) *
+          n_range + i];
+      im->floor_values[u] = v;
+      top = MAX (top, v);
+    }
+    im->range_top[i] = top;
+    im->range_floor[i] = sonar_cluster_censored_quartile (im->floor_values,
+        n_coarse, censor, guess, im->floor_scratch);
+    guess = im->range_floor[i];
+  }
+  for (guint i = 0; i < n_range; i++) {
+    float top = 0.0f;
+    for (int j = MAX ((int) i - reach, 0); j <= MIN ((int) i + reach,
+            (int) n_range - 1); j++)
+      top = MAX (top, im->range_top[j]);
+    im->range_floor[i] = MAX (im->range_floor[i] * gain, top * sidelobe);
+  }
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    const float *row = image + (gsize) d * n_range;
+    const guint16 *best = im->best_hypothesis + (gsize) u * n_range;
+
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *zone = &im->zones[z];
+      const gsize unit = UNIT (im, d, z);
+      gboolean over = FALSE;
+      float unit_top = 0.0f;
+
+      for (guint i = zone->first_range; i < zone->end_range; i++) {
+        if (!(row[i] > im->range_floor[i] && coarse_peak (im, image, d, i)
+                && row[i] > column_gate (im, image, d, i, gain)))
+          continue;
+        over = TRUE;
+        for (guint h = best[i] > 0 ? best[i] - 1u : 0u;
+            h <= MIN (best[i] + 1u, n_hyp - 1); h++)
+          im->wanted[unit * n_hyp + h] = TRUE;
+      }
+      if (!over || im->hot[unit])
+        continue;
+      /* And the hypotheses within refine_db of its strongest, as
+       * mark_hot ()'s units: the fine pixels hold the maximum over the
+       * hypotheses imaged; with fewer they dip below the interpolated
+       * pixels beside them, and the dips split ridges into more peaks,
+       * which gave 3-D ghosts that passed velocityest's tests. */
+      im->hot[unit] = TRUE;
+      for (guint h = 0; h < n_hyp; h++)
+        unit_top = MAX (unit_top, im->zone_peaks[unit * n_hyp + h]);
+      for (guint h = 0; h < n_hyp; h++)
+        im->wanted[unit * n_hyp + h] |= im->zone_peaks[unit * n_hyp + h] >=
+            unit_top * im->refine_ratio;
+    }
+  }
+}
+
 /* The pixels of the (fine direction, zone) units not imaged, bilinear
  * between the direction's coarse corners. */
 static void
@@ -610,9 +825,13 @@ image_coarse_to_fine (SonarImager * im, float *image)
   }
   n_coarse = n;
   im->job.zone_peaks = im->zone_peaks;
+  im->job.best_hypothesis = im->best_hypothesis;
   run_units (im, n_coarse);
   im->job.zone_peaks = NULL;
+  im->job.best_hypothesis = NULL;
   mark_hot (im, n_coarse);
+  if (im->refine_pfa > 0.0 && n_coarse >= 4)
+    mark_hot_over_noise (im, n_coarse);
 
   n = 0;
   for (guint d = 0; d < im->n_directions; d++) {
@@ -719,15 +938,21 @@ sonar_imager_process_each (SonarImager * im,
 }
 
 gboolean
-sonar_imager_set_refine_db (SonarImager * im, double refine_db,
-    GError ** error)
+sonar_imager_set_refine (SonarImager * im, double refine_db,
+    double refine_pfa, GError ** error)
 {
   if (!(refine_db > 0.0 && refine_db <= 200.0)) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "imager: refine-db must be in (0, 200] dB");
     return FALSE;
   }
+  if (!(refine_pfa >= 0.0 && refine_pfa < 1.0)) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
+        "imager: refine-pfa must be in [0, 1)");
+    return FALSE;
+  }
   im->refine_ratio = (float) pow (10.0, -refine_db / 20.0);
+  im->refine_pfa = refine_pfa;
   return TRUE;
 }
 

@@ -17,8 +17,10 @@
  * the directions between coarse ones are then imaged in full only in the
  * range zones where a bracketing coarse direction comes within refine_db
  * of the coarse image's maximum (both weighted by r^2, as wardcluster
- * compensates range); elsewhere they are interpolated from the coarse
- * ones. Work grows with what the scene holds, not with the grid.
+ * compensates range), or stands over its range bins' noise floor by what
+ * noise exceeds with probability refine_pfa (a faint echo far below the
+ * strongest); elsewhere they are interpolated from the coarse ones. Work
+ * grows with what the scene holds, not with the grid.
  */
 #ifndef SONAR_IMAGER_H
 #define SONAR_IMAGER_H
@@ -47,12 +49,23 @@ typedef struct
                                  * every direction in full */
   double refine_db;             /* > 0: level below the coarse maximum (r^2
                                  * weighted) that is imaged in full */
+  /* [0, 1): also imaged in full around a coarse direction where one of
+   * its pixels exceeds its range bin's noise floor over the coarse
+   * directions (wardcluster's statistic) by the factor that noise alone
+   * exceeds with this probability per coarse pixel; 0: off. Without it an
+   * echo more than refine_db below the strongest is only interpolated:
+   * between coarse directions (a 6-degree grid over a 2-degree beam in
+   * 3-D) its peak lands up to half a coarse step off, where its emitters
+   * no longer add up and velocityest rejects it. 1e-5, about 2.5 dB
+   * under wardcluster's default threshold: noise makes about one coarse
+   * direction in 2-D and 17 in 3-D refined per ping. */
+  double refine_pfa;
   guint threads;                /* sharing the directions; 0: one per processor */
 } SonarImagerParams;
 
 /* 2-D fan: -90..90 degrees in 181 directions, 0.3 m to what one ping
- * records, 4 focus zones, coarse spacing 3 degrees refined 20 dB down, a
- * thread per processor. */
+ * records, 4 focus zones, coarse spacing 3 degrees refined 20 dB down
+ * and over the noise at pfa 1e-5, a thread per processor. */
 void sonar_imager_params_init_default (SonarImagerParams * params);
 
 /* The directions (and the coarse spacing) that image @view: the fan as
@@ -92,12 +105,12 @@ void sonar_imager_process_each (SonarImager * imager,
     const SonarHypothesis * hypotheses, int emitter, float *images,
     gsize stride);
 
-/* Takes a new refine level (SonarImagerParams.refine_db) for the next
- * process (): what can change between pings without allocating. FALSE
- * with @error (SONAR_ERROR_SETTINGS) when it is out of range, and
- * @imager is left as it was. */
-gboolean sonar_imager_set_refine_db (SonarImager * imager, double refine_db,
-    GError ** error);
+/* Takes new refine levels (SonarImagerParams.refine_db and refine_pfa)
+ * for the next process (): what can change between pings without
+ * allocating. FALSE with @error (SONAR_ERROR_SETTINGS) when one is out of
+ * range, and @imager is left as it was. */
+gboolean sonar_imager_set_refine (SonarImager * imager, double refine_db,
+    double refine_pfa, GError ** error);
 
 /* The work of the last process () against the dense image's: direction
  * x zone units imaged in full (each a receive sum), and unit x hypothesis

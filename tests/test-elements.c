@@ -1309,6 +1309,7 @@ test_tune_mimobeamform (void)
       "! appsink name=sink sync=false max-buffers=1";
 
   check_tunable (launch, "", "refine-db=5");
+  check_tunable (launch, "", "refine-pfa=0.01");
   check_tunable (launch, "mode=fixed", "velocity=-1");
   check_tunable (launch, "", "emitter=3");
 }

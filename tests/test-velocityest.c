@@ -280,6 +280,52 @@ test_near_far_strong_moving (void)
       " {\"range\": 2.5, \"azimuth\": 40}]}", -0.7, 0.0);
 }
 
+/* 3-D, at mimobeamform's hemisphere defaults (2-degree grid, coarse 6):
+ * an object 30 dB below a near one in the range-compensated image, far
+ * below refine-db, between coarse directions (-21, 9: 3 degrees from the
+ * nearest coarse azimuths). Only interpolated, its peak landed about a
+ * degree off, where its emitters no longer added up, and velocityest
+ * rejected it (it did with refine-pfa=0); refine-pfa's noise gate images
+ * it in full. */
+static void
+test_near_far_3d (void)
+{
+  g_autofree char *scene = sonar_test_write_temp ("near-far-3d.json",
+      "{\"dimensions\": 3, \"reflectors\": ["
+      " {\"range\": 0.6, \"azimuth\": 0, \"elevation\": 0, "
+      "\"strength\": 30},"
+      " {\"range\": 2.5, \"azimuth\": -21, \"elevation\": 9, "
+      "\"radial-velocity\": 0.6}]}");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
+      "num-buffers=1 ! dopplerbank velocity-min=-1 velocity-max=1 "
+      "velocity-step=0.05 ! mimobeamform ! wardcluster ! velocityest ! "
+      "appsink name=sink sync=false", scene);
+  GstSample *sample;
+  SonarTruthMeta *truth;
+  SonarDetectionsMeta *dets;
+  gboolean found[2] = { FALSE, FALSE };
+
+  run_one_ping (launch, 1, &sample);
+  truth = sample_truth (sample);
+  dets = sample_detections (sample);
+  g_assert_cmpuint (truth->n_truths, ==, 2);
+  for (guint i = 0; i < dets->n_detections; i++) {
+    const SonarDetection *d = &dets->detections[i];
+    const int k = truth_of (d, truth);
+    g_test_message ("reported: %.4f m %+.2f %+.2f deg, %+.4f m/s", d->range,
+        d->azimuth, d->elevation, d->radial_velocity);
+    g_assert_true (d->valid);
+    g_assert_cmpint (k, >=, 0);
+    g_assert_false (found[k]);
+    g_assert_cmpfloat (fabs (d->radial_velocity -
+            truth->truths[k].radial_velocity), <=, 0.02);
+    found[k] = TRUE;
+  }
+  g_assert_true (found[0]);
+  g_assert_true (found[1]);
+  gst_sample_unref (sample);
+}
+
 /* With the ridges out of the image (range-min above them), the same
  * recording gives the normal reflector with its velocity: the near-far
  * limitation above is the clustering's, not the estimator's. */
@@ -1025,6 +1071,8 @@ main (int argc, char **argv)
       test_near_far_strong_still);
   g_test_add_func ("/velocityest/near-far/strong-moving",
       test_near_far_strong_moving);
+  g_test_add_func ("/velocityest/near-far/3d-off-the-coarse-grid",
+      test_near_far_3d);
   g_test_add_func ("/velocityest/near-far/normal-alone-in-image",
       test_near_far_normal_alone_in_image);
   g_test_add_func ("/velocityest/wide-angles-not-split",

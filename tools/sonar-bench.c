@@ -180,6 +180,8 @@ parse_options (Options * o, int *argc, char ***argv)
       "                            (paper Fig. 11)\n"
       "  coarse-spacing, refine-db  the imager's coarse grid (0: dense) and "
       "refinement level\n"
+      "  refine-pfa                fig9: the refinement's noise gate off, "
+      "1e-7, 1e-5, 1e-3\n"
       "  hemisphere                3-D, 91 x 91 directions at 2 degrees, "
       "one fig10 ping,\n"
       "                            coarse grids of 4, 6, 8 degrees and "

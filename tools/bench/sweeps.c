@@ -15,7 +15,8 @@
  * proposed chain on the first fig10 ping with a -1..1 m/s bank; the
  * paper's Fig. 11 measured on the Doppler-ACF curves at the true
  * reflectors), coarse-spacing and refine-db (the imager's coarse to fine
- * pass: coarse grid 0-6 degrees, refinement level 10-30 dB) and
+ * pass: coarse grid 0-6 degrees, refinement level 10-30 dB), refine-pfa
+ * (its noise gate on fig9: off, 1e-7, 1e-5, 1e-3) and
  * hemisphere (issue 5's 3-D goal: 91 x 91 directions at 2 degrees, one
  * fig10 ping, coarse grids of 4, 6 and 8 degrees and the dense image);
  * hemisphere-fig9 (minutes, not in --all: issue 13's 3-D goal with the
@@ -57,7 +58,7 @@ config_key (const Config * c)
   const SonarVelocityParams *v = &c->velocity;
 
   return g_strdup_printf ("%s %u %d %d | %.17g %.17g %.17g %d %.17g | "
-      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g | %d "
+      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g %.17g | %d "
       "%.17g %.17g "
       "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u",
       c->scene->name, c->n_pings, c->method, c->measure_curves, c->v_min,
@@ -65,7 +66,7 @@ config_key (const Config * c)
       i->azimuth_min, i->azimuth_max, i->n_azimuth, i->elevation_min,
       i->elevation_max, i->n_elevation, i->range_min, i->range_max,
       i->range_resolution, i->focus_zones, i->coarse_spacing, i->refine_db,
-      k->range_compensation,
+      i->refine_pfa, k->range_compensation,
       k->threshold_db, k->absolute_threshold, k->linkage, k->stop,
       k->inconsistency, k->depth, k->distance, k->max_peaks,
       v->window_directions, v->window_ranges, v->refine, v->min_variance,
@@ -144,6 +145,9 @@ FIELD_SWEEP (apply_coarse_spacing, imager.coarse_spacing, double, "%g",
 
 FIELD_SWEEP (apply_refine_db, imager.refine_db, double, "%g",
     10.0, 15.0, 20.0, 30.0)
+
+FIELD_SWEEP (apply_refine_pfa, imager.refine_pfa, double, "%g",
+    0.0, 1e-7, 1e-5, 1e-3)
 
 /* Issue 5's 3-D goal: the frontal hemisphere at 2 degrees (91 x 91
  * directions), the Fig. 10 bank, one ping; coarse spacings of 4 to 8
@@ -250,6 +254,7 @@ const Sweep sweeps[] = {
   {"datacube", SCENE_FIG10, 2, apply_datacube},
   {"coarse-spacing", SCENE_FIG10, 5, apply_coarse_spacing},
   {"refine-db", SCENE_FIG10, 4, apply_refine_db},
+  {"refine-pfa", SCENE_FIG9, 4, apply_refine_pfa},
   {"hemisphere", SCENE_FIG10, 4, apply_hemisphere},
   {"hemisphere-fig9", SCENE_FIG9, 1, apply_hemisphere_fig9, NULL, TRUE},
   {"noise", SCENE_FIG9, 0, NULL, run_noise},

@@ -1,0 +1,128 @@
+#!/usr/bin/python3
+"""Objects found on recordings the project did not make: seeded random
+scenes written by tests/foreign_sim.py (its own physics, the eRTIS array,
+8 emitters of band-passed noise), each replayed through the chain at the
+elements' defaults (`filesrc ! wavparse ! dopplerbank sensor-file=... !
+mimobeamform ! wardcluster ! velocityest`) and, for comparison, with
+other mimobeamform properties. An object is found when a valid
+detection lies within 5 cm of it; every other valid detection is false.
+
+Scenes: OBJECTS point reflectors at 0.8-6 m, azimuth +-60 degrees (and
+elevation +-40 on a 3-D sensor), radial velocities +-3 m/s, strengths
+spread evenly in dB over SPREAD below the strongest (the r^2-weighted
+image spans that range), one ping each.
+
+    /usr/bin/python3 tools/foreign-scenes.py --view fan --scenes 20 \\
+        --compare "refine-pfa=0"
+"""
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import random
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+MATCH = 0.05
+
+
+def scene(rng, view, n_objects, spread_db):
+    reflectors = []
+    for _ in range(n_objects):
+        r = rng.uniform(0.8, 6.0)
+        az = math.radians(rng.uniform(-60, 60))
+        el = math.radians(rng.uniform(-40, 40)) if view == "hemisphere" \
+            else 0.0
+        u = [math.sin(az) * math.cos(el), math.sin(el),
+             math.cos(az) * math.cos(el)]
+        v = rng.uniform(-3, 3)
+        reflectors.append({
+            "position": [r * x for x in u],
+            "velocity": [v * x for x in u],
+            "strength": 2 * 10 ** (-rng.uniform(0, spread_db) / 20)})
+    return reflectors
+
+
+def run_chain(folder, name, props, env):
+    launch = ["gst-launch-1.0", "-q", "filesrc",
+              "location=%s/%s.wav" % (folder, name), "!", "wavparse", "!",
+              "dopplerbank", "sensor-file=%s/%s.sensor.json" % (folder, name),
+              "!", "mimobeamform"] + props.split() + [
+              "!", "wardcluster", "!", "velocityest", "!", "fdsink"]
+    out = subprocess.run(launch, env=env, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit("the chain failed: %s" % out.stderr.strip())
+    return json.loads(out.stdout.splitlines()[0])["detections"]
+
+
+def score(detections, truth):
+    found, used = 0, set()
+    for r in truth:
+        for j, d in enumerate(detections):
+            if d["valid"] and j not in used and math.dist(
+                    r["position"], [d["x"], d["y"], d["z"]]) < MATCH:
+                found += 1
+                used.add(j)
+                break
+    false = sum(1 for j, d in enumerate(detections)
+                if d["valid"] and j not in used)
+    return found, false
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--view", choices=("fan", "hemisphere"),
+                        default="fan")
+    parser.add_argument("--scenes", type=int, default=10)
+    parser.add_argument("--objects", type=int, default=6)
+    parser.add_argument("--spread", type=float, default=30.0,
+                        help="dB between the strongest and the weakest")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--compare", action="append", default=[],
+                        metavar="PROPS", help="mimobeamform properties of "
+                        "another run of every scene (repeatable)")
+    args = parser.parse_args()
+
+    env = dict(os.environ)
+    build = os.environ.get("SONAR_BUILD_DIR", str(ROOT / "build"))
+    env["GST_PLUGIN_PATH_1_0"] = str(pathlib.Path(build) / "elements")
+    sys.path.insert(0, str(ROOT / "tests"))
+    import foreign_sim
+
+    rng = random.Random(args.seed)
+    variants = [""] + args.compare
+    totals = {v: [0, 0, 0] for v in variants}
+    with tempfile.TemporaryDirectory() as folder:
+        for k in range(args.scenes):
+            name = "scene%d" % k
+            spec = {"name": name, "n_pings": 1, "seed": args.seed * 1000 + k,
+                    "field_of_view": args.view,
+                    "reflectors": scene(rng, args.view, args.objects,
+                                        args.spread)}
+            foreign_sim.simulate(spec, folder)
+            truth = json.loads(pathlib.Path(
+                folder, name + ".truth.json").read_text())
+            truth = truth["pings"][0]["reflectors"]
+            row = []
+            for v in variants:
+                found, false = score(run_chain(folder, name, v, env), truth)
+                t = totals[v]
+                t[0] += found
+                t[1] += len(truth)
+                t[2] += false
+                row.append("%d/%d, %d false" % (found, len(truth), false))
+            print("%s: %s" % (name, " | ".join(row)), flush=True)
+    print("\n%s, %d scenes of %d objects over %g dB, seed %d:" % (
+        args.view, args.scenes, args.objects, args.spread, args.seed))
+    for v in variants:
+        t = totals[v]
+        print("  %-24s found %d of %d, %d false" % (
+            v or "defaults", t[0], t[1], t[2]))
+
+
+if __name__ == "__main__":
+    main()

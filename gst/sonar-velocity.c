@@ -1508,7 +1508,7 @@ struct _SonarVelocityPool
    * failed ones' copies, indices and estimates on the residual, and which
    * estimates are cancelled. */
   float *residual_re, *residual_im;
-  float *model_re, *model_im;
+  float *model_re, *model_im;   /* one_echo ()'s, from the first use */
   float *transmit_re, *transmit_im, *transmit2_re, *transmit2_im;
   float *receive_re, *receive_im;
   double *mic_legs, *emitter_legs;
@@ -1596,8 +1596,6 @@ sonar_velocity_pool_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   pool->spectra_im = g_new (float, size);
   pool->residual_re = g_new (float, size);
   pool->residual_im = g_new (float, size);
-  pool->model_re = g_new (float, size);
-  pool->model_im = g_new (float, size);
   if (band) {
     const SonarSetup *setup = sonar_doppler_bank_get_setup (bank);
     pool->transmit_re = g_new (float, band->n_bins);
@@ -1985,6 +1983,12 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
     if (!n_failed)
       break;
     if (!copied) {
+      if (!pool->model_re) {
+        /* one_echo ()'s model, made on the first ping that cancels and
+         * kept (the presets never do: 0.7 MB not held). */
+        pool->model_re = g_new (float, size);
+        pool->model_im = g_new (float, size);
+      }
       memcpy (pool->residual_re, pool->spectra_re, size * sizeof (float));
       memcpy (pool->residual_im, pool->spectra_im, size * sizeof (float));
       copied = TRUE;

@@ -1936,7 +1936,7 @@ one_echo (SonarVelocityPool * pool, const SonarCentroid * centroid,
  * to cancel, where the pooled interference measured on the recording
  * (pool->screen_snr) overstates what is left. Measured on sonar-bench
  * --sweep crowded's grids: 16, 47, 112, 117 found, no false object (the
- * first round's gate in every round: 16, 32, 59, 58; none: 16, 48, 112,
+ * first round's gate in every round: 16, 32, 60, 58; none: 16, 48, 112,
  * 117 with worst errors 0.068 m/s on the 10 x 10 grid where this keeps
  * 0.044). */
 #define CANCEL_LATER_GATE 0.5

@@ -212,7 +212,8 @@ gboolean sonar_velocity_pool_retune (SonarVelocityPool * pool,
  * reports (centroids millimetres apart both see it) is left out; the
  * centroids that fail, interfered at their own pixel, are estimated again
  * with the accepted echoes cancelled (above). Returns after all are done.
- * Allocates only when a ping has more centroids than any before it. */
+ * Allocates only when a ping has more centroids than any before it, and
+ * on the first ping that cancels (one_echo ()'s model). */
 void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);

@@ -1890,6 +1890,10 @@ one_echo (SonarVelocityPool * pool, const SonarCentroid * centroid,
   est->focused = FALSE;
   coherence_over (est, &model, e->range, e->azimuth, e->elevation, &v, 1,
       &model_top, NULL, NULL, NULL);
+  if (!(model_top > 0.0)) {
+    est->focused = FALSE;
+    return TRUE;
+  }
   for (int side = 0; side < 2; side++)
     for (int k = 1; k <= ONE_ECHO_STEPS; k++) {
       const double az = e->azimuth + (side ? k : -k) * step;
@@ -1898,20 +1902,26 @@ one_echo (SonarVelocityPool * pool, const SonarCentroid * centroid,
         break;
       coherence_over (est, &model, e->range, az, e->elevation, &v, 1, &s,
           NULL, NULL, NULL);
-      model_fall[side] += 10.0 * log10 (model_top / s);
+      /* 120 dB at most (a null). */
+      s = 10.0 * log10 (model_top / MAX (s, 1e-12 * model_top));
+      model_fall[side] += s;
       reach[side] = k;
-      if (10.0 * log10 (model_top / s) >= ONE_ECHO_DB)
+      if (s >= ONE_ECHO_DB)
         break;
     }
   est->focused = FALSE;
   coherence_over (est, &pool->spectra, e->range, e->azimuth, e->elevation,
       &v, 1, &top, NULL, NULL, NULL);
+  if (!(top > 0.0)) {
+    est->focused = FALSE;
+    return FALSE;
+  }
   for (int side = 0; side < 2; side++) {
     for (int k = 1; k <= reach[side]; k++) {
       double s;
       coherence_over (est, &pool->spectra, e->range, e->azimuth + (side ? k :
               -k) * step, e->elevation, &v, 1, &s, NULL, NULL, NULL);
-      fall[side] += MAX (10.0 * log10 (top / s), 0.0);
+      fall[side] += MAX (10.0 * log10 (top / MAX (s, 1e-12 * top)), 0.0);
     }
     single |= model_fall[side] > 0.0
         && fall[side] >= ONE_ECHO_FALL * model_fall[side];

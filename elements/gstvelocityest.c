@@ -11,7 +11,8 @@
  * peaks in one centroid (objects a few centimetres apart in range, of
  * different speeds) give two detections. In a crowd, the centroids that
  * fail though they stand out of the pooled interference are estimated
- * again with the accepted echoes' models cancelled (sonar-velocity.h).
+ * again with the accepted echoes' models cancelled, in rounds
+ * (sonar-velocity.h).
  *
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
@@ -564,8 +565,10 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "passing this way stand 14.5-17 dB above the pool, cross-talk "
           "ghosts 14.2 at most: the default leaves 1.8 dB over them. A "
           "centroid that fails though its emitters' shared power stands "
-          "this far above the pool is estimated once more with the "
-          "accepted echoes cancelled (0 turns that off too)", 0.0, 100.0,
+          "this far above the pool is estimated again with the accepted "
+          "echoes cancelled, in rounds (after the first, those 3 dB less "
+          "too), an estimate on the residual kept when its beam falls as "
+          "one echo's (0 turns that off too)", 0.0, 100.0,
           d.pooled_snr_db, tunable));
   g_object_class_install_property (gobject_class, PROP_SECOND_PEAK,
       g_param_spec_double ("second-peak", "Second peak", "A second "

@@ -64,13 +64,20 @@
  * an echo fails the tests because of its neighbours' cross-talk at its
  * own pixel. After the ping's estimates, the centroids with none valid
  * whose emitters' shared power stood pooled_snr_db above the pooled
- * interference (so 0 turns this off too) are estimated once more on the
+ * interference (so 0 turns this off too) are estimated again on the
  * spectra less a model of every accepted echo: a point at its range and
- * direction, every emitter's template at the bank velocity nearest its
- * own on its path to each microphone (sonar-steering.h's delay model),
- * its complex amplitude fitted by least squares over every microphone
- * and bin. One round: the echoes accepted on the residual are not
- * cancelled in turn.
+ * direction, every emitter's template on its path to each microphone
+ * (sonar-steering.h's delay model), its template between the two bank
+ * velocities either side of its own (the two bank templates' complex
+ * amplitudes fitted by least squares over every microphone and bin). In
+ * rounds, each cancelling what the last accepted, until one accepts none
+ * (16 at most); after the first, the failed centroids of half that
+ * shared power (-3 dB) are tried too. An estimate on a residual is kept
+ * only when it is one echo: along azimuth its power falls either side of
+ * its direction, on at least one side, as steeply as a lone point's
+ * model there (a blend of two echoes the beam does not resolve is
+ * flatter on both). A ping without such a centroid never comes this way
+ * and allocates nothing for it.
  *
  * Two reflectors a few centimetres apart in range share a centroid: the
  * window spans the ranges of its member peaks, so both echoes are in it,
@@ -205,7 +212,8 @@ gboolean sonar_velocity_pool_retune (SonarVelocityPool * pool,
  * reports (centroids millimetres apart both see it) is left out; the
  * centroids that fail, interfered at their own pixel, are estimated again
  * with the accepted echoes cancelled (above). Returns after all are done.
- * Allocates only when a ping has more centroids than any before it. */
+ * Allocates only when a ping has more centroids than any before it, and
+ * on the first ping that cancels (one_echo ()'s model). */
 void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);

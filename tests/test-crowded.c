@@ -26,9 +26,15 @@
 #define NOISE 0.01
 /* wardcluster's max-centroids. */
 #define MAX_CENTROIDS 1024
-/* What the grids gave when the assertions were set (5, 10, 14 on a side). */
-#define MEASURED_FOUND 17, 33, 58
-#define MEASURED_DETECTABLE 7, 11, 16
+/* What the grids gave when the assertions were set (5, 10, 14, 20 on a
+ * side). */
+#define MEASURED_FOUND 17, 43, 106, 121
+#define MEASURED_DETECTABLE 7, 11, 17, 13
+/* m/s: the worst velocity error of a still object found, per grid. The
+ * 20 x 20 grid's (0.065 when set) is its estimates' accepted in later
+ * rounds of cancellation, which carry the errors of the models cancelled
+ * before them. */
+#define MAX_ERRORS 0.05, 0.05, 0.05, 0.07
 
 typedef struct
 {
@@ -276,24 +282,28 @@ run_grid (Crowd * c, guint n)
   return s;
 }
 
-/* The 5 x 5, 10 x 10 and 14 x 14 grids: the objects found are right (no
- * false object, still objects reported still within 5 cm/s), and at
- * least as many of all and of those the oracle puts 13 dB above their
- * interference are found as measured with velocityest's estimates of
- * blended centroids at their members' directions and its cancellation of
- * the accepted echoes: 17, 33 and 58 of the objects, 7 of 7, 11 of 11
- * and 16 of 17 of the detectable ones (blends alone 17, 27 and 41, 7, 9
- * and 14 of the detectable; the pooled test alone 15, 23 and 37, 5, 7
- * and 10; before it, 15, 21 and 26 found); each larger grid gives more,
- * not fewer. The goal of issue 12 is all of the detectable ones: the misses
- * are echoes the others' cross-talk leaves below both coherence tests
- * (README, Status). */
+/* The 5 x 5, 10 x 10, 14 x 14 and 20 x 20 grids: the objects found are
+ * right (no false object, still objects reported still within 5 cm/s,
+ * 7 cm/s on the 20 x 20 grid), and at least as many of all and of those
+ * the oracle puts 13 dB above their interference are found as measured
+ * with velocityest's estimates of blended centroids at their members'
+ * directions and its successive cancellation in rounds (one_echo ()
+ * rejecting blends): 17, 43, 106 and 121 of the objects, 7 of 7, 11 of
+ * 11, 17 of 17 and 13 of 17 of the detectable ones (one round of
+ * cancellation: 17, 33 and 58, 7, 11 and 16 of the first three; blends
+ * alone 17, 27 and 41, 7, 9 and 14; the pooled test alone 15, 23 and 37,
+ * 5, 7 and 10; before it, 15, 21 and 26 found); each larger grid gives
+ * more, not fewer. The goal of issue 12 is all of the detectable ones:
+ * the 20 x 20 grid's misses are pairs the beam does not resolve near
+ * +-72 degrees and echoes the others' cross-talk leaves below both
+ * coherence tests (README, Status). */
 static void
 test_grids (void)
 {
-  static const guint sides[] = { 5, 10, 14 };
+  static const guint sides[] = { 5, 10, 14, 20 };
   static const guint measured_found[] = { MEASURED_FOUND };
   static const guint measured_detectable[] = { MEASURED_DETECTABLE };
+  static const double max_errors[] = { MAX_ERRORS };
   Crowd c;
   CrowdScore s[G_N_ELEMENTS (sides)];
 
@@ -304,7 +314,7 @@ test_grids (void)
 
   for (guint k = 0; k < G_N_ELEMENTS (sides); k++) {
     g_assert_cmpuint (s[k].false_objects, ==, 0);
-    g_assert_cmpfloat (s[k].max_error, <=, 0.05);
+    g_assert_cmpfloat (s[k].max_error, <=, max_errors[k]);
     g_assert_cmpuint (s[k].detectable, >, 0);
     g_assert_cmpuint (s[k].found_detectable, <=, s[k].detectable);
     g_assert_cmpuint (s[k].found, >=, measured_found[k]);

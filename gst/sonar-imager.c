@@ -649,28 +649,28 @@ coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
   const guint n_az = im->grid.n_azimuth, n_el = im->grid.n_elevation;
   const guint n_range = im->grid.n_range, a = d % n_az, e = d / n_az;
   const float v = image[(gsize) d * n_range + i];
-  guint lo, hi, other;
+  guint lo, hi, neighbours[4], n = 0;
 
+  /* The nearest coarse index either side along each axis. */
   if (a > 0) {
     coarse_bracket (a - 1, n_az, im->coarse_azimuth, &lo, &hi);
-    if (image[(gsize) (e * n_az + lo) * n_range + i] > v)
-      return FALSE;
+    neighbours[n++] = e * n_az + lo;
   }
   if (a + 1 < n_az) {
     coarse_bracket (a + 1, n_az, im->coarse_azimuth, &lo, &hi);
-    if (image[(gsize) (e * n_az + hi) * n_range + i] > v)
-      return FALSE;
+    neighbours[n++] = e * n_az + hi;
   }
   if (e > 0) {
-    coarse_bracket (e - 1, n_el, im->coarse_elevation, &lo, &other);
-    if (image[(gsize) (lo * n_az + a) * n_range + i] > v)
-      return FALSE;
+    coarse_bracket (e - 1, n_el, im->coarse_elevation, &lo, &hi);
+    neighbours[n++] = lo * n_az + a;
   }
   if (e + 1 < n_el) {
-    coarse_bracket (e + 1, n_el, im->coarse_elevation, &other, &hi);
-    if (image[(gsize) (hi * n_az + a) * n_range + i] > v)
-      return FALSE;
+    coarse_bracket (e + 1, n_el, im->coarse_elevation, &lo, &hi);
+    neighbours[n++] = hi * n_az + a;
   }
+  for (guint k = 0; k < n; k++)
+    if (image[(gsize) neighbours[k] * n_range + i] > v)
+      return FALSE;
   return TRUE;
 }
 

@@ -12,6 +12,11 @@
 #include <math.h>
 #include <string.h>
 
+/* Range bins per block of the coarse pass's strongest hypothesis (2.7 mm
+ * each: 4.3 cm, a few envelope widths). A pixel over refine-pfa's gate
+ * is its block's strongest, or near it. */
+#define HYPOTHESIS_BLOCK 16
+
 #define MAX_DIRECTIONS 65536
 #define MAX_FOCUS_ZONES 64
 
@@ -51,9 +56,11 @@ typedef struct
   /* Coarse pass: per UNIT (coarse direction, zone) x hypothesis, the
    * hypothesis's r^2-weighted peak over the zone; else NULL. */
   float *zone_peaks;
-  /* Coarse pass: per (coarse unit of the call, range bin), the hypothesis
-   * whose envelope the image holds; else NULL. */
+  /* Coarse pass: per (coarse unit of the call, block of
+   * HYPOTHESIS_BLOCK range bins), the hypothesis whose envelope is the
+   * strongest there, and that envelope; else NULL. */
   guint16 *best_hypothesis;
+  float *best_value;
   /* Fine pass: per UNIT (coarse direction, zone) x hypothesis, whether a
    * unit with that coarse corner images the hypothesis; NULL: all. */
   const guint8 *wanted;
@@ -107,7 +114,10 @@ struct _SonarImager
   guint hypothesis_capacity;
   float *zone_peaks;
   guint8 *wanted;
-  guint16 *best_hypothesis;     /* [coarse direction x range bin] */
+  /* [coarse direction x block of range bins], as job.best_hypothesis */
+  guint n_hypothesis_blocks;
+  guint16 *best_hypothesis;
+  float *best_value;
   /* Directions are shared out between workers, each with its scratch. */
   SonarWorkers *workers;
   Scratch scratch[SONAR_MAX_WORKERS];
@@ -323,8 +333,12 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   }
   im->range_floor = g_new (float, grid->n_range);
   im->range_top = g_new (float, grid->n_range);
+  im->n_hypothesis_blocks = (grid->n_range + HYPOTHESIS_BLOCK - 1) /
+      HYPOTHESIS_BLOCK;
   im->best_hypothesis = g_new (guint16, (gsize) im->n_coarse *
-      grid->n_range);
+      im->n_hypothesis_blocks);
+  im->best_value = g_new (float, (gsize) im->n_coarse *
+      im->n_hypothesis_blocks);
   im->column_bins = sonar_cluster_column_bins (grid);
   im->n_column_blocks = (grid->n_range + im->column_bins - 1) /
       im->column_bins;
@@ -388,6 +402,7 @@ sonar_imager_free (SonarImager * im)
   g_free (im->range_floor);
   g_free (im->range_top);
   g_free (im->best_hypothesis);
+  g_free (im->best_value);
   g_free (im->column_quartile);
   g_free (im->column_values);
   g_free (im->floor_values);
@@ -527,7 +542,9 @@ image_units (gpointer data, guint w, guint n_workers)
       if (job->zone_peaks) {
         /* Coarse unit (the whole range): each zone's peak of this
          * hypothesis, then the maximum over the hypotheses and which. */
-        guint16 *best = job->best_hypothesis + (gsize) u * n_range + first;
+        const gsize blocks = (gsize) u * im->n_hypothesis_blocks;
+        guint16 *best = job->best_hypothesis + blocks;
+        float *best_value = job->best_value + blocks;
 
         sonar_kernel_envelope (scratch->envelope, lags, count, job->scale,
             FALSE);
@@ -539,11 +556,21 @@ image_units (gpointer data, guint w, guint n_workers)
           job->zone_peaks[UNIT (im, d, zz) * n_hyp + h] = peak;
         }
         for (guint i = 0; i < count; i++)
-          if (first_hypothesis || scratch->envelope[i] > job->image[pixels +
-                  i]) {
-            job->image[pixels + i] = scratch->envelope[i];
-            best[i] = (guint16) h;
+          job->image[pixels + i] = first_hypothesis ? scratch->envelope[i] :
+              MAX (job->image[pixels + i], scratch->envelope[i]);
+        /* Which hypothesis is strongest, per block of range bins: a
+         * branch per block, not per bin (on noise every other
+         * comparison would mispredict). */
+        for (guint b = 0; b * HYPOTHESIS_BLOCK < count; b++) {
+          const guint i1 = MIN ((b + 1) * HYPOTHESIS_BLOCK, count);
+          float top = 0.0f;
+          for (guint i = b * HYPOTHESIS_BLOCK; i < i1; i++)
+            top = MAX (top, scratch->envelope[i]);
+          if (first_hypothesis || top > best_value[b]) {
+            best_value[b] = top;
+            best[b] = (guint16) h;
           }
+        }
       } else {
         sonar_kernel_envelope (job->image + h * job->stride + pixels, lags,
             count, job->scale, job->stride == 0 && !first_hypothesis);
@@ -687,7 +714,8 @@ coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
  * neighbours. An interpolated pixel never exceeds its coarse corners, so
  * every peak wardcluster would find over this gate is
  * refined, however far below the strongest. The unit images the
- * hypotheses that made its pixels over the gate and their neighbours
+ * hypotheses that made its pixels over the gate (their blocks'
+ * strongest) and their neighbours
  * (they are about a Doppler main lobe apart: between coarse directions
  * the best may be the next). */
 static void
@@ -735,7 +763,8 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
   for (guint u = 0; u < n_coarse; u++) {
     const guint d = UNIT_DIRECTION (im, im->units[u]);
     const float *row = image + (gsize) d * n_range;
-    const guint16 *best = im->best_hypothesis + (gsize) u * n_range;
+    const guint16 *best = im->best_hypothesis + (gsize) u *
+        im->n_hypothesis_blocks;
 
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
@@ -744,12 +773,14 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
       float unit_top = 0.0f;
 
       for (guint i = zone->first_range; i < zone->end_range; i++) {
+        guint top;
         if (!(row[i] > im->range_floor[i] && coarse_peak (im, image, d, i)
                 && row[i] > column_gate (im, image, d, i, gain)))
           continue;
         over = TRUE;
-        for (guint h = best[i] > 0 ? best[i] - 1u : 0u;
-            h <= MIN (best[i] + 1u, n_hyp - 1); h++)
+        top = best[i / HYPOTHESIS_BLOCK];
+        for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + 1u,
+                n_hyp - 1); h++)
           im->wanted[unit * n_hyp + h] = TRUE;
       }
       if (!over || im->hot[unit])
@@ -826,9 +857,11 @@ image_coarse_to_fine (SonarImager * im, float *image)
   n_coarse = n;
   im->job.zone_peaks = im->zone_peaks;
   im->job.best_hypothesis = im->best_hypothesis;
+  im->job.best_value = im->best_value;
   run_units (im, n_coarse);
   im->job.zone_peaks = NULL;
   im->job.best_hypothesis = NULL;
+  im->job.best_value = NULL;
   mark_hot (im, n_coarse);
   if (im->refine_pfa > 0.0 && n_coarse >= 4)
     mark_hot_over_noise (im, n_coarse);

@@ -16,6 +16,10 @@
  * each: 4.3 cm, a few envelope widths). A pixel over refine-pfa's gate
  * is its block's strongest, or near it. */
 #define HYPOTHESIS_BLOCK 16
+/* Range bins gathered at a time for the noise floors over the coarse
+ * directions: each direction's bins read in one run (one bin at a time
+ * reads a cache line per value; sonar-cluster.c gathers so too). */
+#define FLOOR_BLOCK 32
 
 #define MAX_DIRECTIONS 65536
 #define MAX_FOCUS_ZONES 64
@@ -88,15 +92,18 @@ struct _SonarImager
   guint coarse_azimuth, coarse_elevation;      /* grid steps per coarse step */
   float refine_ratio;           /* 10^(-refine_db / 20) */
   double refine_pfa;            /* the noise gate's pfa; 0: off */
+  float sidelobe_ratio;         /* wardcluster's default sidelobe level */
   guint n_coarse;               /* coarse directions */
   float *range_floor;           /* [range bin] the noise gate over them */
   float *range_top;             /* [range bin] their strongest */
   /* wardcluster's column floor on the coarse directions: blocks of
-   * column_bins range bins, [direction x block] lower quartiles (NaN:
+   * column_bins range bins, [coarse unit x block] lower quartiles (NaN:
    * not yet taken this call), column_values one block's values. */
   guint column_bins, n_column_blocks;
   float *column_quartile, *column_values;
-  float *floor_values, *floor_scratch;  /* [coarse direction] */
+  /* [FLOOR_BLOCK x coarse direction] gathered values, and a scratch of
+   * one bin's. */
+  float *floor_values, *floor_scratch;
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
   guint8 *hot;                  /* [direction x zone]: coarse, at the level */
@@ -325,6 +332,11 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   init_zones (im, p, range_max);
   im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
   im->refine_pfa = p->refine_pfa;
+  {
+    SonarClusterParams cluster;
+    sonar_cluster_params_init_default (&cluster);
+    im->sidelobe_ratio = (float) pow (10.0, cluster.sidelobe_db / 20.0);
+  }
   im->n_coarse = 0;
   for (guint d = 0; d < im->n_directions; d++) {
     guint corners[4];
@@ -342,10 +354,10 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   im->column_bins = sonar_cluster_column_bins (grid);
   im->n_column_blocks = (grid->n_range + im->column_bins - 1) /
       im->column_bins;
-  im->column_quartile = g_new (float, (gsize) im->n_directions *
+  im->column_quartile = g_new (float, (gsize) im->n_coarse *
       im->n_column_blocks);
   im->column_values = g_new (float, im->column_bins);
-  im->floor_values = g_new (float, im->n_coarse);
+  im->floor_values = g_new (float, (gsize) FLOOR_BLOCK * im->n_coarse);
   im->floor_scratch = g_new (float, im->n_coarse);
   im->range_weight = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++) {
@@ -633,11 +645,13 @@ mark_hot (SonarImager * im, guint n_coarse)
   }
 }
 
-/* The lower quartile of block @b of direction @d's coarse column. */
+/* The lower quartile of block @b of the column of coarse unit @u (its
+ * direction @d). */
 static float
-column_quartile (SonarImager * im, const float *image, guint d, guint b)
+column_quartile (SonarImager * im, const float *image, guint u, guint d,
+    guint b)
 {
-  float *q = &im->column_quartile[(gsize) d * im->n_column_blocks + b];
+  float *q = &im->column_quartile[(gsize) u * im->n_column_blocks + b];
 
   if (isnan (*q)) {
     const guint n_range = im->grid.n_range;
@@ -654,16 +668,16 @@ column_quartile (SonarImager * im, const float *image, guint d, guint b)
  * @gain: its block's and neighbours' largest quartile (sonar-cluster.c,
  * column_floor ()), a strong echo's cross-talk ridge along it. */
 static float
-column_gate (SonarImager * im, const float *image, guint d, guint i,
-    float gain)
+column_gate (SonarImager * im, const float *image, guint u, guint d,
+    guint i, float gain)
 {
   const guint b = i / im->column_bins;
-  float q = column_quartile (im, image, d, b);
+  float q = column_quartile (im, image, u, d, b);
 
   if (b > 0)
-    q = MAX (q, column_quartile (im, image, d, b - 1));
+    q = MAX (q, column_quartile (im, image, u, d, b - 1));
   if (b + 1 < im->n_column_blocks)
-    q = MAX (q, column_quartile (im, image, d, b + 1));
+    q = MAX (q, column_quartile (im, image, u, d, b + 1));
   return (float) SONAR_CLUSTER_COLUMN_MARGIN * gain * q;
 }
 
@@ -731,34 +745,37 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
   const int reach = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
       grid->range_step);
   const float *image = im->job.image;
-  SonarClusterParams cluster;
-  float sidelobe, guess = NAN;
+  float guess = NAN;
 
-  sonar_cluster_params_init_default (&cluster);
-  sidelobe = (float) pow (10.0, cluster.sidelobe_db / 20.0);
-  for (gsize k = 0; k < (gsize) im->n_directions * im->n_column_blocks; k++)
+  for (gsize k = 0; k < (gsize) n_coarse * im->n_column_blocks; k++)
     im->column_quartile[k] = NAN;
-  /* range_floor: first each range bin's strongest coarse pixel, then the
-   * gate. */
-  for (guint i = 0; i < n_range; i++) {
-    float top = 0.0f;
+  /* range_floor: first each range bin's quartile and strongest pixel over
+   * the coarse directions, then the gate. */
+  for (guint i0 = 0; i0 < n_range; i0 += FLOOR_BLOCK) {
+    const guint block = MIN (FLOOR_BLOCK, n_range - i0);
     for (guint u = 0; u < n_coarse; u++) {
-      const float v = image[(gsize) UNIT_DIRECTION (im, im->units[u]) *
-          n_range + i];
-      im->floor_values[u] = v;
-      top = MAX (top, v);
+      const float *pixels = image + (gsize) UNIT_DIRECTION (im,
+          im->units[u]) * n_range + i0;
+      for (guint b = 0; b < block; b++)
+        im->floor_values[(gsize) b * n_coarse + u] = pixels[b];
     }
-    im->range_top[i] = top;
-    im->range_floor[i] = sonar_cluster_censored_quartile (im->floor_values,
-        n_coarse, censor, guess, im->floor_scratch);
-    guess = im->range_floor[i];
+    for (guint b = 0; b < block; b++) {
+      float *values = im->floor_values + (gsize) b * n_coarse;
+      float top = 0.0f;
+      for (guint u = 0; u < n_coarse; u++)
+        top = MAX (top, values[u]);
+      im->range_top[i0 + b] = top;
+      guess = im->range_floor[i0 + b] = sonar_cluster_censored_quartile
+          (values, n_coarse, censor, guess, im->floor_scratch);
+    }
   }
   for (guint i = 0; i < n_range; i++) {
     float top = 0.0f;
     for (int j = MAX ((int) i - reach, 0); j <= MIN ((int) i + reach,
             (int) n_range - 1); j++)
       top = MAX (top, im->range_top[j]);
-    im->range_floor[i] = MAX (im->range_floor[i] * gain, top * sidelobe);
+    im->range_floor[i] = MAX (im->range_floor[i] * gain,
+        top * im->sidelobe_ratio);
   }
   for (guint u = 0; u < n_coarse; u++) {
     const guint d = UNIT_DIRECTION (im, im->units[u]);
@@ -775,7 +792,7 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
       for (guint i = zone->first_range; i < zone->end_range; i++) {
         guint top;
         if (!(row[i] > im->range_floor[i] && coarse_peak (im, image, d, i)
-                && row[i] > column_gate (im, image, d, i, gain)))
+                && row[i] > column_gate (im, image, u, d, i, gain)))
           continue;
         over = TRUE;
         top = best[i / HYPOTHESIS_BLOCK];

@@ -181,6 +181,18 @@ sonar_imager_range_max (const SonarSetup * setup, double requested)
   return MIN (requested, window_end);
 }
 
+/* What is wrong with refine levels (set at start or while playing), or
+ * NULL. */
+static const char *
+refine_problem (double refine_db, double refine_pfa)
+{
+  if (!(refine_db > 0.0 && refine_db <= 200.0))
+    return "refine-db must be in (0, 200] dB";
+  if (!(refine_pfa >= 0.0 && refine_pfa < 1.0))
+    return "refine-pfa must be in [0, 1)";
+  return NULL;
+}
+
 static gboolean
 validate_params (const SonarImagerParams * p, double range_max,
     GError ** error)
@@ -202,10 +214,8 @@ validate_params (const SonarImagerParams * p, double range_max,
     problem = "focus zones must be 1 to 64";
   else if (!(p->coarse_spacing >= 0.0 && p->coarse_spacing <= 90.0))
     problem = "the coarse spacing must be 0 to 90 degrees";
-  else if (!(p->refine_db > 0.0 && p->refine_db <= 200.0))
-    problem = "refine-db must be in (0, 200] dB";
-  else if (!(p->refine_pfa >= 0.0 && p->refine_pfa < 1.0))
-    problem = "refine-pfa must be in [0, 1)";
+  else
+    problem = refine_problem (p->refine_db, p->refine_pfa);
   if (problem) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "imager: %s", problem);
@@ -991,14 +1001,11 @@ gboolean
 sonar_imager_set_refine (SonarImager * im, double refine_db,
     double refine_pfa, GError ** error)
 {
-  if (!(refine_db > 0.0 && refine_db <= 200.0)) {
-    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
-        "imager: refine-db must be in (0, 200] dB");
-    return FALSE;
-  }
-  if (!(refine_pfa >= 0.0 && refine_pfa < 1.0)) {
-    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
-        "imager: refine-pfa must be in [0, 1)");
+  const char *problem = refine_problem (refine_db, refine_pfa);
+
+  if (problem) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, "imager: %s",
+        problem);
     return FALSE;
   }
   im->refine_ratio = (float) pow (10.0, -refine_db / 20.0);

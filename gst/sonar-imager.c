@@ -68,6 +68,10 @@ typedef struct
   /* Fine pass: per UNIT (coarse direction, zone) x hypothesis, whether a
    * unit with that coarse corner images the hypothesis; NULL: all. */
   const guint8 *wanted;
+  /* Fine pass: per UNIT, whether it images every hypothesis (its pixels
+   * written) or some only (their maximum taken with the pixels there, the
+   * interpolated coarse image); NULL: every one. */
+  const guint8 *complete;
   guint n_hypotheses;
   const SonarHypothesis *hypotheses;
   int emitter;
@@ -107,7 +111,9 @@ struct _SonarImager
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
   guint8 *hot;                  /* [direction x zone]: coarse, at the level */
-  guint8 *imaged;               /* [direction x zone]: imaged in full */
+  /* [direction x zone]: imaged over every hypothesis, nothing of the
+   * interpolation left under it (the fine pass's job.complete). */
+  guint8 *complete;
   guint n_imaged;               /* units imaged by the last call */
   guint n_passes;               /* unit x hypothesis passes of the last call */
 
@@ -376,7 +382,8 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   }
   im->units = g_new (guint, (gsize) im->n_directions * (im->n_zones + 1));
   im->hot = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
-  im->imaged = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
+  im->complete = g_new (guint8, (gsize) im->n_directions *
+      (im->n_zones + 1));
 
   im->mic_re = g_new (float, (gsize) band->n_bins *
       setup->geometry.n_microphones);
@@ -431,7 +438,7 @@ sonar_imager_free (SonarImager * im)
   g_free (im->floor_scratch);
   g_free (im->units);
   g_free (im->hot);
-  g_free (im->imaged);
+  g_free (im->complete);
   if (im->inverse) {
     sonar_fftw_lock ();
     fftwf_destroy_plan (im->inverse);
@@ -531,7 +538,10 @@ image_units (gpointer data, guint w, guint n_workers)
         (gsize) d * g->n_emitters;
     const gsize pixels = (gsize) d * n_range + first;
     const guint n_hyp = job->n_hypotheses;
-    gboolean first_hypothesis = TRUE;
+    /* Whether the next envelope is written over the pixels, or its
+     * maximum with them kept: a unit imaging some hypotheses only starts
+     * from the pixels there (job.complete). */
+    gboolean overwrite = !job->complete || job->complete[job->units[u]];
     guint corners[4];
 
     if (count == 0)
@@ -578,7 +588,7 @@ image_units (gpointer data, guint w, guint n_workers)
           job->zone_peaks[UNIT (im, d, zz) * n_hyp + h] = peak;
         }
         for (guint i = 0; i < count; i++)
-          job->image[pixels + i] = first_hypothesis ? scratch->envelope[i] :
+          job->image[pixels + i] = overwrite ? scratch->envelope[i] :
               MAX (job->image[pixels + i], scratch->envelope[i]);
         /* Which hypothesis is strongest, per block of range bins: a
          * branch per block, not per bin (on noise every other
@@ -588,16 +598,16 @@ image_units (gpointer data, guint w, guint n_workers)
           float top = 0.0f;
           for (guint i = b * HYPOTHESIS_BLOCK; i < i1; i++)
             top = MAX (top, scratch->envelope[i]);
-          if (first_hypothesis || top > best_value[b]) {
+          if (overwrite || top > best_value[b]) {
             best_value[b] = top;
             best[b] = (guint16) h;
           }
         }
       } else {
         sonar_kernel_envelope (job->image + h * job->stride + pixels, lags,
-            count, job->scale, job->stride == 0 && !first_hypothesis);
+            count, job->scale, job->stride == 0 && !overwrite);
       }
-      first_hypothesis = FALSE;
+      overwrite = FALSE;
       im->scratch[w].passes++;
     }
   }
@@ -612,8 +622,6 @@ run_units (SonarImager * im, guint n)
   for (guint w = 0; w < sonar_workers_count (im->workers); w++)
     im->scratch[w].passes = 0;
   sonar_workers_run (im->workers, image_units, im);
-  for (guint u = 0; u < n; u++)
-    im->imaged[im->units[u]] = TRUE;
   im->n_imaged += n;
   for (guint w = 0; w < sonar_workers_count (im->workers); w++)
     im->n_passes += im->scratch[w].passes;
@@ -827,10 +835,12 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
   }
 }
 
-/* The pixels of the (fine direction, zone) units not imaged, bilinear
- * between the direction's coarse corners. */
+/* The pixels of the (fine direction, zone) units not imaged over every
+ * hypothesis, bilinear between the direction's coarse corners. Made
+ * before the fine pass, from the coarse pass's values (a unit that is not
+ * imaged has no hot corner, so its corners are not imaged again). */
 static void
-interpolate_rest (SonarImager * im, float *image)
+interpolate (SonarImager * im, float *image)
 {
   const guint n_range = im->grid.n_range, n_az = im->grid.n_azimuth;
   guint corners[4];
@@ -856,7 +866,7 @@ interpolate_rest (SonarImager * im, float *image)
       p[k] = image + (gsize) corners[k] * n_range;
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
-      if (im->imaged[UNIT (im, d, z)])
+      if (im->complete[UNIT (im, d, z)])
         continue;
       for (guint i = zone->first_range; i < zone->end_range; i++)
         out[i] = w[0] * p[0][i] + w[1] * p[1][i] + w[2] * p[2][i] +
@@ -865,11 +875,35 @@ interpolate_rest (SonarImager * im, float *image)
   }
 }
 
+/* Whether the units with coarse corners @corners in zone @z image every
+ * hypothesis: some corner wants each one. */
+static gboolean
+wants_every_hypothesis (const SonarImager * im, const guint corners[4],
+    guint z)
+{
+  const guint n_hyp = im->job.n_hypotheses;
+  const guint8 *wanted[4];
+
+  for (guint k = 0; k < 4; k++)
+    wanted[k] = im->wanted + UNIT (im, corners[k], z) * n_hyp;
+  for (guint h = 0; h < n_hyp; h++)
+    if (!wanted[0][h] && !wanted[1][h] && !wanted[2][h] && !wanted[3][h])
+      return FALSE;
+  return TRUE;
+}
+
 /* Coarse pass: the coarse directions over the whole range, focused as one
  * zone (at worst 0.8 dB off the zones' focus at 0.3 m, measured by
- * test-detection). Fine pass: every (direction, zone) with a hot coarse
- * corner, the coarse directions included, with the zone's own focus.
- * Then the rest is interpolated. */
+ * test-detection). Then every (direction, zone) is interpolated that the
+ * fine pass does not image over every hypothesis. Fine pass: every
+ * (direction, zone) with a hot coarse corner, the coarse directions
+ * included, with the zone's own focus and its corners' wanted hypotheses.
+ * Where those are some of them only, each pixel keeps the maximum of the
+ * fine image and the interpolated (or coarse) one: noise imaged over a
+ * few hypotheses is the maximum of fewer values than elsewhere, several
+ * dB lower, and a range bin whose directions mix the two has a noise
+ * floor too low for the rest (in 3-D, where a strong echo's units reach
+ * far beyond it, that let noise peaks through wardcluster's floors). */
 static void
 image_coarse_to_fine (SonarImager * im, float *image)
 {
@@ -894,23 +928,29 @@ image_coarse_to_fine (SonarImager * im, float *image)
     mark_hot_over_noise (im, n_coarse);
 
   n = 0;
+  memset (im->complete, 0, (gsize) im->n_directions * (im->n_zones + 1));
   for (guint d = 0; d < im->n_directions; d++) {
     coarse_corners (im, d, corners);
     /* One zone is the coarse zone: its coarse directions are done. */
     if (im->n_zones == 1 && corners[0] == d && corners[3] == d)
       continue;
     for (guint z = 0; z < im->n_zones; z++) {
+      const gsize unit = UNIT (im, d, z);
       if (im->hot[UNIT (im, corners[0], z)]
           || im->hot[UNIT (im, corners[1], z)]
           || im->hot[UNIT (im, corners[2], z)]
-          || im->hot[UNIT (im, corners[3], z)])
-        im->units[n++] = UNIT (im, d, z);
+          || im->hot[UNIT (im, corners[3], z)]) {
+        im->units[n++] = unit;
+        im->complete[unit] = wants_every_hypothesis (im, corners, z);
+      }
     }
   }
+  interpolate (im, image);
   im->job.wanted = im->wanted;
+  im->job.complete = im->complete;
   run_units (im, n);
   im->job.wanted = NULL;
-  interpolate_rest (im, image);
+  im->job.complete = NULL;
 }
 
 /* The images of every hypothesis: their maximum into @image (stride 0),
@@ -955,7 +995,6 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   im->job.image = image;
   im->job.stride = stride;
   im->job.scale = scale;
-  memset (im->imaged, 0, n_units);
   im->n_imaged = 0;
   im->n_passes = 0;
   if (stride == 0 && im->coarse_azimuth * im->coarse_elevation > 1) {

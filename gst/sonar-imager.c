@@ -50,6 +50,9 @@ typedef struct
                                  * every call) */
   float *envelope;              /* one hypothesis's, over the grid's ranges */
   guint passes;                 /* unit x hypothesis passes of this call */
+  /* The noise gate's range floors: [FLOOR_BLOCK x coarse direction]
+   * gathered values, and one bin's scratch. */
+  float *floor_values, *floor_scratch;
 } Scratch;
 
 /* One call's arguments, for the workers. */
@@ -57,6 +60,8 @@ typedef struct
 {
   const guint *units;           /* UNIT (direction, zone) */
   guint n_units;
+  guint n_coarse;               /* the noise gate's: coarse directions,
+                                 * the first units */
   /* Coarse pass: per UNIT (coarse direction, zone) x hypothesis, the
    * hypothesis's r^2-weighted peak over the zone; else NULL. */
   float *zone_peaks;
@@ -105,9 +110,6 @@ struct _SonarImager
    * not yet taken this call), column_values one block's values. */
   guint column_bins, n_column_blocks;
   float *column_quartile, *column_values;
-  /* [FLOOR_BLOCK x coarse direction] gathered values, and a scratch of
-   * one bin's. */
-  float *floor_values, *floor_scratch;
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
   guint8 *hot;                  /* [direction x zone]: coarse, at the level */
@@ -373,8 +375,6 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   im->column_quartile = g_new (float, (gsize) im->n_coarse *
       im->n_column_blocks);
   im->column_values = g_new (float, im->column_bins);
-  im->floor_values = g_new (float, (gsize) FLOOR_BLOCK * im->n_coarse);
-  im->floor_scratch = g_new (float, im->n_coarse);
   im->range_weight = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++) {
     const double r = grid->range_first + i * grid->range_step;
@@ -406,6 +406,9 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     memset (im->scratch[w].baseband, 0, sizeof (SonarComplex) *
         im->ifft_size);
     im->scratch[w].envelope = g_new (float, grid->n_range);
+    im->scratch[w].floor_values = g_new (float, (gsize) FLOOR_BLOCK *
+        im->n_coarse);
+    im->scratch[w].floor_scratch = g_new (float, im->n_coarse);
   }
   sonar_fftw_lock ();
   /* FFTW's allocator aligns every array alike: the plan runs on each
@@ -434,8 +437,6 @@ sonar_imager_free (SonarImager * im)
   g_free (im->best_value);
   g_free (im->column_quartile);
   g_free (im->column_values);
-  g_free (im->floor_values);
-  g_free (im->floor_scratch);
   g_free (im->units);
   g_free (im->hot);
   g_free (im->complete);
@@ -452,6 +453,8 @@ sonar_imager_free (SonarImager * im)
     fftwf_free (im->scratch[w].baseband);
     fftwf_free (im->scratch[w].lags);
     g_free (im->scratch[w].envelope);
+    g_free (im->scratch[w].floor_values);
+    g_free (im->scratch[w].floor_scratch);
   }
   sonar_workers_free (im->workers);
   g_free (im->mic_re);
@@ -733,6 +736,46 @@ coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
   return TRUE;
 }
 
+/* Worker @w's share of the noise gate's range floors: for a contiguous run
+ * of the blocks of FLOOR_BLOCK range bins, each bin's censored lower
+ * quartile and strongest pixel over the job.n_coarse coarse directions
+ * (im->units), gathered into its own scratch. The quartiles do not depend
+ * on the share (the guess only speeds the selection up). */
+static void
+gate_floors_share (gpointer data, guint w, guint n_workers)
+{
+  SonarImager *im = data;
+  const Scratch *scratch = &im->scratch[w];
+  const guint n_range = im->grid.n_range, n_coarse = im->job.n_coarse;
+  const guint n_blocks = (n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
+  const float censor = (float) sonar_cluster_floor_gain
+      (SONAR_CLUSTER_CENSOR_SHARE, sonar_cluster_effective_hypotheses
+      (im->job.n_hypotheses));
+  const float *image = im->job.image;
+  float guess = NAN;
+
+  for (guint k = n_blocks * w / n_workers; k < n_blocks * (w + 1) /
+      n_workers; k++) {
+    const guint i0 = k * FLOOR_BLOCK, block = MIN (FLOOR_BLOCK,
+        n_range - i0);
+    for (guint u = 0; u < n_coarse; u++) {
+      const float *pixels = image + (gsize) UNIT_DIRECTION (im,
+          im->units[u]) * n_range + i0;
+      for (guint b = 0; b < block; b++)
+        scratch->floor_values[(gsize) b * n_coarse + u] = pixels[b];
+    }
+    for (guint b = 0; b < block; b++) {
+      float *values = scratch->floor_values + (gsize) b * n_coarse;
+      float top = 0.0f;
+      for (guint u = 0; u < n_coarse; u++)
+        top = MAX (top, values[u]);
+      im->range_top[i0 + b] = top;
+      guess = im->range_floor[i0 + b] = sonar_cluster_censored_quartile
+          (values, n_coarse, censor, guess, scratch->floor_scratch);
+    }
+  }
+}
+
 /* From the coarse image (the maximum over the hypotheses): a (coarse
  * direction, zone) is hot when one of its pixels could pass wardcluster's
  * tests once imaged in full: it exceeds its range bin's noise floor over
@@ -758,35 +801,16 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
   const double k_eff = sonar_cluster_effective_hypotheses (n_hyp);
   const float gain = (float) sonar_cluster_floor_gain (im->refine_pfa,
       k_eff);
-  const float censor = (float) sonar_cluster_floor_gain
-      (SONAR_CLUSTER_CENSOR_SHARE, k_eff);
   const int reach = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
       grid->range_step);
   const float *image = im->job.image;
-  float guess = NAN;
 
   for (gsize k = 0; k < (gsize) n_coarse * im->n_column_blocks; k++)
     im->column_quartile[k] = NAN;
   /* range_floor: first each range bin's quartile and strongest pixel over
    * the coarse directions, then the gate. */
-  for (guint i0 = 0; i0 < n_range; i0 += FLOOR_BLOCK) {
-    const guint block = MIN (FLOOR_BLOCK, n_range - i0);
-    for (guint u = 0; u < n_coarse; u++) {
-      const float *pixels = image + (gsize) UNIT_DIRECTION (im,
-          im->units[u]) * n_range + i0;
-      for (guint b = 0; b < block; b++)
-        im->floor_values[(gsize) b * n_coarse + u] = pixels[b];
-    }
-    for (guint b = 0; b < block; b++) {
-      float *values = im->floor_values + (gsize) b * n_coarse;
-      float top = 0.0f;
-      for (guint u = 0; u < n_coarse; u++)
-        top = MAX (top, values[u]);
-      im->range_top[i0 + b] = top;
-      guess = im->range_floor[i0 + b] = sonar_cluster_censored_quartile
-          (values, n_coarse, censor, guess, im->floor_scratch);
-    }
-  }
+  im->job.n_coarse = n_coarse;
+  sonar_workers_run (im->workers, gate_floors_share, im);
   for (guint i = 0; i < n_range; i++) {
     float top = 0.0f;
     for (int j = MAX ((int) i - reach, 0); j <= MIN ((int) i + reach,

@@ -402,6 +402,65 @@ test_coarse_to_fine_faint (void)
   sonar_test_chain_clear (&c);
 }
 
+/* The image does not depend on the workers sharing it (the coarse pass,
+ * the noise gate's floors, the fine pass): bit for bit with 1 to 7
+ * threads, on a 3-D grid over 47 hypotheses where the gate and the
+ * refined units' subsets of hypotheses both act. */
+static void
+test_threads (void)
+{
+  Chain c;
+  g_autoptr (SonarDopplerBank) bank = NULL;
+  SonarImagerParams p;
+  const SonarImageGrid *grid;
+  const char *scene = "{\"reflectors\": [{\"range\": 0.6, \"azimuth\": 0, "
+      "\"elevation\": 0, \"strength\": 30, \"radial-velocity\": -1.2}, "
+      "{\"range\": 2.5, \"azimuth\": -21, \"elevation\": 9, "
+      "\"radial-velocity\": 2.1}]}";
+  const guint threads[] = { 1, 2, 3, 7 };
+  guint hypotheses[64], n_hypotheses, units = 0, dense_units, passes,
+      dense_passes;
+  float *first = NULL;
+
+  sonar_test_chain_init (&c, 4200);
+  bank = sonar_doppler_bank_new (c.setup, -7.0, 7.0, 0.05, NULL);
+  n_hypotheses = sonar_doppler_bank_hypotheses (bank, 0.3, hypotheses);
+  sonar_test_chain_simulate (&c, scene, 0.01);
+  sonar_imager_params_init_default (&p);
+  p.n_azimuth = 31;
+  p.azimuth_min = -42;
+  p.azimuth_max = 18;
+  p.n_elevation = 21;
+  p.elevation_min = -18;
+  p.elevation_max = 22;
+  p.coarse_spacing = 6.0;
+  for (guint k = 0; k < G_N_ELEMENTS (threads); k++) {
+    SonarImager *imager;
+    float *image;
+
+    p.threads = threads[k];
+    image = chain_image (&c, bank, hypotheses, n_hypotheses, -1, &p, &grid,
+        &imager);
+    sonar_imager_last_work (imager, &units, &dense_units, &passes,
+        &dense_passes);
+    if (!first) {
+      g_test_message ("%u of %u units, %u of %u passes", units, dense_units,
+          passes, dense_passes);
+      /* Some units refined, over some of the hypotheses only. */
+      g_assert_cmpuint (units, <, dense_units);
+      g_assert_cmpuint (passes, <, (guint64) units * n_hypotheses);
+      first = image;
+    } else {
+      g_assert_cmpmem (image, sonar_image_grid_size (grid) * sizeof (float),
+          first, sonar_image_grid_size (grid) * sizeof (float));
+      g_free (image);
+    }
+    sonar_imager_free (imager);
+  }
+  g_free (first);
+  sonar_test_chain_clear (&c);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -414,5 +473,6 @@ main (int argc, char **argv)
   g_test_add_func ("/imaging/point-reflectors-3d", test_point_reflectors_3d);
   g_test_add_func ("/imaging/coarse-to-fine", test_coarse_to_fine);
   g_test_add_func ("/imaging/coarse-to-fine-faint", test_coarse_to_fine_faint);
+  g_test_add_func ("/imaging/threads", test_threads);
   return g_test_run ();
 }

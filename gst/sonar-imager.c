@@ -16,6 +16,10 @@
  * each: 4.3 cm, a few envelope widths). A pixel over refine-pfa's gate
  * is its block's strongest, or near it. */
 #define HYPOTHESIS_BLOCK 16
+/* A coarse pixel that noise alone exceeds this rarely (over its range
+ * bin's noise floor, as refine_pfa's gate) marks its block of
+ * HYPOTHESIS_BLOCK range bins as holding an echo (the gate's default). */
+#define ECHO_PFA 1e-5
 /* Range bins gathered at a time for the noise floors over the coarse
  * directions: each direction's bins read in one run (one bin at a time
  * reads a cache line per value; sonar-cluster.c gathers so too). */
@@ -25,6 +29,17 @@
 #define MAX_FOCUS_ZONES 64
 
 #define UNIT(im, d, z) ((d) * ((im)->n_zones + 1) + (z))
+
+/* How the fine pass images a (direction, zone) unit of a coarse-to-fine
+ * image. */
+typedef enum
+{
+  UNIT_INTERPOLATED,            /* not: its pixels interpolated */
+  UNIT_SOME_HYPOTHESES,         /* over some: its envelope's maximum taken
+                                 * with the interpolation where the coarse
+                                 * corners hold noise alone */
+  UNIT_EVERY_HYPOTHESIS         /* over all: its envelope written */
+} UnitImaging;
 #define UNIT_DIRECTION(im, u) ((u) / ((im)->n_zones + 1))
 #define UNIT_ZONE(im, u) ((u) % ((im)->n_zones + 1))
 
@@ -73,10 +88,8 @@ typedef struct
   /* Fine pass: per UNIT (coarse direction, zone) x hypothesis, whether a
    * unit with that coarse corner images the hypothesis; NULL: all. */
   const guint8 *wanted;
-  /* Fine pass: per UNIT, whether it images every hypothesis (its pixels
-   * written) or some only (their maximum taken with the pixels there, the
-   * interpolated coarse image); NULL: every one. */
-  const guint8 *complete;
+  /* Fine pass: per UNIT, its UnitImaging (NULL: every hypothesis). */
+  const guint8 *imaging;
   guint n_hypotheses;
   const SonarHypothesis *hypotheses;
   int emitter;
@@ -105,6 +118,12 @@ struct _SonarImager
   guint n_coarse;               /* coarse directions */
   float *range_floor;           /* [range bin] the noise gate over them */
   float *range_top;             /* [range bin] their strongest */
+  float *range_echo;            /* [range bin] the level of ECHO_PFA */
+  guint *coarse_unit;           /* [direction] its index among the coarse
+                                 * ones, G_MAXUINT for the others */
+  /* [coarse direction x block of HYPOTHESIS_BLOCK range bins]: no pixel of
+   * the block over range_echo, noise alone (all FALSE: not known). */
+  guint8 *noise_block;
   /* wardcluster's column floor on the coarse directions: blocks of
    * column_bins range bins, [coarse unit x block] lower quartiles (NaN:
    * not yet taken this call), column_values one block's values. */
@@ -113,9 +132,7 @@ struct _SonarImager
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
   guint8 *hot;                  /* [direction x zone]: coarse, at the level */
-  /* [direction x zone]: imaged over every hypothesis, nothing of the
-   * interpolation left under it (the fine pass's job.complete). */
-  guint8 *complete;
+  guint8 *imaging;              /* [direction x zone]: UnitImaging */
   guint n_imaged;               /* units imaged by the last call */
   guint n_passes;               /* unit x hypothesis passes of the last call */
 
@@ -356,18 +373,23 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     im->sidelobe_ratio = (float) pow (10.0, cluster.sidelobe_db / 20.0);
   }
   im->n_coarse = 0;
+  im->coarse_unit = g_new (guint, im->n_directions);
   for (guint d = 0; d < im->n_directions; d++) {
     guint corners[4];
     coarse_corners (im, d, corners);
-    im->n_coarse += corners[0] == d && corners[3] == d;
+    im->coarse_unit[d] = corners[0] == d && corners[3] == d ?
+        im->n_coarse++ : G_MAXUINT;
   }
   im->range_floor = g_new (float, grid->n_range);
   im->range_top = g_new (float, grid->n_range);
+  im->range_echo = g_new (float, grid->n_range);
   im->n_hypothesis_blocks = (grid->n_range + HYPOTHESIS_BLOCK - 1) /
       HYPOTHESIS_BLOCK;
   im->best_hypothesis = g_new (guint16, (gsize) im->n_coarse *
       im->n_hypothesis_blocks);
   im->best_value = g_new (float, (gsize) im->n_coarse *
+      im->n_hypothesis_blocks);
+  im->noise_block = g_new0 (guint8, (gsize) im->n_coarse *
       im->n_hypothesis_blocks);
   im->column_bins = sonar_cluster_column_bins (grid);
   im->n_column_blocks = (grid->n_range + im->column_bins - 1) /
@@ -382,7 +404,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   }
   im->units = g_new (guint, (gsize) im->n_directions * (im->n_zones + 1));
   im->hot = g_new (guint8, (gsize) im->n_directions * (im->n_zones + 1));
-  im->complete = g_new (guint8, (gsize) im->n_directions *
+  im->imaging = g_new (guint8, (gsize) im->n_directions *
       (im->n_zones + 1));
 
   im->mic_re = g_new (float, (gsize) band->n_bins *
@@ -433,13 +455,16 @@ sonar_imager_free (SonarImager * im)
   g_free (im->range_weight);
   g_free (im->range_floor);
   g_free (im->range_top);
+  g_free (im->range_echo);
+  g_free (im->coarse_unit);
+  g_free (im->noise_block);
   g_free (im->best_hypothesis);
   g_free (im->best_value);
   g_free (im->column_quartile);
   g_free (im->column_values);
   g_free (im->units);
   g_free (im->hot);
-  g_free (im->complete);
+  g_free (im->imaging);
   if (im->inverse) {
     sonar_fftw_lock ();
     fftwf_destroy_plan (im->inverse);
@@ -543,8 +568,9 @@ image_units (gpointer data, guint w, guint n_workers)
     const guint n_hyp = job->n_hypotheses;
     /* Whether the next envelope is written over the pixels, or its
      * maximum with them kept: a unit imaging some hypotheses only starts
-     * from the pixels there (job.complete). */
-    gboolean overwrite = !job->complete || job->complete[job->units[u]];
+     * from the pixels interpolate () left there. */
+    gboolean overwrite = !job->imaging || job->imaging[job->units[u]] ==
+        UNIT_EVERY_HYPOTHESIS;
     guint corners[4];
 
     if (count == 0)
@@ -736,23 +762,29 @@ coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
   return TRUE;
 }
 
-/* Worker @w's share of the noise gate's range floors: for a contiguous run
- * of the blocks of FLOOR_BLOCK range bins, each bin's censored lower
- * quartile and strongest pixel over the job.n_coarse coarse directions
- * (im->units), gathered into its own scratch. The quartiles do not depend
- * on the share (the guess only speeds the selection up). */
+/* Worker @w's share of the coarse image's noise floors: for a contiguous
+ * run of the blocks of FLOOR_BLOCK range bins, each bin's censored lower
+ * quartile (range_floor, wardcluster's statistic) and strongest pixel over
+ * the job.n_coarse coarse directions (im->units, gathered into its own
+ * scratch), the level of ECHO_PFA over it, and which coarse directions'
+ * blocks of HYPOTHESIS_BLOCK bins stay under that level. The quartiles do
+ * not depend on the share (the guess only speeds the selection up). */
 static void
-gate_floors_share (gpointer data, guint w, guint n_workers)
+range_floors_share (gpointer data, guint w, guint n_workers)
 {
   SonarImager *im = data;
   const Scratch *scratch = &im->scratch[w];
   const guint n_range = im->grid.n_range, n_coarse = im->job.n_coarse;
   const guint n_blocks = (n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
+  const double k_eff = sonar_cluster_effective_hypotheses
+      (im->job.n_hypotheses);
   const float censor = (float) sonar_cluster_floor_gain
-      (SONAR_CLUSTER_CENSOR_SHARE, sonar_cluster_effective_hypotheses
-      (im->job.n_hypotheses));
+      (SONAR_CLUSTER_CENSOR_SHARE, k_eff);
+  const float echo = (float) sonar_cluster_floor_gain (ECHO_PFA, k_eff);
   const float *image = im->job.image;
   float guess = NAN;
+
+  G_STATIC_ASSERT (FLOOR_BLOCK % HYPOTHESIS_BLOCK == 0);
 
   for (guint k = n_blocks * w / n_workers; k < n_blocks * (w + 1) /
       n_workers; k++) {
@@ -772,6 +804,18 @@ gate_floors_share (gpointer data, guint w, guint n_workers)
       im->range_top[i0 + b] = top;
       guess = im->range_floor[i0 + b] = sonar_cluster_censored_quartile
           (values, n_coarse, censor, guess, scratch->floor_scratch);
+      im->range_echo[i0 + b] = echo * guess;
+    }
+    for (guint u = 0; u < n_coarse; u++) {
+      const float *pixels = image + (gsize) UNIT_DIRECTION (im,
+          im->units[u]) * n_range;
+      for (guint i = i0; i < i0 + block; i += HYPOTHESIS_BLOCK) {
+        gboolean noise = TRUE;
+        for (guint j = i; j < MIN (i + HYPOTHESIS_BLOCK, n_range); j++)
+          noise &= pixels[j] <= im->range_echo[j];
+        im->noise_block[(gsize) u * im->n_hypothesis_blocks + i /
+            HYPOTHESIS_BLOCK] = noise;
+      }
     }
   }
 }
@@ -807,10 +851,8 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
 
   for (gsize k = 0; k < (gsize) n_coarse * im->n_column_blocks; k++)
     im->column_quartile[k] = NAN;
-  /* range_floor: first each range bin's quartile and strongest pixel over
-   * the coarse directions, then the gate. */
-  im->job.n_coarse = n_coarse;
-  sonar_workers_run (im->workers, gate_floors_share, im);
+  /* range_floor: each range bin's quartile (range_floors_share ()), then
+   * the gate. */
   for (guint i = 0; i < n_range; i++) {
     float top = 0.0f;
     for (int j = MAX ((int) i - reach, 0); j <= MIN ((int) i + reach,
@@ -860,10 +902,26 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
   }
 }
 
-/* The pixels of the (fine direction, zone) units not imaged over every
- * hypothesis, bilinear between the direction's coarse corners. Made
- * before the fine pass, from the coarse pass's values (a unit that is not
- * imaged has no hot corner, so its corners are not imaged again). */
+/* Whether the block of HYPOTHESIS_BLOCK range bins holding bin @i holds
+ * noise alone at the four coarse directions @corners. */
+static gboolean
+noise_block (const SonarImager * im, const guint corners[4], guint i)
+{
+  const guint b = i / HYPOTHESIS_BLOCK;
+
+  for (guint k = 0; k < 4; k++)
+    if (!im->noise_block[(gsize) im->coarse_unit[corners[k]] *
+            im->n_hypothesis_blocks + b])
+      return FALSE;
+  return TRUE;
+}
+
+/* Before the fine pass, from the coarse pass's values: the pixels of the
+ * UNIT_INTERPOLATED units, bilinear between the direction's coarse
+ * corners (which are not imaged again: none is hot in that zone); in the
+ * UNIT_SOME_HYPOTHESES units, the same where the corners hold noise alone
+ * and 0 elsewhere (their fine envelope written there), the coarse
+ * directions' own pixels included. */
 static void
 interpolate (SonarImager * im, float *image)
 {
@@ -891,11 +949,28 @@ interpolate (SonarImager * im, float *image)
       p[k] = image + (gsize) corners[k] * n_range;
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
-      if (im->complete[UNIT (im, d, z)])
+      const guint imaging = im->imaging[UNIT (im, d, z)];
+      if (imaging == UNIT_EVERY_HYPOTHESIS)
         continue;
       for (guint i = zone->first_range; i < zone->end_range; i++)
-        out[i] = w[0] * p[0][i] + w[1] * p[1][i] + w[2] * p[2][i] +
-            w[3] * p[3][i];
+        out[i] = imaging == UNIT_SOME_HYPOTHESES && !noise_block (im,
+            corners, i) ? 0.0f : w[0] * p[0][i] + w[1] * p[1][i] +
+            w[2] * p[2][i] + w[3] * p[3][i];
+    }
+  }
+  /* The coarse directions last: the others read their pixels above. */
+  for (guint d = 0; d < im->n_directions; d++) {
+    float *out = image + (gsize) d * n_range;
+    coarse_corners (im, d, corners);
+    if (corners[0] != d || corners[3] != d)
+      continue;
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *zone = &im->zones[z];
+      if (im->imaging[UNIT (im, d, z)] != UNIT_SOME_HYPOTHESES)
+        continue;
+      for (guint i = zone->first_range; i < zone->end_range; i++)
+        if (!noise_block (im, corners, i))
+          out[i] = 0.0f;
     }
   }
 }
@@ -923,12 +998,15 @@ wants_every_hypothesis (const SonarImager * im, const guint corners[4],
  * fine pass does not image over every hypothesis. Fine pass: every
  * (direction, zone) with a hot coarse corner, the coarse directions
  * included, with the zone's own focus and its corners' wanted hypotheses.
- * Where those are some of them only, each pixel keeps the maximum of the
- * fine image and the interpolated (or coarse) one: noise imaged over a
- * few hypotheses is the maximum of fewer values than elsewhere, several
- * dB lower, and a range bin whose directions mix the two has a noise
- * floor too low for the rest (in 3-D, where a strong echo's units reach
- * far beyond it, that let noise peaks through wardcluster's floors). */
+ * Where those are some of them only, a pixel whose coarse corners hold
+ * noise alone keeps the maximum of the fine image and the interpolated
+ * (or coarse) one: noise imaged over a few hypotheses is the maximum of
+ * fewer values than elsewhere, several dB lower, and a range bin whose
+ * directions mix the two has a noise floor too low for the rest (in 3-D,
+ * where a strong echo's units reach far beyond it, that let noise peaks
+ * through wardcluster's floors). Near an echo the fine image stands
+ * alone: there the interpolation would fill the main lobe's flanks and
+ * shift the peaks wardcluster refines. */
 static void
 image_coarse_to_fine (SonarImager * im, float *image)
 {
@@ -949,11 +1027,22 @@ image_coarse_to_fine (SonarImager * im, float *image)
   im->job.best_hypothesis = NULL;
   im->job.best_value = NULL;
   mark_hot (im, n_coarse);
+  /* The noise floors over the coarse directions: the gate's, and which
+   * blocks hold noise alone. Too few coarse directions for a quartile:
+   * every block may hold an echo. */
+  if (n_coarse >= 4) {
+    im->job.n_coarse = n_coarse;
+    sonar_workers_run (im->workers, range_floors_share, im);
+  } else {
+    memset (im->noise_block, 0, (gsize) im->n_coarse *
+        im->n_hypothesis_blocks);
+  }
   if (im->refine_pfa > 0.0 && n_coarse >= 4)
     mark_hot_over_noise (im, n_coarse);
 
   n = 0;
-  memset (im->complete, 0, (gsize) im->n_directions * (im->n_zones + 1));
+  memset (im->imaging, UNIT_INTERPOLATED, (gsize) im->n_directions *
+      (im->n_zones + 1));
   for (guint d = 0; d < im->n_directions; d++) {
     coarse_corners (im, d, corners);
     /* One zone is the coarse zone: its coarse directions are done. */
@@ -966,16 +1055,17 @@ image_coarse_to_fine (SonarImager * im, float *image)
           || im->hot[UNIT (im, corners[2], z)]
           || im->hot[UNIT (im, corners[3], z)]) {
         im->units[n++] = unit;
-        im->complete[unit] = wants_every_hypothesis (im, corners, z);
+        im->imaging[unit] = wants_every_hypothesis (im, corners, z) ?
+            UNIT_EVERY_HYPOTHESIS : UNIT_SOME_HYPOTHESES;
       }
     }
   }
   interpolate (im, image);
   im->job.wanted = im->wanted;
-  im->job.complete = im->complete;
+  im->job.imaging = im->imaging;
   run_units (im, n);
   im->job.wanted = NULL;
-  im->job.complete = NULL;
+  im->job.imaging = NULL;
 }
 
 /* The images of every hypothesis: their maximum into @image (stride 0),

@@ -336,6 +336,20 @@ test_bank_template_interp (void)
   g_assert_cmpfloat (error_db[2], <, -6.0);
 }
 
+/* The defaults on a small 3-D grid: 2 degrees over -42..18 x -18..22,
+ * coarse directions every 6 degrees from -42 and -18. */
+static void
+small_3d_grid (SonarImagerParams * p)
+{
+  sonar_imager_params_init_default (p);
+  p->n_azimuth = 31;
+  p->azimuth_min = -42;
+  p->azimuth_max = 18;
+  p->n_elevation = 21;
+  p->elevation_min = -18;
+  p->elevation_max = 22;
+}
+
 /* The noise gate of the coarse to fine pass (refine_pfa): an echo 30 dB
  * below a near one in the range-compensated image (far below refine_db),
  * between the coarse directions of a 3-D grid (2 degrees, coarse 6), is
@@ -361,15 +375,8 @@ test_coarse_to_fine_faint (void)
   bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
   zero = sonar_doppler_bank_nearest (bank, 0.0);
   sonar_test_chain_simulate (&c, scene, 0.01);
-  sonar_imager_params_init_default (&p);
-  /* 2 degrees, coarse directions every 6 from -42 and -18: -24 and -18,
-   * 6 and 12 bracket the echo. */
-  p.n_azimuth = 31;
-  p.azimuth_min = -42;
-  p.azimuth_max = 18;
-  p.n_elevation = 21;
-  p.elevation_min = -18;
-  p.elevation_max = 22;
+  /* Coarse directions -24 and -18, 6 and 12 bracket the echo. */
+  small_3d_grid (&p);
   for (guint k = 0; k < 3; k++) {
     p.coarse_spacing = spacing[k];
     p.refine_pfa = pfa[k];
@@ -426,13 +433,7 @@ test_threads (void)
   bank = sonar_doppler_bank_new (c.setup, -7.0, 7.0, 0.05, NULL);
   n_hypotheses = sonar_doppler_bank_hypotheses (bank, 0.3, hypotheses);
   sonar_test_chain_simulate (&c, scene, 0.01);
-  sonar_imager_params_init_default (&p);
-  p.n_azimuth = 31;
-  p.azimuth_min = -42;
-  p.azimuth_max = 18;
-  p.n_elevation = 21;
-  p.elevation_min = -18;
-  p.elevation_max = 22;
+  small_3d_grid (&p);
   p.coarse_spacing = 6.0;
   for (guint k = 0; k < G_N_ELEMENTS (threads); k++) {
     SonarImager *imager;

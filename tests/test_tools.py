@@ -586,11 +586,12 @@ def foreign_scenes_finds_faint_objects():
     tests/foreign_sim.py (6 objects over 30 dB each): the defaults find
     all 12 with no false object; without mimobeamform's noise gate
     (refine-pfa=0) two objects 20.6 and 21.6 dB below the strongest,
-    between coarse directions, are lost"""
+    between coarse directions, are lost, and --explain names them"""
     env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
     result = subprocess.run(
         [PYTHON, str(TOOLS / "foreign-scenes.py"), "--view", "fan",
-         "--scenes", "2", "--seed", "3", "--compare", "refine-pfa=0"],
+         "--scenes", "2", "--seed", "3", "--compare", "refine-pfa=0",
+         "--explain"],
         capture_output=True, text=True, timeout=120, env=env)
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
@@ -598,6 +599,12 @@ def foreign_scenes_finds_faint_objects():
         result.stdout
     assert "  refine-pfa=0             found 10 of 12, 0 false" in lines, \
         result.stdout
+    missed = [line.split(";")[0] for line in lines if " missed: " in line]
+    assert missed == [
+        "  refine-pfa=0 missed: 4.020 m, az -52.1, el 0.0, -2.92 m/s, 20.6 "
+        "dB below the strongest",
+        "  refine-pfa=0 missed: 2.851 m, az 36.1, el 0.0, -0.33 m/s, 21.6 "
+        "dB below the strongest"], result.stdout
 
 
 if __name__ == "__main__":

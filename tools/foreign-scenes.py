@@ -14,6 +14,10 @@ image spans that range), one ping each.
 
     /usr/bin/python3 tools/foreign-scenes.py --view fan --scenes 20 \\
         --compare "refine-pfa=0"
+
+--explain lists, under each scene, every object missed (its place,
+radial velocity, dB below the strongest and the nearest detection) and
+every false detection.
 """
 
 import argparse
@@ -60,7 +64,9 @@ def run_chain(folder, name, props, env):
 
 
 def score(detections, truth):
-    found, used = 0, set()
+    """The objects found, and the lists of those missed and of the false
+    detections."""
+    found, used, missed = 0, set(), []
     for r in truth:
         for j, d in enumerate(detections):
             if d["valid"] and j not in used and math.dist(
@@ -68,9 +74,34 @@ def score(detections, truth):
                 found += 1
                 used.add(j)
                 break
-    false = sum(1 for j, d in enumerate(detections)
-                if d["valid"] and j not in used)
-    return found, false
+        else:
+            missed.append(r)
+    false = [d for j, d in enumerate(detections)
+             if d["valid"] and j not in used]
+    return found, missed, false
+
+
+def explain(label, truth, detections, missed, false):
+    """Lines on what a run missed and reported falsely: each missed
+    object's place, its strength against the strongest's and the nearest
+    detection (valid or rejected); each false detection's place."""
+    top = max(r["strength"] for r in truth)
+    for r in missed:
+        near = min(detections, default=None, key=lambda d: math.dist(
+            r["position"], [d["x"], d["y"], d["z"]]))
+        where = "no detection" if near is None else \
+            "nearest detection %.3f m away (%s)" % (
+                math.dist(r["position"], [near["x"], near["y"], near["z"]]),
+                "valid" if near["valid"] else "rejected")
+        print("  %s missed: %.3f m, az %.1f, el %.1f, %+.2f m/s, %.1f dB "
+              "below the strongest; %s" % (
+                  label, r["range"], r["azimuth"], r["elevation"],
+                  r["radial_velocity"], 20 * math.log10(top / r["strength"]),
+                  where))
+    for d in false:
+        print("  %s false: %.3f m, az %.1f, el %.1f, %+.3f m/s, snr %.1f dB"
+              % (label, d["range"], d["azimuth"], d["elevation"] or 0.0,
+                 d["radial_velocity"], d["snr"]))
 
 
 def main():
@@ -85,6 +116,9 @@ def main():
     parser.add_argument("--compare", action="append", default=[],
                         metavar="PROPS", help="mimobeamform properties of "
                         "another run of every scene (repeatable)")
+    parser.add_argument("--explain", action="store_true",
+                        help="under each scene, the objects missed and "
+                        "the false detections")
     args = parser.parse_args()
 
     env = dict(os.environ)
@@ -107,15 +141,21 @@ def main():
             truth = json.loads(pathlib.Path(
                 folder, name + ".truth.json").read_text())
             truth = truth["pings"][0]["reflectors"]
-            row = []
+            row, lines = [], []
             for v in variants:
-                found, false = score(run_chain(folder, name, v, env), truth)
+                detections = run_chain(folder, name, v, env)
+                found, missed, false = score(detections, truth)
                 t = totals[v]
                 t[0] += found
                 t[1] += len(truth)
-                t[2] += false
-                row.append("%d/%d, %d false" % (found, len(truth), false))
+                t[2] += len(false)
+                row.append("%d/%d, %d false" % (found, len(truth),
+                                                len(false)))
+                lines.append((v or "defaults", detections, missed, false))
             print("%s: %s" % (name, " | ".join(row)), flush=True)
+            for label, detections, missed, false in lines if args.explain \
+                    else ():
+                explain(label, truth, detections, missed, false)
     print("\n%s, %d scenes of %d objects over %g dB, seed %d:" % (
         args.view, args.scenes, args.objects, args.spread, args.seed))
     for v in variants:

@@ -16,10 +16,13 @@
  * each: 4.3 cm, a few envelope widths). A pixel over refine-pfa's gate
  * is its block's strongest, or near it. */
 #define HYPOTHESIS_BLOCK 16
+/* refine_pfa's default. */
+#define DEFAULT_REFINE_PFA 1e-5
 /* A coarse pixel that noise alone exceeds this rarely (over its range
- * bin's noise floor, as refine_pfa's gate) marks its block of
- * HYPOTHESIS_BLOCK range bins as holding an echo (the gate's default). */
-#define ECHO_PFA 1e-5
+ * bin's noise floor, as refine_pfa's gate at its default) marks its block
+ * of HYPOTHESIS_BLOCK range bins as holding an echo: fixed, so that what
+ * the image holds does not follow the gate's setting. */
+#define ECHO_PFA DEFAULT_REFINE_PFA
 /* Range bins gathered at a time for the noise floors over the coarse
  * directions: each direction's bins read in one run (one bin at a time
  * reads a cache line per value; sonar-cluster.c gathers so too). */
@@ -165,7 +168,7 @@ sonar_imager_params_init_default (SonarImagerParams * p)
   p->range_resolution = 0.005;
   p->focus_zones = 4;
   p->refine_db = 20.0;
-  p->refine_pfa = 1e-5;
+  p->refine_pfa = DEFAULT_REFINE_PFA;
   p->threads = 0;
 }
 
@@ -1012,6 +1015,7 @@ image_coarse_to_fine (SonarImager * im, float *image)
 {
   const guint coarse_zone = im->n_zones;
   guint corners[4], n = 0, n_coarse;
+  gboolean floors;
 
   for (guint d = 0; d < im->n_directions; d++) {
     coarse_corners (im, d, corners);
@@ -1027,17 +1031,20 @@ image_coarse_to_fine (SonarImager * im, float *image)
   im->job.best_hypothesis = NULL;
   im->job.best_value = NULL;
   mark_hot (im, n_coarse);
-  /* The noise floors over the coarse directions: the gate's, and which
-   * blocks hold noise alone. Too few coarse directions for a quartile:
-   * every block may hold an echo. */
-  if (n_coarse >= 4) {
+  /* The noise floors over the coarse directions, for the gate and for
+   * the units imaged over some hypotheses (none with one hypothesis):
+   * which blocks hold noise alone. Too few coarse directions for a
+   * quartile: every block may hold an echo. */
+  floors = n_coarse >= 4 && (im->refine_pfa > 0.0 ||
+      im->job.n_hypotheses > 1);
+  if (floors) {
     im->job.n_coarse = n_coarse;
     sonar_workers_run (im->workers, range_floors_share, im);
   } else {
     memset (im->noise_block, 0, (gsize) im->n_coarse *
         im->n_hypothesis_blocks);
   }
-  if (im->refine_pfa > 0.0 && n_coarse >= 4)
+  if (floors && im->refine_pfa > 0.0)
     mark_hot_over_noise (im, n_coarse);
 
   n = 0;

@@ -19,8 +19,12 @@
  * of the coarse image's maximum (both weighted by r^2, as wardcluster
  * compensates range), or stands over its range bins' noise floor by what
  * noise exceeds with probability refine_pfa (a faint echo far below the
- * strongest); elsewhere they are interpolated from the coarse ones. Work
- * grows with what the scene holds, not with the grid.
+ * strongest); elsewhere they are interpolated from the coarse ones. A
+ * refined unit images the hypotheses its coarse corners found there;
+ * where those corners hold noise alone, its pixels keep the higher of
+ * that and the interpolation, so that noise is the maximum over every
+ * hypothesis throughout (docs/CONTRACTS.md). Work grows with what the
+ * scene holds, not with the grid.
  */
 #ifndef SONAR_IMAGER_H
 #define SONAR_IMAGER_H

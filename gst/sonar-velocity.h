@@ -76,8 +76,24 @@
  * only when it is one echo: along azimuth its power falls either side of
  * its direction, on at least one side, as steeply as a lone point's
  * model there (a blend of two echoes the beam does not resolve is
- * flatter on both). A ping without such a centroid never comes this way
- * and allocates nothing for it.
+ * flatter on both), or when it is two (below). A ping without such a
+ * centroid never comes this way and allocates nothing for it.
+ *
+ * Two echoes at one range that the beam does not resolve (8 degrees
+ * apart near +-72 degrees, where it is 6.5 degrees wide) make one peak
+ * between them, whose estimate passes the coherence tests as one object
+ * there when nothing else is near. An estimate whose power does not fall
+ * as a lone point's on both sides (on a residual, or a first estimate
+ * whose coherence factor is below a lone echo's 0.95) is fitted with two
+ * points: the pair at its range and velocity, one either side along
+ * azimuth, whose least-squares fit to the spectra (two echo models, their
+ * complex amplitudes over every microphone and bin) explains the most
+ * power. When that is 1.2 times the best single point's and leaves
+ * little at the estimate's own direction (a third echo between the two
+ * would be left whole), each point is estimated on the spectra less the
+ * other's fitted model, and both replace the estimate when each passes
+ * every test, shares twice pooled_snr_db's power over the pooled
+ * interference and is not a blend itself.
  *
  * Two reflectors a few centimetres apart in range share a centroid: the
  * window spans the ranges of its member peaks, so both echoes are in it,
@@ -213,7 +229,7 @@ gboolean sonar_velocity_pool_retune (SonarVelocityPool * pool,
  * centroids that fail, interfered at their own pixel, are estimated again
  * with the accepted echoes cancelled (above). Returns after all are done.
  * Allocates only when a ping has more centroids than any before it, and
- * on the first ping that cancels (one_echo ()'s model). */
+ * on the first ping that cancels or fits two points (their models). */
 void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);

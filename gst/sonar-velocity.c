@@ -1872,7 +1872,9 @@ cancel_echo (SonarVelocityPool * pool, const SonarVelocityEstimate * e)
  * falls as one point when it shows SHAPE_FALL of the model's dB at
  * least. A lone echo falls so on both sides; an echo beside another
  * (a neighbour not cancelled, or the other of two the beam does not
- * resolve, on which it stands) on one; a blend of two on neither. */
+ * resolve, on which it stands) on one; a blend of two on neither.
+ * *@half_width (may be NULL): image steps to the model's SHAPE_DB fall,
+ * the wider side's. */
 typedef enum
 {
   ECHO_BLEND,
@@ -1882,7 +1884,7 @@ typedef enum
 
 static EchoShape
 echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
-    const SonarVelocityEstimate * e)
+    const SonarVelocityEstimate * e, guint * half_width)
 {
   SonarVelocityEstimator *est = pool->estimators[0];
   const gsize size = (gsize) est->setup->geometry.n_microphones *
@@ -1894,6 +1896,8 @@ echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
   int reach[2] = { 0, 0 };
   guint sides = 0;
 
+  if (half_width)
+    *half_width = 0;
   if (!(step > 0.0) || est->grid.n_azimuth < 2)
     return ECHO_LONE;
   set_window_lags (est, centroid);
@@ -1942,16 +1946,20 @@ echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
         && fall[side] >= SHAPE_FALL * model_fall[side];
   }
   est->focused = FALSE;
+  if (half_width)
+    *half_width = (guint) MAX (reach[0], reach[1]);
   if (reach[0] == 0 && reach[1] == 0)
     return ECHO_LONE;
   return sides >= 2 ? ECHO_LONE : sides == 1 ? ECHO_ONE_SIDE : ECHO_BLEND;
 }
 
 /* split_blend (): candidate directions per image step, either side of
- * the blend out to SHAPE_STEPS steps (the reach within which
- * echo_shape () compares its fall with one point's); and the least
- * conditioning of a pair's 2 x 2 normal equations (two directions whose
- * models are nearly the same cannot be told apart). */
+ * the blend out to twice the lone model's half width (echo_shape ()) and
+ * one step more, SHAPE_STEPS at most (two echoes the beam does not
+ * resolve lie within its width of each other, so each within it of the
+ * blend); and the least conditioning of a pair's 2 x 2 normal equations
+ * (two directions whose models are nearly the same cannot be told
+ * apart). */
 #define SPLIT_SUBSTEPS 2
 #define SPLIT_MIN_CONDITION 1e-3
 /* The power two points' fit explains, over the best one point's, from
@@ -2043,8 +2051,9 @@ fit_pair (const double complex *dots, const double *norms, int a, int b,
  * an echo model at the blend's range and bank velocity, echo_model ();
  * their complex amplitudes from the 2 x 2 normal equations over every
  * microphone and bin): the pair of directions, one either side of the
- * blend along azimuth, whose fit explains the most power, searched on
- * whole image steps, then refined by half steps. When it explains
+ * blend along azimuth within 2 @half_width + 1 image steps, whose fit
+ * explains the most power, searched on whole steps, then refined by half
+ * steps. When it explains
  * SPLIT_GAIN times the best one point's power, the echo is two: each is
  * then estimated on the spectra less the other's fitted model, as a
  * centroid there would be, and found when valid, standing SPLIT_HALF_SNR
@@ -2052,7 +2061,8 @@ fit_pair (const double complex *dots, const double *norms, int a, int b,
  * (echo_shape ()): both into @halves. */
 static gboolean
 split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
-    const SonarVelocityEstimate * blend, SonarVelocityEstimate halves[2])
+    const SonarVelocityEstimate * blend, guint half_width,
+    SonarVelocityEstimate halves[2])
 {
   SonarVelocityEstimator *est = pool->estimators[0];
   const SonarSteering *st = &est->steering;
@@ -2060,7 +2070,8 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
   const guint nb = est->band.n_bins;
   const gsize size = (gsize) n_mics * nb;
   const double step = est->grid.azimuth_step / SPLIT_SUBSTEPS;
-  const int reach = SHAPE_STEPS * SPLIT_SUBSTEPS;
+  const int reach = (int) MIN (2 * half_width + 1, SHAPE_STEPS) *
+      SPLIT_SUBSTEPS;
   const int n_candidates = 2 * reach + 1;
   const SonarSplitSpectra spectra = pool->spectra;
   double complex dots[2 * SHAPE_STEPS * SPLIT_SUBSTEPS + 1];
@@ -2075,12 +2086,13 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
   if (!(step > 0.0) || est->grid.n_azimuth < 2)
     return FALSE;
   if (!pool->split_re) {
-    /* Made on the first blend and kept. */
+    /* Made on the first blend, for the widest reach, and kept. */
+    const gsize most = G_N_ELEMENTS (dots);
     pool->split_re = g_new (float, size);
     pool->split_im = g_new (float, size);
-    pool->split_t_re = g_new (float, (gsize) n_candidates * nb);
-    pool->split_t_im = g_new (float, (gsize) n_candidates * nb);
-    pool->split_legs = g_new (double, (gsize) n_candidates * n_mics);
+    pool->split_t_re = g_new (float, most * nb);
+    pool->split_t_im = g_new (float, most * nb);
+    pool->split_legs = g_new (double, most * n_mics);
   }
 
   /* Each candidate's model: its transmit sum, legs, <m, X> and |m|^2. */
@@ -2162,7 +2174,7 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
         est->min_pooled_snr)
       return FALSE;
     pool->spectra = rest;
-    shape = echo_shape (pool, centroid, &out[0]);
+    shape = echo_shape (pool, centroid, &out[0], NULL);
     pool->spectra = spectra;
     if (shape == ECHO_BLEND)
       return FALSE;
@@ -2228,11 +2240,12 @@ split_first (SonarVelocityPool * pool, const SonarCentroid * centroids,
 {
   for (guint k = 0; k < n_centroids; k++) {
     SonarVelocityEstimate *e = &results[2 * k];
+    guint half_width;
     if (counts[k] != 1 || !e->valid || e->coherence >= ISOLATED_COHERENCE)
       continue;
     shape_model_ensure (pool);
-    if (echo_shape (pool, &centroids[k], e) != ECHO_LONE
-        && split_blend (pool, &centroids[k], e, e))
+    if (echo_shape (pool, &centroids[k], e, &half_width) != ECHO_LONE
+        && split_blend (pool, &centroids[k], e, half_width, e))
       counts[k] = 2;
   }
   drop_duplicates (pool->estimators[0], n_centroids, results, counts);
@@ -2305,13 +2318,14 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
       for (guint i = 0; i < pool->failed_counts[f]; i++) {
         SonarVelocityEstimate *e = &pool->failed_results[2 * f + i];
         EchoShape shape;
+        guint half_width;
         if (!e->valid)
           continue;
-        shape = echo_shape (pool, &pool->failed[f], e);
+        shape = echo_shape (pool, &pool->failed[f], e, &half_width);
         /* An echo not lone may be two: both kept when found; else it is
          * kept when it falls as one point on one side. */
         if (shape != ECHO_LONE && pool->failed_counts[f] == 1
-            && split_blend (pool, &pool->failed[f], e,
+            && split_blend (pool, &pool->failed[f], e, half_width,
                 &pool->failed_results[2 * f])) {
           pool->failed_counts[f] = 2;
           any = TRUE;

@@ -438,6 +438,37 @@ def bench_emitters_sweep():
 
 
 @test
+def bench_near_far():
+    """sonar-bench --sweep near-far: a point 10-60 dB above a normal one,
+    beyond and within the near echo's pulse, one ping per level: the
+    normal one found beyond the pulse up to 50 dB, lost within it at 30
+    dB and more (its interference, by the oracle, above it), no false
+    object; CSV rows a table plot-bench.py reads beside the others"""
+    path = TMP / "near-far.csv"
+    result = run(BENCH, "--sweep", "near-far", "--near-far-pings", "1",
+                 "--csv", path)
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["sweep"] == "near-far"]
+    levels = ("10", "15", "20", "30", "40", "50", "60")
+    assert [r["value"] for r in rows] == \
+        [f"{where} {d} dB" for where in ("beyond", "within")
+         for d in levels], rows
+    for r in rows:
+        assert r["pings"] == "1" and r["total"] == "1", r
+        assert r["false_positives"] == "0", r
+    found = {r["value"]: r["found"] for r in rows}
+    for d in ("10", "20", "30", "40", "50"):
+        assert found[f"beyond {d} dB"] == "1", rows
+    for d in ("30", "40", "50", "60"):
+        assert found[f"within {d} dB"] == "0", rows
+    assert "dynamic range beyond the pulse: " in result.stdout, \
+        result.stdout
+    plot_bench = load_script("plot-bench")
+    _, sensitivity = plot_bench.load_rows(path)
+    assert len(sensitivity["near-far"]) == 14, sensitivity
+
+
+@test
 def plot_bench_sensitivity():
     """plot-bench.py: the detection and split sweeps' rows (as sonar-bench
     writes them, timing columns empty) give a Pd-against-SNR figure and a

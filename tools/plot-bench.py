@@ -47,7 +47,7 @@ COLOURS = {"fig10": "tab:blue", "fig9": "tab:orange", "fig10 3-D": "tab:green",
 # Sweeps whose rows are not comparable with their scene's others.
 OWN_SCENE = {"hemisphere": "fig10 3-D", "datacube": "fig10 +-1"}
 # Sweeps that render their own pings: no timing, their own figures.
-SENSITIVITY = ("noise", "detection", "split", "crowded")
+SENSITIVITY = ("noise", "detection", "split", "crowded", "near-far")
 
 
 def parse_args(argv):

@@ -81,6 +81,13 @@ parse_split_pings (const char *option_name, const char *value,
   return parse_pings (option_name, value, &split_pings, error);
 }
 
+static gboolean
+parse_near_far_pings (const char *option_name, const char *value,
+    gpointer data, GError ** error)
+{
+  return parse_pings (option_name, value, &near_far_pings, error);
+}
+
 /* The command line. */
 typedef struct
 {
@@ -131,6 +138,8 @@ parse_options (Options * o, int *argc, char ***argv)
     {"split-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_split_pings,
         "Pings per separation and velocity difference of the split sweep "
           "(default 10)", "N"},
+    {"near-far-pings", 0, 0, G_OPTION_ARG_CALLBACK, parse_near_far_pings,
+        "Pings per level of the near-far sweep (default 20)", "N"},
     {"crowded-cancel-bound", 0, 0, G_OPTION_ARG_NONE,
           &crowded_cancel_bound,
           "The crowded sweep also estimates the failed centroids again on "
@@ -211,7 +220,12 @@ parse_options (Options * o, int *argc, char ***argv)
       "                            objects found against an oracle bound "
       "(>= 13 dB above the\n"
       "                            others' and the noise's level at each "
-      "object), false objects\n");
+      "object), false objects\n"
+      "  near-far                  a strong point at 0.5 m 20-60 dB above "
+      "a normal one at\n"
+      "                            1.5-3.5 m: the normal one found, false "
+      "objects; the dynamic\n"
+      "                            range (--near-far-pings)\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, argc, argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);

@@ -13,6 +13,8 @@
  *                  their own pings one at a time;
  *   crowded.c      the crowded sweep: grids and random scenes of many
  *                  objects against an oracle bound;
+ *   nearfar.c      the near-far sweep: the dynamic range between a strong
+ *                  near object and a normal one;
  *   output.c       the tables and the CSV;
  *   ../sonar-bench.c  the options and main ().
  */
@@ -234,6 +236,10 @@ extern const char *const template_interp_names[];
 
 SonarSetup *make_setup (double max_range, GError ** error);
 void random_scene_init (SonarScene * scene, guint n);
+/* @planar (@n_mics rows of @length samples) into @out, interleaved as
+ * sonarsrc emits it. */
+void interleave (const float *planar, guint n_mics, gsize length,
+    float *out);
 gboolean render_scene (BenchScene * s, SonarSetup * setup, GError ** error);
 void bank_entry_free (gpointer data);
 BankEntry *get_bank (Bench * b, const Config * c, GError ** error);
@@ -282,7 +288,22 @@ gboolean run_uncertainty (Bench * b);
 /* crowded.c */
 extern gboolean crowded_cancel_bound;
 
+/* dB above the interference at which the defaults must find an object. */
+#define ORACLE_DB 13.0
+
 gboolean run_crowded (Bench * b);
+/* The oracle (crowded.c's top): dB by which @object (@truth its truth)
+ * stands above the interference at its true pixel in the chain's image,
+ * @whole the spectra of the whole ping (@ch's, noise included), @quiet a
+ * noise-free simulator; NaN with @error. */
+double oracle_margin_db (Chain * ch, SonarSimulator * quiet,
+    const SonarSetup * setup, const SonarReflector * object,
+    const SonarTruth * truth, const SonarComplex * whole, GError ** error);
+
+/* nearfar.c */
+extern guint near_far_pings;
+
+gboolean run_near_far (Bench * b);
 
 /* output.c */
 FILE *open_csv (const char *path, GError ** error);

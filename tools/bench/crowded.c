@@ -29,8 +29,6 @@
 
 #include "bench.h"
 
-/* dB above the interference at which the defaults must find an object. */
-#define ORACLE_DB 13.0
 /* m: the oracle's image reaches this far either side of an object. */
 #define ORACLE_RANGE 0.05
 #define GRID_AZIMUTH_STEP 8.0
@@ -60,14 +58,6 @@ grid_scene_init (SonarScene * scene, guint n)
               0.0), GRID_RANGE_FIRST + GRID_RANGE_STEP * i);
       r->strength = 1.0;
     }
-}
-
-static void
-interleave (const float *planar, guint n_mics, gsize length, float *out)
-{
-  for (guint j = 0; j < n_mics; j++)
-    for (gsize i = 0; i < length; i++)
-      out[i * n_mics + j] = planar[j * length + i];
 }
 
 /* The oracle's imager for the object at (@range m, @azimuth degrees): the
@@ -111,6 +101,52 @@ strongest_near (const SonarImageGrid * g, const float *image, double range)
         best = p;
     }
   return best;
+}
+
+double
+oracle_margin_db (Chain * ch, SonarSimulator * quiet,
+    const SonarSetup * setup, const SonarReflector * object,
+    const SonarTruth * truth, const SonarComplex * whole, GError ** error)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  const gsize n_spectra = (gsize) n_mics * ch->band->n_bins;
+  g_autoptr (SonarImager) imager = oracle_imager ((SonarSetup *) setup,
+      ch->band, &ch->config->imager, ch->grid, truth->range, truth->azimuth,
+      error);
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  g_autofree SonarComplex *own = g_new (SonarComplex, n_spectra);
+  g_autofree SonarComplex *others = g_new (SonarComplex, n_spectra);
+  g_autofree float *image = NULL;
+  SonarScene one;
+  const SonarImageGrid *g;
+  double level;
+  gsize p;
+
+  if (!imager)
+    return NAN;
+  g = sonar_imager_grid (imager);
+  image = g_new (float, sonar_image_grid_size (g));
+  sonar_scene_init_preset (&one, SONAR_SCENE_PRESET_EMPTY);
+  one.reflectors = (SonarReflector *) object;
+  one.n_reflectors = 1;
+  sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
+  one.reflectors = NULL;
+  one.n_reflectors = 0;
+  sonar_scene_clear (&one);
+  interleave (planar, n_mics, length, samples);
+  chain_spectra (ch, samples, length);
+  memcpy (own, ch->spectra, n_spectra * sizeof (SonarComplex));
+  sonar_imager_process (imager, own, ch->n_templates, ch->hypotheses, -1,
+      image);
+  p = strongest_near (g, image, truth->range);
+  level = image[p];
+  for (gsize s = 0; s < n_spectra; s++)
+    others[s] = whole[s] - own[s];
+  sonar_imager_process (imager, others, ch->n_templates, ch->hypotheses, -1,
+      image);
+  return 20.0 * log10 (level / MAX (image[p], 1e-30f));
 }
 
 typedef struct
@@ -227,15 +263,11 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
   g_autofree float *samples = g_new (float, length * n_mics);
   g_autofree SonarTruth *truths = g_new (SonarTruth, MAX (n, 1));
   g_autofree SonarComplex *whole = g_new (SonarComplex, n_spectra);
-  g_autofree SonarComplex *own = g_new (SonarComplex, n_spectra);
-  g_autofree SonarComplex *others = g_new (SonarComplex, n_spectra);
-  g_autofree float *image = NULL;
   g_autofree gboolean *detectable = g_new0 (gboolean, MAX (n, 1));
   g_autofree double *margin = g_new (double, MAX (n, 1));
   g_autofree gboolean *found = g_new0 (gboolean, MAX (n, 1));
   gboolean used[2 * MAX_CENTROIDS] = { FALSE };
   SonarReflector *all = scene->reflectors;
-  SonarScene one = *scene;
   double start;
   guint n_centroids;
 
@@ -252,33 +284,11 @@ crowd_scene (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
   /* The oracle. */
   start = now_ms ();
   memcpy (whole, ch->spectra, n_spectra * sizeof (SonarComplex));
-  one.n_reflectors = 1;
   for (guint k = 0; k < n; k++) {
-    g_autoptr (SonarImager) imager = oracle_imager (setup, ch->band,
-        &ch->config->imager, ch->grid, truths[k].range, truths[k].azimuth,
-        error);
-    const SonarImageGrid *g;
-    gsize p;
-    double level;
-
-    if (!imager)
+    margin[k] = oracle_margin_db (ch, quiet, setup, &all[k], &truths[k],
+        whole, error);
+    if (isnan (margin[k]))
       return FALSE;
-    g = sonar_imager_grid (imager);
-    image = g_renew (float, image, sonar_image_grid_size (g));
-    one.reflectors = &all[k];
-    sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
-    interleave (planar, n_mics, length, samples);
-    chain_spectra (ch, samples, length);
-    memcpy (own, ch->spectra, n_spectra * sizeof (SonarComplex));
-    sonar_imager_process (imager, own, ch->n_templates, ch->hypotheses, -1,
-        image);
-    p = strongest_near (g, image, truths[k].range);
-    level = image[p];
-    for (gsize s = 0; s < n_spectra; s++)
-      others[s] = whole[s] - own[s];
-    sonar_imager_process (imager, others, ch->n_templates, ch->hypotheses,
-        -1, image);
-    margin[k] = 20.0 * log10 (level / MAX (image[p], 1e-30f));
     detectable[k] = margin[k] >= ORACLE_DB;
     row->detectable += detectable[k];
   }

@@ -97,6 +97,14 @@ random_scene_init (SonarScene * scene, guint n)
   }
 }
 
+void
+interleave (const float *planar, guint n_mics, gsize length, float *out)
+{
+  for (guint j = 0; j < n_mics; j++)
+    for (gsize i = 0; i < length; i++)
+      out[i * n_mics + j] = planar[j * length + i];
+}
+
 /* Renders the scene's pings as sonarsrc emits them (interleaved, ping p
  * at p / ping-rate s), with their truth. */
 gboolean
@@ -128,9 +136,7 @@ render_scene (BenchScene * s, SonarSetup * setup, GError ** error)
 
     sonar_simulator_render (sim, &scene, p, p / PING_RATE, planar,
         s->truths + p * s->n_reflectors);
-    for (guint j = 0; j < n_mics; j++)
-      for (gsize i = 0; i < length; i++)
-        out[i * n_mics + j] = planar[j * length + i];
+    interleave (planar, n_mics, length, out);
   }
   sonar_scene_clear (&scene);
   return TRUE;

@@ -139,14 +139,6 @@ fit_effective_hypotheses (const RatioHistogram * h, double pfa, double k_max)
   return 0.5 * (lo + hi);
 }
 
-static void
-interleave (const float *planar, guint n_mics, gsize length, float *out)
-{
-  for (guint j = 0; j < n_mics; j++)
-    for (gsize i = 0; i < length; i++)
-      out[i * n_mics + j] = planar[j * length + i];
-}
-
 gboolean
 run_noise (Bench * b)
 {

@@ -262,6 +262,7 @@ const Sweep sweeps[] = {
   {"split", SCENE_FIG9, 0, NULL, run_split},
   {"uncertainty", SCENE_FIG9, 0, NULL, run_uncertainty},
   {"crowded", SCENE_FIG9, 0, NULL, run_crowded},
+  {"near-far", SCENE_FIG9, 0, NULL, run_near_far},
 };
 
 const guint n_sweeps = G_N_ELEMENTS (sweeps);

@@ -236,6 +236,10 @@ extern const char *const template_interp_names[];
 
 SonarSetup *make_setup (double max_range, GError ** error);
 void random_scene_init (SonarScene * scene, guint n);
+/* A simulator of @setup at the bench's noise seed, its white noise
+ * @noise_amplitude (NOISE_AMPLITUDE; 0 for noise-free recordings). */
+SonarSimulator *bench_simulator_new (SonarSetup * setup,
+    double noise_amplitude, GError ** error);
 /* @planar (@n_mics rows of @length samples) into @out, interleaved as
  * sonarsrc emits it. */
 void interleave (const float *planar, guint n_mics, gsize length,
@@ -297,7 +301,7 @@ gboolean run_crowded (Bench * b);
  * @whole the spectra of the whole ping (@ch's, noise included), @quiet a
  * noise-free simulator; NaN with @error. */
 double oracle_margin_db (Chain * ch, SonarSimulator * quiet,
-    const SonarSetup * setup, const SonarReflector * object,
+    SonarSetup * setup, const SonarReflector * object,
     const SonarTruth * truth, const SonarComplex * whole, GError ** error);
 
 /* nearfar.c */

@@ -105,13 +105,13 @@ strongest_near (const SonarImageGrid * g, const float *image, double range)
 
 double
 oracle_margin_db (Chain * ch, SonarSimulator * quiet,
-    const SonarSetup * setup, const SonarReflector * object,
+    SonarSetup * setup, const SonarReflector * object,
     const SonarTruth * truth, const SonarComplex * whole, GError ** error)
 {
   const guint n_mics = setup->geometry.n_microphones;
   const gsize length = setup->ping_length;
   const gsize n_spectra = (gsize) n_mics * ch->band->n_bins;
-  g_autoptr (SonarImager) imager = oracle_imager ((SonarSetup *) setup,
+  g_autoptr (SonarImager) imager = oracle_imager (setup,
       ch->band, &ch->config->imager, ch->grid, truth->range, truth->azimuth,
       error);
   g_autofree float *planar = g_new (float, length * n_mics);
@@ -374,18 +374,13 @@ run_crowded (Bench * b)
   g_autoptr (SonarSimulator) quiet = NULL;
   g_autofree Chain *ch = g_new0 (Chain, 1);
   Result r = { 0 };
-  SonarSimulatorParams sp;
   Config c;
   guint previous_found = 0;
   gboolean never_fewer = TRUE;
 
-  sonar_simulator_params_init_default (&sp);
-  sp.noise_amplitude = NOISE_AMPLITUDE;
-  sp.seed = NOISE_SEED;
-  sim = sonar_simulator_new (b->setup, &sp, &error);
-  sp.noise_amplitude = 0.0;
+  sim = bench_simulator_new (b->setup, NOISE_AMPLITUDE, &error);
   if (sim)
-    quiet = sonar_simulator_new (b->setup, &sp, &error);
+    quiet = bench_simulator_new (b->setup, 0.0, &error);
   config_init (&c, &scenes[SCENE_FIG9]);
   if (!quiet || !chain_init (ch, b, &c, &r, &error)) {
     g_printerr ("crowded: %s\n", error->message);

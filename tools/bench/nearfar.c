@@ -82,7 +82,7 @@ nearest_detection (const Chain * ch, SonarVec3 position, const gboolean *taken)
  * the other at @far_min to @far_max m, added to @t. */
 static gboolean
 near_far_level (Chain * ch, SonarSimulator * sim, SonarSimulator * quiet,
-    const SonarSetup * setup, double level_db, double far_min,
+    SonarSetup * setup, double level_db, double far_min,
     double far_max, guint64 seed, NearFarTally * t, GError ** error)
 {
   const guint n_mics = setup->geometry.n_microphones;
@@ -188,17 +188,12 @@ run_near_far (Bench * b)
   g_autoptr (SonarSimulator) quiet = NULL;
   g_autofree Chain *ch = g_new0 (Chain, 1);
   g_autofree double *times = g_new (double, near_far_pings);
-  SonarSimulatorParams sp;
   Result r = { 0 };
   Config c;
 
-  sonar_simulator_params_init_default (&sp);
-  sp.noise_amplitude = NOISE_AMPLITUDE;
-  sp.seed = NOISE_SEED;
-  sim = sonar_simulator_new (b->setup, &sp, &error);
-  sp.noise_amplitude = 0.0;
+  sim = bench_simulator_new (b->setup, NOISE_AMPLITUDE, &error);
   if (sim)
-    quiet = sonar_simulator_new (b->setup, &sp, &error);
+    quiet = bench_simulator_new (b->setup, 0.0, &error);
   config_init (&c, &scenes[SCENE_FIG9]);
   if (!quiet || !chain_init (ch, b, &c, &r, &error))
     goto fail;

@@ -105,6 +105,18 @@ interleave (const float *planar, guint n_mics, gsize length, float *out)
       out[i * n_mics + j] = planar[j * length + i];
 }
 
+SonarSimulator *
+bench_simulator_new (SonarSetup * setup, double noise_amplitude,
+    GError ** error)
+{
+  SonarSimulatorParams params;
+
+  sonar_simulator_params_init_default (&params);
+  params.noise_amplitude = noise_amplitude;
+  params.seed = NOISE_SEED;
+  return sonar_simulator_new (setup, &params, error);
+}
+
 /* Renders the scene's pings as sonarsrc emits them (interleaved, ping p
  * at p / ping-rate s), with their truth. */
 gboolean
@@ -114,13 +126,9 @@ render_scene (BenchScene * s, SonarSetup * setup, GError ** error)
   const gsize length = setup->ping_length;
   g_autoptr (SonarSimulator) sim = NULL;
   g_autofree float *planar = NULL;
-  SonarSimulatorParams params;
   SonarScene scene;
 
-  sonar_simulator_params_init_default (&params);
-  params.noise_amplitude = NOISE_AMPLITUDE;
-  params.seed = NOISE_SEED;
-  sim = sonar_simulator_new (setup, &params, error);
+  sim = bench_simulator_new (setup, NOISE_AMPLITUDE, error);
   if (!sim)
     return FALSE;
   if (s->n_random)

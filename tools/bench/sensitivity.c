@@ -157,7 +157,6 @@ run_noise (Bench * b)
   g_autofree double *times = g_new (double, MAX (noise_pings, 1));
   Result r_dense = { 0 }, r_chain = { 0 };
   Config c_dense, c_chain;
-  SonarSimulatorParams sp;
   SonarScene scene;
   guint centroids = 0, false_objects = 0, pings_with_false = 0;
   guint max_centroids = 0;
@@ -166,10 +165,7 @@ run_noise (Bench * b)
   config_init (&c_chain, &scenes[SCENE_FIG9]);
   c_dense = c_chain;
   c_dense.imager.coarse_spacing = 0.0;
-  sonar_simulator_params_init_default (&sp);
-  sp.noise_amplitude = NOISE_AMPLITUDE;
-  sp.seed = NOISE_SEED;
-  sim = sonar_simulator_new (b->setup, &sp, &error);
+  sim = bench_simulator_new (b->setup, NOISE_AMPLITUDE, &error);
   if (!sim || !chain_init (dense, b, &c_dense, &r_dense, &error)
       || !chain_init (chain, b, &c_chain, &r_chain, &error)) {
     g_printerr ("noise: %s\n", error->message);
@@ -329,7 +325,6 @@ run_detection (Bench * b)
   g_autofree Chain *ch = g_new0 (Chain, 1);
   g_autofree double *times = g_new (double, MAX (GOAL_PINGS, 1));
   SonarSetup *saved = b->setup;
-  SonarSimulatorParams sp;
   Result r = { 0 };
   Config c;
   guint found, false_objects, total_false = 0;
@@ -339,10 +334,7 @@ run_detection (Bench * b)
 
   if (!setup)
     goto fail;
-  sonar_simulator_params_init_default (&sp);
-  sp.noise_amplitude = NOISE_AMPLITUDE;
-  sp.seed = NOISE_SEED;
-  sim = sonar_simulator_new (setup, &sp, &error);
+  sim = bench_simulator_new (setup, NOISE_AMPLITUDE, &error);
   if (!sim)
     goto fail;
   config_init (&c, &scenes[SCENE_FIG9]);
@@ -612,14 +604,10 @@ run_split (Bench * b)
   double rates[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES];
   double usual_rates[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES];
   double worst_errors[N_SPLIT_SEPARATIONS][N_SPLIT_DIFFERENCES];
-  SonarSimulatorParams sp;
   Result r = { 0 };
   Config c;
 
-  sonar_simulator_params_init_default (&sp);
-  sp.noise_amplitude = NOISE_AMPLITUDE;
-  sp.seed = NOISE_SEED;
-  sim = sonar_simulator_new (b->setup, &sp, &error);
+  sim = bench_simulator_new (b->setup, NOISE_AMPLITUDE, &error);
   config_init (&c, &scenes[SCENE_FIG9]);
   if (!sim || !chain_init (ch, b, &c, &r, &error)) {
     g_printerr ("split: %s\n", error->message);
@@ -882,17 +870,13 @@ run_uncertainty (Bench * b)
   g_autoptr (SonarSimulator) sim = NULL;
   g_autofree Chain *ch = g_new0 (Chain, 1);
   SonarSetup *saved = b->setup;
-  SonarSimulatorParams sp;
   Result r = { 0 };
   Config c;
   gboolean ok;
 
   if (!setup)
     goto fail;
-  sonar_simulator_params_init_default (&sp);
-  sp.noise_amplitude = NOISE_AMPLITUDE;
-  sp.seed = NOISE_SEED;
-  sim = sonar_simulator_new (setup, &sp, &error);
+  sim = bench_simulator_new (setup, NOISE_AMPLITUDE, &error);
   if (!sim)
     goto fail;
   config_init (&c, &scenes[SCENE_FIG9]);

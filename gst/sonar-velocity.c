@@ -2053,12 +2053,12 @@ fit_pair (const double complex *dots, const double *norms, int a, int b,
  * microphone and bin): the pair of directions, one either side of the
  * blend along azimuth within 2 @half_width + 1 image steps, whose fit
  * explains the most power, searched on whole steps, then refined by half
- * steps. When it explains
- * SPLIT_GAIN times the best one point's power, the echo is two: each is
- * then estimated on the spectra less the other's fitted model, as a
- * centroid there would be, and found when valid, standing SPLIT_HALF_SNR
- * pooled-snr's over the pooled interference, and not a blend itself
- * (echo_shape ()): both into @halves. */
+ * steps. When it explains SPLIT_GAIN times the best one point's power
+ * and leaves at most SPLIT_LEFT of the blend's own, the echo is two:
+ * each is then estimated on the spectra less the other's fitted model,
+ * as a centroid there would be, and found when valid, standing
+ * SPLIT_HALF_SNR pooled-snr's over the pooled interference, and not a
+ * blend itself (echo_shape ()): both into @halves. */
 static gboolean
 split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
     const SonarVelocityEstimate * blend, guint half_width,

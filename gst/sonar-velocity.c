@@ -1795,6 +1795,25 @@ model_dot (const SonarVelocityPool * pool, double range, const float *t_re,
   return nr + I * ni;
 }
 
+/* The least-squares complex amplitudes @x of two models m_a, m_b fitted
+ * to the spectra X: the 2 x 2 normal equations, @g_aa = |m_a|^2, @g_bb =
+ * |m_b|^2, @g_ab = <m_a, m_b>, @n_a = <m_a, X>, @n_b = <m_b, X>. FALSE
+ * (and @x untouched) when the determinant is no more than @min_condition
+ * g_aa g_bb: models too alike to be told apart. */
+static gboolean
+fit_two_models (double g_aa, double g_bb, double complex g_ab,
+    double complex n_a, double complex n_b, double min_condition,
+    double complex x[2])
+{
+  const double det = g_aa * g_bb - cabs2 (g_ab);
+
+  if (!(g_aa > 0.0 && g_bb > 0.0 && det > min_condition * g_aa * g_bb))
+    return FALSE;
+  x[0] = (g_bb * n_a - g_ab * n_b) / det;
+  x[1] = (g_aa * n_b - conj (g_ab) * n_a) / det;
+  return TRUE;
+}
+
 /* Subtracts from the residual (pool->residual_re, _im) the model of the
  * echo @e: a point at its range and direction, its template between the
  * two bank velocities either side of its own, as the least-squares fit
@@ -1815,8 +1834,8 @@ cancel_echo (SonarVelocityPool * pool, const SonarVelocityEstimate * e)
   const guint b0 = e->bank_index;
   const double v0 = sonar_doppler_bank_velocity (est->bank, b0);
   guint b1;
-  double complex n0, n1, g01 = 0.0;
-  double g00, g11, det;
+  double complex n0, n1, g01 = 0.0, a[2];
+  double g00, g11;
 
   if (isfinite (e->radial_velocity) && e->radial_velocity > v0)
     b1 = b0 + 1 < nv ? b0 + 1 : b0;
@@ -1837,13 +1856,12 @@ cancel_echo (SonarVelocityPool * pool, const SonarVelocityEstimate * e)
     for (guint k = 0; k < nb; k++)
       g01 += (pool->transmit_re[k] + I * pool->transmit_im[k]) *
           (pool->transmit2_re[k] - I * pool->transmit2_im[k]);
-    det = g00 * g11 - cabs2 (g01);
-    if (g11 > 0.0 && det > 1e-9 * g00 * g11) {
-      const double complex a0 = (g11 * n0 - g01 * n1) / (det * n_mics);
-      const double complex a1 = (g00 * n1 - conj (g01) * n0) / (det * n_mics);
-      subtract_model (pool, e->range, a0, pool->transmit_re,
+    /* Over every microphone: the sums above times n_mics. */
+    if (fit_two_models (g00 * n_mics, g11 * n_mics, g01 * n_mics, n0, n1,
+            1e-9, a)) {
+      subtract_model (pool, e->range, a[0], pool->transmit_re,
           pool->transmit_im, pool->residual_re, pool->residual_im);
-      subtract_model (pool, e->range, a1, pool->transmit2_re,
+      subtract_model (pool, e->range, a[1], pool->transmit2_re,
           pool->transmit2_im, pool->residual_re, pool->residual_im);
       return;
     }
@@ -2027,21 +2045,19 @@ static void
 fit_pair (const double complex *dots, const double *norms, int a, int b,
     double complex gab, PairFit * best)
 {
-  const double det = norms[a] * norms[b] - cabs2 (gab);
-  double complex xa, xb;
+  double complex x[2];
   double explained;
 
-  if (!(det > SPLIT_MIN_CONDITION * norms[a] * norms[b]))
+  if (!fit_two_models (norms[a], norms[b], gab, dots[a], dots[b],
+          SPLIT_MIN_CONDITION, x))
     return;
-  xa = (norms[b] * dots[a] - gab * dots[b]) / det;
-  xb = (norms[a] * dots[b] - conj (gab) * dots[a]) / det;
-  explained = creal (conj (dots[a]) * xa + conj (dots[b]) * xb);
+  explained = creal (conj (dots[a]) * x[0] + conj (dots[b]) * x[1]);
   if (explained > best->explained) {
     best->a = a;
     best->b = b;
     best->explained = explained;
-    best->x[0] = xa;
-    best->x[1] = xb;
+    best->x[0] = x[0];
+    best->x[1] = x[1];
   }
 }
 
@@ -2238,6 +2254,8 @@ static void
 split_first (SonarVelocityPool * pool, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts)
 {
+  gboolean split = FALSE;
+
   for (guint k = 0; k < n_centroids; k++) {
     SonarVelocityEstimate *e = &results[2 * k];
     guint half_width;
@@ -2245,10 +2263,14 @@ split_first (SonarVelocityPool * pool, const SonarCentroid * centroids,
       continue;
     shape_model_ensure (pool);
     if (echo_shape (pool, &centroids[k], e, &half_width) != ECHO_LONE
-        && split_blend (pool, &centroids[k], e, half_width, e))
+        && split_blend (pool, &centroids[k], e, half_width, e)) {
       counts[k] = 2;
+      split = TRUE;
+    }
   }
-  drop_duplicates (pool->estimators[0], n_centroids, results, counts);
+  /* A half may be an echo another centroid reports. */
+  if (split)
+    drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }
 
 /* Successive cancellation: the centroids whose estimates all failed are

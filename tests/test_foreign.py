@@ -382,6 +382,10 @@ def chain_3d():
 def chain_3d_strong():
     """chain: 3-D, one echo 67 dB over the noise, 12 Hz pings: the echo
     and no ghost at far range"""
+    if os.environ.get("SONAR_SANITIZED"):
+        # The 3-D chain's code is the "3d" case's (17 s a ping under the
+        # sanitizers); the ghosts are the plain and clang runs' to check.
+        raise Skip("under the sanitizers the 3d case runs the same code")
     check_case("3d-strong")
 
 

@@ -362,6 +362,15 @@ gst_mimo_beamform_process (GstSonarFilter * filter, GstBuffer * buffer)
     sonar_imager_process (self->imager, (const SonarComplex *) in_map.data,
         self->n_hypotheses, self->hypotheses, self->active_emitter,
         (float *) (out_map.data + sizeof (SonarEnergyscapeHeader)));
+  if (gst_debug_category_get_threshold (GST_CAT_DEFAULT) >= GST_LEVEL_DEBUG) {
+    guint units, dense_units, passes, dense_passes;
+    sonar_imager_last_work (self->imager, &units, &dense_units, &passes,
+        &dense_passes);
+    GST_DEBUG_OBJECT (self, "ping %" G_GUINT64_FORMAT ": imaged %u of the "
+        "dense image's %u units, %u of its %u passes (%.1f %%)",
+        GST_BUFFER_OFFSET (buffer), units, dense_units, passes, dense_passes,
+        100.0 * passes / MAX (dense_passes, 1u));
+  }
   gst_buffer_unmap (out, &out_map);
   gst_buffer_unmap (buffer, &in_map);
 

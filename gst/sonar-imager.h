@@ -21,10 +21,11 @@
  * noise exceeds with probability refine_pfa (a faint echo far below the
  * strongest); elsewhere they are interpolated from the coarse ones. A
  * refined unit images the hypotheses its coarse corners found there;
- * where those corners hold noise alone, its pixels keep the higher of
- * that and the interpolation, so that noise is the maximum over every
- * hypothesis throughout (docs/CONTRACTS.md). Work grows with what the
- * scene holds, not with the grid.
+ * where those corners hold noise alone, or were refined for the noise
+ * gate alone, its pixels keep the higher of that and the interpolation,
+ * so that noise is the maximum over every hypothesis throughout
+ * (docs/CONTRACTS.md). Work grows with what the scene holds, not with
+ * the grid.
  */
 #ifndef SONAR_IMAGER_H
 #define SONAR_IMAGER_H

@@ -355,9 +355,14 @@ small_3d_grid (SonarImagerParams * p)
  * between the coarse directions of a 3-D grid (2 degrees, coarse 6), is
  * imaged in full: its peak pixel is the dense image's. Without the gate
  * it is interpolated from coarse directions 3 degrees off its beam, more
- * than 6 dB under its peak, and its strongest pixel is elsewhere. */
+ * than 6 dB under its peak, and its strongest pixel is elsewhere. Still
+ * and imaged at one velocity; and moving at 0.9 m/s, imaged over the 11
+ * hypotheses of a -1.5..1.5 m/s bank, where the units refined for the
+ * gate alone image 3 of them (the gate's and its neighbours) and keep
+ * the interpolation where it is higher: the peak is still the dense
+ * image's, at a fraction of the passes. */
 static void
-test_coarse_to_fine_faint (void)
+check_coarse_to_fine_faint (double speed, double bank_max)
 {
   Chain c;
   g_autoptr (SonarDopplerBank) bank = NULL;
@@ -365,23 +370,28 @@ test_coarse_to_fine_faint (void)
   const SonarImageGrid *grid;
   SonarImager *imagers[3];
   float *images[3];
-  const char *scene = "{\"reflectors\": [{\"range\": 0.6, \"azimuth\": 0, "
-      "\"elevation\": 0, \"strength\": 30}, {\"range\": 2.5, "
-      "\"azimuth\": -21, \"elevation\": 9}]}";
+  g_autofree char *scene = g_strdup_printf ("{\"reflectors\": [{\"range\": "
+      "0.6, \"azimuth\": 0, \"elevation\": 0, \"strength\": 30}, "
+      "{\"range\": 2.5, \"azimuth\": -21, \"elevation\": 9, "
+      "\"radial-velocity\": %g}]}", speed);
   const double spacing[3] = { 0.0, 6.0, 6.0 }, pfa[3] = { 1e-5, 1e-5, 0.0 };
-  guint zero, a0, e0, i0, best = 0;
+  guint indices[64], n_hyp, a0, e0, i0, best = 0;
+  guint units, dense_units, passes[3], dense_passes;
 
   sonar_test_chain_init (&c, 4200);
-  bank = sonar_doppler_bank_new (c.setup, 0.0, 0.0, 0.05, NULL);
-  zero = sonar_doppler_bank_nearest (bank, 0.0);
+  bank = sonar_doppler_bank_new (c.setup, -bank_max, bank_max, 0.05, NULL);
+  n_hyp = sonar_doppler_bank_hypotheses (bank, 0.3, indices);
+  g_assert_cmpuint (n_hyp, ==, bank_max > 0.0 ? 11 : 1);
   sonar_test_chain_simulate (&c, scene, 0.01);
   /* Coarse directions -24 and -18, 6 and 12 bracket the echo. */
   small_3d_grid (&p);
   for (guint k = 0; k < 3; k++) {
     p.coarse_spacing = spacing[k];
     p.refine_pfa = pfa[k];
-    images[k] = chain_image (&c, bank, &zero, 1, -1, &p, &grid,
+    images[k] = chain_image (&c, bank, indices, n_hyp, -1, &p, &grid,
         &imagers[k]);
+    sonar_imager_last_work (imagers[k], &units, &dense_units, &passes[k],
+        &dense_passes);
   }
   /* The dense image's peak within 4 degrees and 5 cm of the faint echo. */
   a0 = (guint) lround ((-21 - grid->azimuth_first) / grid->azimuth_step);
@@ -394,19 +404,36 @@ test_coarse_to_fine_faint (void)
         if (best == 0 || images[0][px] > images[0][best])
           best = px;
       }
-  g_test_message ("faint echo's peak %.3g at az %g el %g r %g: gated %.3g, "
-      "ungated %.3g", images[0][best], grid->azimuth_first +
+  g_test_message ("%+.1f m/s, %u hypotheses: faint echo's peak %.3g at az "
+      "%g el %g r %g: gated %.3g, ungated %.3g; passes %u, %u ungated, "
+      "dense %u", speed, n_hyp, images[0][best], grid->azimuth_first +
       best / grid->n_range % grid->n_azimuth * grid->azimuth_step,
       grid->elevation_first + best / grid->n_range / grid->n_azimuth *
       grid->elevation_step, grid->range_first + best % grid->n_range *
-      grid->range_step, images[1][best], images[2][best]);
+      grid->range_step, images[1][best], images[2][best], passes[1],
+      passes[2], passes[0]);
   g_assert_cmpfloat (images[1][best], ==, images[0][best]);
   g_assert_cmpfloat (images[2][best], <, 0.5 * images[0][best]);
+  /* The gate's units image a few of the hypotheses: it costs a fraction
+   * of the dense image's passes. */
+  g_assert_cmpuint (passes[1], <, passes[0] / 4);
   for (guint k = 0; k < 3; k++) {
     g_free (images[k]);
     sonar_imager_free (imagers[k]);
   }
   sonar_test_chain_clear (&c);
+}
+
+static void
+test_coarse_to_fine_faint (void)
+{
+  check_coarse_to_fine_faint (0.0, 0.0);
+}
+
+static void
+test_coarse_to_fine_faint_mover (void)
+{
+  check_coarse_to_fine_faint (0.9, 1.5);
 }
 
 /* The image does not depend on the workers sharing it (the coarse pass,
@@ -474,6 +501,8 @@ main (int argc, char **argv)
   g_test_add_func ("/imaging/point-reflectors-3d", test_point_reflectors_3d);
   g_test_add_func ("/imaging/coarse-to-fine", test_coarse_to_fine);
   g_test_add_func ("/imaging/coarse-to-fine-faint", test_coarse_to_fine_faint);
+  g_test_add_func ("/imaging/coarse-to-fine-faint-mover",
+      test_coarse_to_fine_faint_mover);
   g_test_add_func ("/imaging/threads", test_threads);
   return g_test_run ();
 }

@@ -638,5 +638,30 @@ def foreign_scenes_finds_faint_objects():
         "dB below the strongest"], result.stdout
 
 
+@test
+def foreign_scenes_times_the_chain():
+    """tools/foreign-scenes.py --time: each run's wall and CPU time and
+    the share of the dense image's passes mimobeamform imaged (read off
+    its DEBUG line), per scene and as median (range) over the scenes"""
+    env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
+    result = subprocess.run(
+        [PYTHON, str(TOOLS / "foreign-scenes.py"), "--view", "fan",
+         "--scenes", "1", "--seed", "3", "--time"],
+        capture_output=True, text=True, timeout=120, env=env)
+    assert result.returncode == 0, result.stderr
+    row = re.search(r"^scene0: 6/6, 0 false, ([0-9.]+) s wall, ([0-9.]+) s "
+                    r"CPU, ([0-9.]+) %$", result.stdout, re.MULTILINE)
+    assert row, result.stdout
+    wall, cpu, share = (float(x) for x in row.groups())
+    assert wall > 0 and cpu > 0, result.stdout
+    # A 2-D scene of 6 objects: the coarse pass and the units around the
+    # echoes, a tenth of the dense image (10.1 % when written).
+    assert 3 < share < 30, result.stdout
+    assert re.search(r"a run: [0-9.]+ s \([0-9.]+-[0-9.]+\) wall, "
+                     r"[0-9.]+ s \([0-9.]+-[0-9.]+\) CPU, %.1f %% "
+                     r"\(%.1f-%.1f\) of the dense image's passes" % (
+                         share, share, share), result.stdout), result.stdout
+
+
 if __name__ == "__main__":
     sys.exit(run_all())

@@ -17,7 +17,10 @@ image spans that range), one ping each.
 
 --explain lists, under each scene, every object missed (its place,
 radial velocity, dB below the strongest and the nearest detection) and
-every false detection.
+every false detection. --time measures each run of the chain (one
+gst-launch-1.0 at a time: the ping and the elements' set-up, wall and
+CPU time) and the share of the dense image's passes mimobeamform imaged
+(its GST_DEBUG line), per scene and as ranges over the scenes.
 """
 
 import argparse
@@ -26,9 +29,13 @@ import math
 import os
 import pathlib
 import random
+import re
+import resource
+import statistics
 import subprocess
 import sys
 import tempfile
+import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MATCH = 0.05
@@ -51,16 +58,40 @@ def scene(rng, view, n_objects, spread_db):
     return reflectors
 
 
-def run_chain(folder, name, props, env):
+# mimobeamform's DEBUG line per ping: "... (12.3 %)".
+PASSES = re.compile(r"of the dense image's .* passes \(([0-9.]+) %\)")
+
+
+def run_chain(folder, name, props, env, timing=None):
+    """The detections of the scene's ping; with @timing (a list), appends
+    (wall s, CPU s, share of the dense image's passes in %) of the run."""
     launch = ["gst-launch-1.0", "-q", "filesrc",
               "location=%s/%s.wav" % (folder, name), "!", "wavparse", "!",
               "dopplerbank", "sensor-file=%s/%s.sensor.json" % (folder, name),
               "!", "mimobeamform"] + props.split() + [
               "!", "wardcluster", "!", "velocityest", "!", "fdsink"]
+    if timing is not None:
+        env = dict(env, GST_DEBUG="mimobeamform:5", GST_DEBUG_NO_COLOR="1")
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    began = time.monotonic()
     out = subprocess.run(launch, env=env, capture_output=True, text=True)
+    wall = time.monotonic() - began
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode != 0:
         sys.exit("the chain failed: %s" % out.stderr.strip())
+    if timing is not None:
+        shares = [float(m.group(1)) for m in PASSES.finditer(out.stderr)]
+        timing.append((wall, after.ru_utime + after.ru_stime -
+                       before.ru_utime - before.ru_stime,
+                       statistics.mean(shares) if shares else math.nan))
     return json.loads(out.stdout.splitlines()[0])["detections"]
+
+
+def spread(values, unit, digits):
+    """"median (min-max) unit" of @values."""
+    return "%.*f%s (%.*f-%.*f)" % (
+        digits, statistics.median(values), unit, digits, min(values),
+        digits, max(values))
 
 
 def score(detections, truth):
@@ -119,6 +150,10 @@ def main():
     parser.add_argument("--explain", action="store_true",
                         help="under each scene, the objects missed and "
                         "the false detections")
+    parser.add_argument("--time", action="store_true",
+                        help="each run's wall and CPU time (its ping and "
+                        "the set-up) and share of the dense image's "
+                        "passes")
     args = parser.parse_args()
 
     env = dict(os.environ)
@@ -130,6 +165,7 @@ def main():
     rng = random.Random(args.seed)
     variants = [""] + args.compare
     totals = {v: [0, 0, 0] for v in variants}
+    timings = {v: [] for v in variants}
     with tempfile.TemporaryDirectory() as folder:
         for k in range(args.scenes):
             name = "scene%d" % k
@@ -143,7 +179,8 @@ def main():
             truth = truth["pings"][0]["reflectors"]
             row, lines = [], []
             for v in variants:
-                detections = run_chain(folder, name, v, env)
+                detections = run_chain(folder, name, v, env,
+                                       timings[v] if args.time else None)
                 found, missed, false = score(detections, truth)
                 t = totals[v]
                 t[0] += found
@@ -151,6 +188,9 @@ def main():
                 t[2] += len(false)
                 row.append("%d/%d, %d false" % (found, len(truth),
                                                 len(false)))
+                if args.time:
+                    row[-1] += ", %.1f s wall, %.1f s CPU, %.1f %%" % \
+                        timings[v][-1]
                 lines.append((v or "defaults", detections, missed, false))
             print("%s: %s" % (name, " | ".join(row)), flush=True)
             for label, detections, missed, false in lines if args.explain \
@@ -162,6 +202,12 @@ def main():
         t = totals[v]
         print("  %-24s found %d of %d, %d false" % (
             v or "defaults", t[0], t[1], t[2]))
+        if args.time:
+            walls, cpus, shares = zip(*timings[v])
+            print("  %-24s a run: %s wall, %s CPU, %s of the dense "
+                  "image's passes" % ("", spread(walls, " s", 1),
+                                      spread(cpus, " s", 1),
+                                      spread(shares, " %", 1)))
 
 
 if __name__ == "__main__":

@@ -139,6 +139,12 @@ sonar_test_max_abs (const double *v, gsize n, gsize * index)
   return best;
 }
 
+gboolean
+sonar_test_sanitized (void)
+{
+  return g_getenv ("SONAR_SANITIZED") != NULL;
+}
+
 char *
 sonar_test_source_path (const char *relative)
 {

@@ -29,6 +29,11 @@ double sonar_test_delay (const float *x, gsize nx, const float *y, gsize ny,
 /* Max |v| and index. */
 double sonar_test_max_abs (const double *v, gsize n, gsize * index);
 
+/* Whether the suite runs under AddressSanitizer and UBSan (meson test
+ * --setup asan sets SONAR_SANITIZED): their allocator is not glibc's, and
+ * the code runs about five times slower. */
+gboolean sonar_test_sanitized (void);
+
 /* Path of a file in the source tree (SONAR_SOURCE_DIR). g_free it. */
 char *sonar_test_source_path (const char *relative);
 

@@ -39,7 +39,7 @@ resident_mb (void)
 static gboolean
 memory_readings_meaningful (void)
 {
-  return g_getenv ("SONAR_SANITIZED") == NULL;
+  return !sonar_test_sanitized ();
 }
 
 /* NULL -> PLAYING -> EOS -> NULL, 100 times on one pipeline object: every

@@ -425,7 +425,7 @@ test_faint_far_object (void)
 static void
 test_noise_only_no_false_objects (void)
 {
-  const guint n_pings = g_getenv ("SONAR_SANITIZED") ?
+  const guint n_pings = sonar_test_sanitized () ?
       NOISE_PINGS_SANITIZED : NOISE_PINGS;
   g_autofree char *launch = g_strdup_printf ("sonarsrc scene=empty "
       "num-buffers=%u ! dopplerbank ! mimobeamform ! wardcluster ! "

@@ -32,7 +32,8 @@ import time
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from taptest import BUILD_DIR, Skip, run_all, scratch, test  # noqa: E402
+from taptest import (BUILD_DIR, SANITIZED, Skip, run_all, scratch,  # noqa: E402
+                     test)
 
 import foreign_sim  # noqa: E402
 
@@ -382,7 +383,7 @@ def chain_3d():
 def chain_3d_strong():
     """chain: 3-D, one echo 67 dB over the noise, 12 Hz pings: the echo
     and no ghost at far range"""
-    if os.environ.get("SONAR_SANITIZED"):
+    if SANITIZED:
         # The 3-D chain's code is the "3d" case's (17 s a ping under the
         # sanitizers); the ghosts are the plain and clang runs' to check.
         raise Skip("under the sanitizers the 3d case runs the same code")

@@ -24,7 +24,8 @@ import subprocess
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from taptest import BUILD_DIR, SOURCE_DIR, run_all, scratch, test  # noqa
+from taptest import (BUILD_DIR, SANITIZED, SOURCE_DIR, run_all,  # noqa
+                     scratch, test)
 
 TMP = scratch("sonar-test-install-")
 PYTHON = "/usr/bin/python3"
@@ -196,7 +197,7 @@ def c_example_output():
     program = TMP / "read-detections"
     # A sanitized library (meson test --setup asan) needs its runtime.
     sanitize = (["-fsanitize=address,undefined"]
-                if os.environ.get("SONAR_SANITIZED") else [])
+                if SANITIZED else [])
     run(["cc", "-std=c11", "-Wall", "-Werror",
          SOURCE_DIR / "examples" / "read-detections.c", "-o", program]
         + sanitize + flags, env=env)

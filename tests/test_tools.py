@@ -24,7 +24,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from taptest import BUILD_DIR, SOURCE_DIR, run_all, scratch, test  # noqa: E402
+from taptest import (BUILD_DIR, SANITIZED, SOURCE_DIR, run_all,  # noqa: E402
+                     scratch, test)
 TOOLS = SOURCE_DIR / "tools"
 PROGRAM = BUILD_DIR / "tools" / "sonar-waveforms"
 BENCH = BUILD_DIR / "tools" / "sonar-bench"
@@ -405,7 +406,7 @@ def bench_emitters_sweep():
                             ("mb_bank", "mb_chain", "peak_rss_mb"))
         # Under AddressSanitizer (meson test --setup asan) the heap is its
         # allocator's, which glibc's mallinfo2 does not see: 0 MB.
-        if not os.environ.get("SONAR_SANITIZED"):
+        if not SANITIZED:
             assert 0 < bank < chain < rss, r
         assert float(r["template_error_db"]) < -100, r
         assert int(r["bank_velocities"]) == 41, r

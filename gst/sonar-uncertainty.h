@@ -20,9 +20,11 @@
  * The noise: the image's noise is flat over range (white noise at the
  * microphones, through the same filters everywhere), and echoes fill few
  * pixels: per block of SONAR_UNCERTAINTY_NOISE_BLOCK of range, the lower
- * quartile over its pixels (every direction); the median over the blocks
- * (a block holding a strong echo's sidelobes stands out and is left
- * out), read as the quartile of the maximum of K_eff independent
+ * quartile over its pixels (every direction); the tenth lowest of the
+ * blocks' quartiles (echoes only add power, and an echo's cross-talk
+ * through the other emitters' templates lifts every direction within a
+ * pulse length of it: with objects spread over a short window that is
+ * most blocks), read as the quartile of the maximum of K_eff independent
  * Rayleigh envelopes: E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)), with
  * K_eff = 1 + (K - 1) SONAR_UNCERTAINTY_QUARTILE_SHARE for an image over
  * K Doppler hypotheses (neighbouring hypotheses are correlated: fewer

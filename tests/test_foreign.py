@@ -128,6 +128,24 @@ CASES = {
                        polar(3.02, -30, radial=1.2),
                        polar(1.5, 50, radial=0.3),
                        polar(1.505, 50, radial=-2.7)]},
+    "crowd-20hz": {
+        # A 20 Hz sensor (a window to 8.6 m) with six objects over 30 dB
+        # spread through it: their cross-talk lifts every direction over
+        # most of the range, and the noise read off the image's median
+        # range block was 14 dB too high (every SNR and sigma wrong).
+        "name": "crowd", "ping_period": 0.05, "field_of_view": "fan",
+        "seed": 1002,
+        "reflectors": [strong(polar(5.10, 20.4, radial=-1.18), 0.263),
+                       strong(polar(5.39, 41.5, radial=0.03), 0.262),
+                       strong(polar(0.985, -30.9, radial=1.78), 0.478),
+                       strong(polar(1.71, 5.9, radial=1.22), 0.195),
+                       strong(polar(2.75, -7.3, radial=0.05), 0.136),
+                       strong(polar(3.51, -12.8, radial=-0.06), 1.806)]},
+    "crowd-20hz-alone": {
+        # Its weakest object alone, in the same noise.
+        "name": "alone", "ping_period": 0.05, "field_of_view": "fan",
+        "seed": 1002,
+        "reflectors": [strong(polar(2.75, -7.3, radial=0.05), 0.136)]},
     "int16": {
         # 16-bit PCM at 400 kHz (32000 samples per ping).
         "name": "int16", "sample_format": "int16", "sample_rate": 400000,
@@ -407,6 +425,21 @@ def chain_pairs():
     """chain: pairs of reflectors 0.5-2 cm apart in range at one azimuth,
     1.5-3 m/s apart in radial velocity: each object found"""
     check_case("pairs")
+
+
+@test
+def chain_crowd_short_window():
+    """chain: six objects over 30 dB through a 20 Hz sensor's window:
+    each found, and their SNR over the noise the lone weakest reads
+    (within 1 dB), not over their cross-talk"""
+    check_case("crowd-20hz")
+
+    def noise_db(case):
+        detections = run_chain(generate(case)[0])[0]["detections"]
+        return [d["amplitude"] - d["snr"] for d in detections]
+    alone, = noise_db("crowd-20hz-alone")
+    for level in noise_db("crowd-20hz"):
+        assert abs(level - alone) < 1.0, (level, alone)
 
 
 @test

@@ -144,6 +144,10 @@ def main():
     parser.add_argument("--spread", type=float, default=30.0,
                         help="dB between the strongest and the weakest")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--ping-rate", type=float, default=None,
+                        metavar="HZ", help="the sensor's pings per second "
+                        "(its window: what a ping records); default the "
+                        "simulator's")
     parser.add_argument("--compare", action="append", default=[],
                         metavar="PROPS", help="mimobeamform properties of "
                         "another run of every scene (repeatable)")
@@ -171,6 +175,8 @@ def main():
             name = "scene%d" % k
             spec = {"name": name, "n_pings": 1, "seed": args.seed * 1000 + k,
                     "field_of_view": args.view,
+                    **({"ping_period": 1.0 / args.ping_rate}
+                       if args.ping_rate else {}),
                     "reflectors": scene(rng, args.view, args.objects,
                                         args.spread)}
             foreign_sim.simulate(spec, folder)

@@ -835,6 +835,85 @@ refine (const float *image, gsize p, gsize stride, guint index, guint n)
   return CLAMP (0.5 * (lm - lp) / curvature, -0.5, 0.5);
 }
 
+/* The maximum of the quadratic through the logarithms of the 3 x 3
+ * samples around pixel @p (@a, @e) at its range, cross term included, as
+ * offsets in grid steps along azimuth and elevation; FALSE (and nothing
+ * written) at the grid's edge, where a sample is not a positive number,
+ * or where the quadratic has no maximum. */
+static gboolean
+fit_direction (const float *image, gsize p, guint a, guint e,
+    const SonarImageGrid * g, double *offset_a, double *offset_e)
+{
+  const gsize stride_a = g->n_range;
+  const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
+  double l[3][3], grad_a, grad_e, h_aa, h_ee, h_ae, det;
+
+  if (a == 0 || a + 1 >= g->n_azimuth || e == 0 || e + 1 >= g->n_elevation)
+    return FALSE;
+  for (guint row = 0; row < 3; row++)
+    for (guint col = 0; col < 3; col++) {
+      const float v = image[p + row * stride_e + col * stride_a - stride_e -
+          stride_a];
+      if (!(v > 0.0f && isfinite (v)))
+        return FALSE;
+      l[row][col] = log (v);
+    }
+  grad_a = 0.5 * (l[1][2] - l[1][0]);
+  grad_e = 0.5 * (l[2][1] - l[0][1]);
+  h_aa = l[1][2] - 2.0 * l[1][1] + l[1][0];
+  h_ee = l[2][1] - 2.0 * l[1][1] + l[0][1];
+  h_ae = 0.25 * (l[2][2] - l[2][0] - l[0][2] + l[0][0]);
+  det = h_aa * h_ee - h_ae * h_ae;
+  if (!(h_aa < 0.0 && det > 0.0))
+    return FALSE;
+  /* The gradient's zero: H (offset_a, offset_e) = -grad. */
+  *offset_a = (h_ae * grad_e - h_ee * grad_a) / det;
+  *offset_e = (h_ae * grad_a - h_aa * grad_e) / det;
+  return TRUE;
+}
+
+/* Sub-step offsets along azimuth and elevation of the peak at pixel @p
+ * (@a, @e): fit_direction ()'s, and where that lands beyond half a step,
+ * the fit around the neighbour on that side when it lands within half a
+ * step of its own centre. The array's beam is tilted in azimuth and
+ * elevation (the eRTIS layout has no symmetry), so parabolas along the
+ * peak's row and column alone read an azimuth that depends on the row;
+ * and the log beam is not a quadratic, so each pixel's fit errs its own
+ * way near the half step: an echo midway between two rows, its peak on
+ * one row or the other from ping to ping, scattered twice its noise's
+ * share in azimuth (tools/uncertainty-3d.py --per-point). FALSE where no
+ * fit holds (then the separable parabolas). */
+static gboolean
+refine_direction (const float *image, gsize p, guint a, guint e,
+    const SonarImageGrid * g, double *offset_a, double *offset_e)
+{
+  double x, y, x2, y2;
+  int step_a, step_e;
+
+  if (!fit_direction (image, p, a, e, g, &x, &y))
+    return FALSE;
+  step_a = x > 0.5 ? 1 : x < -0.5 ? -1 : 0;
+  step_e = y > 0.5 ? 1 : y < -0.5 ? -1 : 0;
+  if ((step_a || step_e) && fit_direction (image, p + (gssize) step_a *
+          g->n_range + (gssize) step_e * g->n_azimuth * g->n_range,
+          a + step_a, e + step_e, g, &x2, &y2)) {
+    if (fabs (x2) <= 0.5 && fabs (y2) <= 0.5) {
+      *offset_a = step_a + x2;
+      *offset_e = step_e + y2;
+    } else {
+      /* Each fit overshoots towards the other pixel: the peak lies
+       * between them, where the mean of both puts it whichever pixel is
+       * the higher. */
+      *offset_a = CLAMP (0.5 * (x + step_a + x2), -1.0, 1.0);
+      *offset_e = CLAMP (0.5 * (y + step_e + y2), -1.0, 1.0);
+    }
+    return TRUE;
+  }
+  *offset_a = CLAMP (x, -0.5, 0.5);
+  *offset_e = CLAMP (y, -0.5, 0.5);
+  return TRUE;
+}
+
 static void
 locate_peaks (SonarClusterer * c, const float *image)
 {
@@ -847,11 +926,16 @@ locate_peaks (SonarClusterer * c, const float *image)
     const guint e = p / stride_e;
     const double r = g->range_first + g->range_step *
         (i + refine (image, p, 1, i, g->n_range));
-    const double az = g->azimuth_first + g->azimuth_step *
-        (a + refine (image, p, g->n_range, a, g->n_azimuth));
-    const double el = g->elevation_first + g->elevation_step *
-        (e + refine (image, p, stride_e, e, g->n_elevation));
-    const SonarVec3 u = sonar_vec3_from_direction (az, el);
+    double offset_a, offset_e, az, el;
+    SonarVec3 u;
+
+    if (!refine_direction (image, p, a, e, g, &offset_a, &offset_e)) {
+      offset_a = refine (image, p, g->n_range, a, g->n_azimuth);
+      offset_e = refine (image, p, stride_e, e, g->n_elevation);
+    }
+    az = g->azimuth_first + g->azimuth_step * (a + offset_a);
+    el = g->elevation_first + g->elevation_step * (e + offset_e);
+    u = sonar_vec3_from_direction (az, el);
 
     c->peak_range[k] = r;
     c->peak_direction[k] = u;

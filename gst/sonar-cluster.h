@@ -11,8 +11,12 @@
  *    range) or, for a 3-D image, the 26-neighbourhood (elevation x azimuth
  *    x range). Equal values are ordered by pixel index, so a plateau gives
  *    one deterministic peak. Each peak's position is refined below the grid
- *    step by a parabola through the logarithms of its neighbours along each
- *    axis (exact for a Gaussian lobe).
+ *    step by a parabola through the logarithms of its neighbours along
+ *    range and, on a 2-D image, azimuth; on a 3-D image its direction by
+ *    the quadratic through the logarithms of the 3 x 3 directions around
+ *    it, cross term included (the array's beam is tilted in azimuth and
+ *    elevation), or its neighbour's where that lands beyond half a step
+ *    (exact for a Gaussian lobe, tilted or not).
  * 3. Agglomerative hierarchical clustering of the peaks' sensor frame
  *    positions (m), Euclidean distances, with SciPy's linkage methods (Ward
  *    by default, eq. 14; sonar-linkage.h).

@@ -525,6 +525,55 @@ test_3d (void)
   check_blobs (out, n, blobs, 2);
 }
 
+/* A beam tilted in azimuth and elevation (the eRTIS array's are: its
+ * layout has no symmetry), as a Gaussian whose log is a quadratic with a
+ * cross term, on a 2-degree grid, its peak at sub-step offsets either
+ * side of the half step between two rows (where the peak pixel moves from
+ * one row to the other) and of two columns: the centroid is the peak's
+ * direction within 0.01 degrees. Parabolas along the peak's row and
+ * column alone read a direction that follows the row and column (the
+ * first case: 0.27 degrees off in azimuth, 0.48 in elevation). */
+static void
+test_tilted_peak (void)
+{
+  const SonarImageGrid g = { 21, -20.0, 2.0, 21, -20.0, 2.0, 60, 1.0, 0.003 };
+  const double width_a = 3.0, width_e = 4.0, tilt = 0.6, r0 = 1.0903;
+  const double offsets[] = { 0.3, 0.45, 0.5, 0.55, 0.7 };
+  SonarClusterParams p;
+  g_autofree float *image = g_new (float, sonar_image_grid_size (&g));
+  g_autoptr (SonarClusterer) c = NULL;
+  SonarCentroid out[8];
+
+  synthetic_params (&p);
+  c = sonar_clusterer_new (&g, &p, NULL);
+  for (guint i = 0; i < G_N_ELEMENTS (offsets); i++)
+    for (guint j = 0; j < G_N_ELEMENTS (offsets); j++) {
+      const double az0 = 2.0 * (1.0 + offsets[i]);
+      const double el0 = -2.0 * (1.0 + offsets[j]);
+      guint n;
+      for (guint e = 0; e < g.n_elevation; e++)
+        for (guint a = 0; a < g.n_azimuth; a++)
+          for (guint k = 0; k < g.n_range; k++) {
+            const double x = (g.azimuth_first + a * g.azimuth_step - az0) /
+                width_a;
+            const double y = (g.elevation_first + e * g.elevation_step -
+                el0) / width_e;
+            const double dr = (g.range_first + k * g.range_step - r0) /
+                RANGE_SIGMA;
+            image[((gsize) e * g.n_azimuth + a) * g.n_range + k] =
+                (float) (1e-4 + exp (-0.5 * (x * x + y * y + 2.0 * tilt *
+                            x * y + dr * dr)));
+          }
+      n = sonar_clusterer_process (c, image, out, G_N_ELEMENTS (out));
+      g_assert_cmpuint (n, >=, 1);
+      g_test_message ("peak %+.2f %+.2f deg: centroid %+.4f %+.4f deg",
+          az0, el0, out[0].azimuth, out[0].elevation);
+      g_assert_cmpfloat (fabs (out[0].azimuth - az0), <, 0.01);
+      g_assert_cmpfloat (fabs (out[0].elevation - el0), <, 0.01);
+      g_assert_cmpfloat (fabs (out[0].range - r0), <, 1e-4);
+    }
+}
+
 /* The passes shared between workers (compensation, noise floors, peaks)
  * give the same peaks and centroids bit for bit with 1 to 7 threads, on
  * a 3-D image with ridges and a few non-finite pixels (7 threads for 13
@@ -969,6 +1018,7 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/three-blobs-noisier", test_three_blobs_noisier);
   g_test_add_func ("/cluster/ridges", test_ridges);
   g_test_add_func ("/cluster/3d", test_3d);
+  g_test_add_func ("/cluster/tilted-peak", test_tilted_peak);
   g_test_add_func ("/cluster/threads", test_threads);
   g_test_add_func ("/cluster/degenerate", test_degenerate);
   g_test_add_func ("/cluster/max-centroids", test_max_centroids);

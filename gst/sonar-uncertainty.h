@@ -41,10 +41,12 @@
  * 0.97-1.05 from 15 to 44 dB of image SNR (with the median block the
  * echo's own cross-talk lifted the noise read above 40 dB: 1.3-1.4).
  *
- * On a 3-D image (2 degree grid) the elevation's sigma is 1.2-1.6 times
- * its scatter (README, Robot-ready results). What was measured there
- * (tools/uncertainty-3d.py --samples) and why this bound is still what
- * is reported: the scatter of wardcluster's offset follows the linear
+ * On a 3-D image (2 degree grid) the elevation's sigma is 1.4-1.5 times
+ * its scatter since wardcluster fits the direction in 3 x 3 samples
+ * (1.2-1.6 with its separable parabolas; README, Robot-ready results).
+ * What was measured with those parabolas (tools/uncertainty-3d.py
+ * --samples) and why this bound is still what is reported: the scatter
+ * of wardcluster's offset followed the linear
  * propagation of the log samples' noise through its three-sample
  * parabola (sonar_uncertainty_parabola_sigma ()) with their measured
  * covariance; neighbours correlate as noise shaped like the peak itself

@@ -872,21 +872,34 @@ fit_direction (const float *image, gsize p, guint a, guint e,
   return TRUE;
 }
 
+/* @offset clamped to between the pixel and its neighbour at @step (-1, 0
+ * or 1), or to half a step either side where @step is 0. */
+static double
+within_step (double offset, int step)
+{
+  return step > 0 ? CLAMP (offset, 0.0, 1.0) : step < 0 ?
+      CLAMP (offset, -1.0, 0.0) : CLAMP (offset, -0.5, 0.5);
+}
+
 /* Sub-step offsets along azimuth and elevation of the peak at pixel @p
  * (@a, @e): fit_direction ()'s, and where that lands beyond half a step,
  * the fit around the neighbour on that side when it lands within half a
- * step of its own centre. The array's beam is tilted in azimuth and
- * elevation (the eRTIS layout has no symmetry), so parabolas along the
- * peak's row and column alone read an azimuth that depends on the row;
- * and the log beam is not a quadratic, so each pixel's fit errs its own
- * way near the half step: an echo midway between two rows, its peak on
- * one row or the other from ping to ping, scattered twice its noise's
- * share in azimuth (tools/uncertainty-3d.py --per-point). FALSE where no
- * fit holds (then the separable parabolas). */
+ * step of its own centre, or the mean of the two when the neighbour's
+ * lands beyond half a step back towards @p (each overshoots towards the
+ * other: the peak lies between them). The array's beam is tilted in
+ * azimuth and elevation (the eRTIS layout has no symmetry), so parabolas
+ * along the peak's row and column alone read an azimuth that depends on
+ * the row; and the log beam is not a quadratic, so each pixel's fit errs
+ * its own way near the half step: an echo midway between two rows, its
+ * peak on one row or the other from ping to ping, scattered twice its
+ * noise's share in azimuth (tools/uncertainty-3d.py --per-point). FALSE
+ * where no fit holds (then the separable parabolas). */
 static gboolean
 refine_direction (const float *image, gsize p, guint a, guint e,
     const SonarImageGrid * g, double *offset_a, double *offset_e)
 {
+  const gssize stride_a = g->n_range;
+  const gssize stride_e = (gssize) g->n_azimuth * g->n_range;
   double x, y, x2, y2;
   int step_a, step_e;
 
@@ -894,20 +907,21 @@ refine_direction (const float *image, gsize p, guint a, guint e,
     return FALSE;
   step_a = x > 0.5 ? 1 : x < -0.5 ? -1 : 0;
   step_e = y > 0.5 ? 1 : y < -0.5 ? -1 : 0;
-  if ((step_a || step_e) && fit_direction (image, p + (gssize) step_a *
-          g->n_range + (gssize) step_e * g->n_azimuth * g->n_range,
-          a + step_a, e + step_e, g, &x2, &y2)) {
+  if ((step_a || step_e) && fit_direction (image, p + step_a * stride_a +
+          step_e * stride_e, a + step_a, e + step_e, g, &x2, &y2)) {
     if (fabs (x2) <= 0.5 && fabs (y2) <= 0.5) {
       *offset_a = step_a + x2;
       *offset_e = step_e + y2;
-    } else {
-      /* Each fit overshoots towards the other pixel: the peak lies
-       * between them, where the mean of both puts it whichever pixel is
-       * the higher. */
-      *offset_a = CLAMP (0.5 * (x + step_a + x2), -1.0, 1.0);
-      *offset_e = CLAMP (0.5 * (y + step_e + y2), -1.0, 1.0);
+      return TRUE;
     }
-    return TRUE;
+    /* Back towards @p along each axis stepped, within half a step along
+     * the other. */
+    if ((step_a ? step_a * x2 < -0.5 : fabs (x2) <= 0.5)
+        && (step_e ? step_e * y2 < -0.5 : fabs (y2) <= 0.5)) {
+      *offset_a = within_step (0.5 * (x + step_a + x2), step_a);
+      *offset_e = within_step (0.5 * (y + step_e + y2), step_e);
+      return TRUE;
+    }
   }
   *offset_a = CLAMP (x, -0.5, 0.5);
   *offset_e = CLAMP (y, -0.5, 0.5);

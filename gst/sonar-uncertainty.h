@@ -20,8 +20,9 @@
  * The noise: the image's noise is flat over range (white noise at the
  * microphones, through the same filters everywhere), and echoes fill few
  * pixels: per block of SONAR_UNCERTAINTY_NOISE_BLOCK of range, the lower
- * quartile over its pixels (every direction); the tenth lowest of the
- * blocks' quartiles (echoes only add power, and an echo's cross-talk
+ * quartile over its positive pixels (every direction); of the blocks'
+ * quartiles, the one with a tenth of them below it (echoes only add
+ * power, and an echo's cross-talk
  * through the other emitters' templates lifts every direction within a
  * pulse length of it: with objects spread over a short window that is
  * most blocks), read as the quartile of the maximum of K_eff independent

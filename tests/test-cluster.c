@@ -525,11 +525,54 @@ test_3d (void)
   check_blobs (out, n, blobs, 2);
 }
 
+/* Lobes of a squared distance q from their peak: the Gaussian's log is
+ * a quadratic, the other's is not (flatter at its top, steeper below). */
+static double
+gaussian_lobe (double q)
+{
+  return exp (-0.5 * q);
+}
+
+static double
+rational_lobe (double q)
+{
+  return 1.0 / (1.0 + 0.5 * q + 0.5 * q * q);
+}
+
 /* A beam tilted in azimuth and elevation (the eRTIS array's are: its
- * layout has no symmetry), as a Gaussian whose log is a quadratic with a
- * cross term, on a 2-degree grid, its peak at sub-step offsets either
- * side of the half step between two rows (where the peak pixel moves from
- * one row to the other) and of two columns: the centroid is the peak's
+ * layout has no symmetry) at @az0, @el0 and range 1.0903 m, on a 3-D
+ * grid of 2-degree steps; its peak's centroid. */
+static SonarCentroid
+tilted_peak (SonarClusterer * c, const SonarImageGrid * g, float *image,
+    double (*lobe) (double), double az0, double el0)
+{
+  const double width_a = 3.0, width_e = 4.0, tilt = 0.6, r0 = 1.0903;
+  SonarCentroid out[8];
+
+  for (guint e = 0; e < g->n_elevation; e++)
+    for (guint a = 0; a < g->n_azimuth; a++)
+      for (guint k = 0; k < g->n_range; k++) {
+        const double x = (g->azimuth_first + a * g->azimuth_step - az0) /
+            width_a;
+        const double y = (g->elevation_first + e * g->elevation_step -
+            el0) / width_e;
+        const double dr = (g->range_first + k * g->range_step - r0) /
+            RANGE_SIGMA;
+        image[((gsize) e * g->n_azimuth + a) * g->n_range + k] =
+            (float) (1e-4 + lobe (x * x + y * y + 2.0 * tilt * x * y) *
+            exp (-0.5 * dr * dr));
+      }
+  g_assert_cmpuint (sonar_clusterer_process (c, image, out,
+          G_N_ELEMENTS (out)), >=, 1);
+  g_assert_cmpfloat (fabs (out[0].range - r0), <, 1e-4);
+  g_test_message ("peak %+.3f %+.3f deg: centroid %+.4f %+.4f deg", az0,
+      el0, out[0].azimuth, out[0].elevation);
+  return out[0];
+}
+
+/* A tilted Gaussian beam with its peak at sub-step offsets either side of
+ * the half step between two rows (where the peak pixel moves from one
+ * row to the other) and of two columns: the centroid is the peak's
  * direction within 0.01 degrees. Parabolas along the peak's row and
  * column alone read a direction that follows the row and column (the
  * first case: 0.27 degrees off in azimuth, 0.48 in elevation). */
@@ -537,12 +580,10 @@ static void
 test_tilted_peak (void)
 {
   const SonarImageGrid g = { 21, -20.0, 2.0, 21, -20.0, 2.0, 60, 1.0, 0.003 };
-  const double width_a = 3.0, width_e = 4.0, tilt = 0.6, r0 = 1.0903;
   const double offsets[] = { 0.3, 0.45, 0.5, 0.55, 0.7 };
-  SonarClusterParams p;
   g_autofree float *image = g_new (float, sonar_image_grid_size (&g));
   g_autoptr (SonarClusterer) c = NULL;
-  SonarCentroid out[8];
+  SonarClusterParams p;
 
   synthetic_params (&p);
   c = sonar_clusterer_new (&g, &p, NULL);
@@ -550,28 +591,52 @@ test_tilted_peak (void)
     for (guint j = 0; j < G_N_ELEMENTS (offsets); j++) {
       const double az0 = 2.0 * (1.0 + offsets[i]);
       const double el0 = -2.0 * (1.0 + offsets[j]);
-      guint n;
-      for (guint e = 0; e < g.n_elevation; e++)
-        for (guint a = 0; a < g.n_azimuth; a++)
-          for (guint k = 0; k < g.n_range; k++) {
-            const double x = (g.azimuth_first + a * g.azimuth_step - az0) /
-                width_a;
-            const double y = (g.elevation_first + e * g.elevation_step -
-                el0) / width_e;
-            const double dr = (g.range_first + k * g.range_step - r0) /
-                RANGE_SIGMA;
-            image[((gsize) e * g.n_azimuth + a) * g.n_range + k] =
-                (float) (1e-4 + exp (-0.5 * (x * x + y * y + 2.0 * tilt *
-                            x * y + dr * dr)));
-          }
-      n = sonar_clusterer_process (c, image, out, G_N_ELEMENTS (out));
-      g_assert_cmpuint (n, >=, 1);
-      g_test_message ("peak %+.2f %+.2f deg: centroid %+.4f %+.4f deg",
-          az0, el0, out[0].azimuth, out[0].elevation);
-      g_assert_cmpfloat (fabs (out[0].azimuth - az0), <, 0.01);
-      g_assert_cmpfloat (fabs (out[0].elevation - el0), <, 0.01);
-      g_assert_cmpfloat (fabs (out[0].range - r0), <, 1e-4);
+      const SonarCentroid o = tilted_peak (c, &g, image, gaussian_lobe,
+          az0, el0);
+      g_assert_cmpfloat (fabs (o.azimuth - az0), <, 0.01);
+      g_assert_cmpfloat (fabs (o.elevation - el0), <, 0.01);
     }
+}
+
+/* A tilted beam whose log is not a quadratic, as a real one's: the fit
+ * around either pixel of the half step errs its own way, and the
+ * direction must not jump as the peak crosses it (0.04 degrees apart
+ * either side of the half step between two rows, then two columns: the
+ * centroids within 0.1 degrees of each other, within 0.4 of the truth);
+ * and near the grid's edge, where the neighbour's fit cannot be had. */
+static void
+test_tilted_peak_continuity (void)
+{
+  const SonarImageGrid g = { 21, -20.0, 2.0, 21, -20.0, 2.0, 60, 1.0, 0.003 };
+  g_autofree float *image = g_new (float, sonar_image_grid_size (&g));
+  g_autoptr (SonarClusterer) c = NULL;
+  SonarClusterParams p;
+
+  synthetic_params (&p);
+  c = sonar_clusterer_new (&g, &p, NULL);
+  for (guint axis = 0; axis < 2; axis++) {
+    SonarCentroid o[2];
+    double truth[2][2];
+    for (guint side = 0; side < 2; side++) {
+      const double across = 2.0 * (0.49 + 0.02 * side), along = 2.0 * 0.3;
+      truth[side][0] = axis == 0 ? 2.0 + across : 2.0 + along;
+      truth[side][1] = axis == 0 ? -2.0 - along : -2.0 - across;
+      o[side] = tilted_peak (c, &g, image, rational_lobe, truth[side][0],
+          truth[side][1]);
+      g_assert_cmpfloat (fabs (o[side].azimuth - truth[side][0]), <, 0.4);
+      g_assert_cmpfloat (fabs (o[side].elevation - truth[side][1]), <, 0.4);
+    }
+    g_assert_cmpfloat (fabs (o[1].azimuth - o[0].azimuth), <, 0.1);
+    g_assert_cmpfloat (fabs (o[1].elevation - o[0].elevation), <, 0.1);
+  }
+  /* 0.6 steps from the first column: its peak pixel the second. */
+  {
+    const double az0 = -20.0 + 2.0 * 0.6, el0 = 1.0;
+    const SonarCentroid o = tilted_peak (c, &g, image, rational_lobe, az0,
+        el0);
+    g_assert_cmpfloat (fabs (o.azimuth - az0), <, 0.5);
+    g_assert_cmpfloat (fabs (o.elevation - el0), <, 0.5);
+  }
 }
 
 /* The passes shared between workers (compensation, noise floors, peaks)
@@ -1019,6 +1084,8 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/ridges", test_ridges);
   g_test_add_func ("/cluster/3d", test_3d);
   g_test_add_func ("/cluster/tilted-peak", test_tilted_peak);
+  g_test_add_func ("/cluster/tilted-peak-continuity",
+      test_tilted_peak_continuity);
   g_test_add_func ("/cluster/threads", test_threads);
   g_test_add_func ("/cluster/degenerate", test_degenerate);
   g_test_add_func ("/cluster/max-centroids", test_max_centroids);

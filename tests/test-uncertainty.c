@@ -58,9 +58,12 @@ test_noise_power (void)
 /* Objects spread over a short window (a 20 Hz sensor's 8.6 m): their
  * cross-talk through the other emitters' templates lifts every direction
  * within a pulse length of each, here to 4 times the noise power over 4
- * in 5 blocks, and the near range is blanked (zeros). The noise read is
- * still 2 s^2: the cleanest blocks' (the median of the blocks read 4
- * times it), and the blanked ones are not noise at all. */
+ * in 5 blocks; the near range is blanked (zeros), and so is every fifth
+ * direction (not imaged). The noise read is still 2 s^2: the cleanest
+ * blocks' (the median of the blocks read 4 times it), and the zeros are
+ * not noise at all (counted, a fifth of each block's pixels at zero
+ * pulled the reading to an eighth of the noise). Within 12 %: the block
+ * read lies a few per cent under the noise on noise alone. */
 static void
 test_noise_power_short_window (void)
 {
@@ -80,11 +83,11 @@ test_noise_power_short_window (void)
       const double scale = i < lifted * block ? 2.0 * s : s;
       const double re = scale * sonar_rng_gaussian (&rng);
       const double im = scale * sonar_rng_gaussian (&rng);
-      image[a * 1660 + i] = i < blanked * block ? 0.0f : (float) hypot (re,
-          im);
+      image[a * 1660 + i] = i < blanked * block || a % 5 == 0 ? 0.0f :
+          (float) hypot (re, im);
     }
   g_assert_cmpfloat_with_epsilon (sonar_noise_meter_power (meter, image) /
-      (2 * s * s), 1.0, 0.08);
+      (2 * s * s), 1.0, 0.12);
 }
 
 /* A Gaussian peak exp (-x^2 / (2 w^2)) in range and azimuth: its log

@@ -36,8 +36,10 @@ def points(seed, n):
 
 
 def errors(scene, pings, noise, folder, env):
-    """(azimuth errors, elevation errors) of the valid detections matched
-    to @scene's points over @pings pings."""
+    """(azimuth errors, elevation errors, extra detections) over @pings
+    pings of @scene: the errors of each point's valid detection nearest
+    it in range (within MATCH), per ping; extra: the other valid
+    detections."""
     path = folder / "points.json"
     path.write_text(json.dumps({"dimensions": 3, "reflectors": [
         {"kind": "point", "range": r, "azimuth": a, "elevation": e,
@@ -50,26 +52,28 @@ def errors(scene, pings, noise, folder, env):
         env=env, capture_output=True, text=True)
     if out.returncode != 0:
         sys.exit("the chain failed: %s" % out.stderr.strip())
-    azimuth, elevation = [], []
+    azimuth, elevation, extra = [], [], 0
     for line in out.stdout.splitlines():
-        for d in json.loads(line)["detections"]:
-            if not d["valid"]:
-                continue
-            r, a, e = min(scene, key=lambda p: abs(p[0] - d["range"]))
-            if abs(r - d["range"]) < MATCH:
-                azimuth.append(d["azimuth"] - a)
-                elevation.append(d["elevation"] - e)
-    return azimuth, elevation
+        left = [d for d in json.loads(line)["detections"] if d["valid"]]
+        for r, a, e in scene:
+            near = min(left, default=None,
+                       key=lambda d: abs(d["range"] - r))
+            if near is not None and abs(near["range"] - r) < MATCH:
+                left.remove(near)
+                azimuth.append(near["azimuth"] - a)
+                elevation.append(near["elevation"] - e)
+        extra += len(left)
+    return azimuth, elevation, extra
 
 
-def summary(found, expected, azimuth, elevation):
+def summary(found, expected, extra, azimuth, elevation):
     rms = lambda v: math.sqrt(sum(x * x for x in v) / len(v)) if v else \
         math.nan
     worst = lambda v: max(map(abs, v), default=math.nan)
-    return ("%d of %d found; azimuth rms %.3f, worst %.3f deg; elevation "
-            "rms %.3f, worst %.3f deg" % (found, expected, rms(azimuth),
-                                          worst(azimuth), rms(elevation),
-                                          worst(elevation)))
+    return ("%d of %d found, %d other detections; azimuth rms %.3f, worst "
+            "%.3f deg; elevation rms %.3f, worst %.3f deg" % (
+                found, expected, extra, rms(azimuth), worst(azimuth),
+                rms(elevation), worst(elevation)))
 
 
 def main():
@@ -83,18 +87,21 @@ def main():
     env = dict(os.environ)
     build = os.environ.get("SONAR_BUILD_DIR", str(ROOT / "build"))
     env["GST_PLUGIN_PATH_1_0"] = str(pathlib.Path(build) / "elements")
-    all_azimuth, all_elevation = [], []
+    all_azimuth, all_elevation, all_extra = [], [], 0
     with tempfile.TemporaryDirectory() as folder:
         for seed in args.seeds:
-            azimuth, elevation = errors(points(seed, args.points),
-                                        args.pings, args.noise,
-                                        pathlib.Path(folder), env)
+            azimuth, elevation, extra = errors(
+                points(seed, args.points), args.pings, args.noise,
+                pathlib.Path(folder), env)
             print("seed %d: %s" % (seed, summary(
-                len(azimuth), args.points * args.pings, azimuth, elevation)))
+                len(azimuth), args.points * args.pings, extra, azimuth,
+                elevation)))
             all_azimuth += azimuth
             all_elevation += elevation
+            all_extra += extra
     print("all: %s" % summary(len(all_azimuth), args.points * args.pings *
-                              len(args.seeds), all_azimuth, all_elevation))
+                              len(args.seeds), all_extra, all_azimuth,
+                              all_elevation))
 
 
 if __name__ == "__main__":

@@ -22,11 +22,11 @@
  * pixels: per block of SONAR_UNCERTAINTY_NOISE_BLOCK of range, the lower
  * quartile over its positive pixels (every direction); of the blocks'
  * quartiles, the one with a tenth of them below it (echoes only add
- * power, and an echo's cross-talk
- * through the other emitters' templates lifts every direction within a
- * pulse length of it: with objects spread over a short window that is
- * most blocks), read as the quartile of the maximum of K_eff independent
- * Rayleigh envelopes: E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)), with
+ * power, and an echo's cross-talk through the other emitters' templates
+ * lifts every direction within a pulse length of it: with objects spread
+ * over a short window that is most blocks), read as the quartile of the
+ * maximum of K_eff independent Rayleigh envelopes:
+ * E|n|^2 = 2 s^2 = q^2 / -ln (1 - 4^(-1/K)), with
  * K_eff = 1 + (K - 1) SONAR_UNCERTAINTY_QUARTILE_SHARE for an image over
  * K Doppler hypotheses (neighbouring hypotheses are correlated: fewer
  * count at the quartile than at wardcluster's 1e-10 tail). Not the
@@ -35,7 +35,7 @@
  *
  * No floor term: over 8 places x 12 noise seeds (sonar-bench --sweep
  * uncertainty) the scatter kept falling as 1 / sqrt (SNR) down to the
- * highest SNR measured (42 dB in the image); the grid's interpolation
+ * highest SNR measured (44 dB in the image); the grid's interpolation
  * bias is fixed per place, a bias, which these sigmas leave out; so is
  * the other echoes' cross-talk at a detection's range, fixed by the
  * scene's geometry. Every ratio of reported sigma to scatter is

@@ -13,6 +13,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import statistics
 import subprocess
 import sys
@@ -85,6 +86,35 @@ def detections_match_schema():
         assert d["elevation_sigma"] is None, d
         # Sane sizes: well below the image's resolution cells.
         assert d["range_sigma"] < 0.01 and d["azimuth_sigma"] < 2.0, d
+
+
+@test
+def printed_finer_than_sigma():
+    """on the default scene's 65-75 dB echoes (the smallest uncertainties
+    the presets give), the JSON prints each valid detection's range, x, z,
+    azimuth and radial velocity in a unit no larger than the smallest
+    sigma of that coordinate: rounding does not add to the error the sigma
+    states (docs/CONTRACTS.md section 9)"""
+    out = launch("sonarsrc", "num-buffers=2", *CHAIN, "!", "fdsink")
+    # The unit: the most decimals any value of the field shows (numbers are
+    # printed at their shortest, so one value may show fewer).
+    decimals = {}
+    for number in re.finditer(r'"(range|x|z|azimuth|radial_velocity)": '
+                              r'-?\d+\.(\d+)', out):
+        field, digits = number.group(1), len(number.group(2))
+        decimals[field] = max(decimals.get(field, 0), digits)
+    valid = [d for line in out.splitlines()
+             for d in json.loads(line)["detections"] if d["valid"]]
+    assert len(valid) >= 4, out
+    # y is 0 on this 2-D image.
+    sigma = {"range": "range_sigma", "x": "range_sigma", "z": "range_sigma",
+             "azimuth": "azimuth_sigma",
+             "radial_velocity": "radial_velocity_sigma"}
+    for field, sigma_field in sigma.items():
+        smallest = min(d[sigma_field] for d in valid)
+        unit = 10.0 ** -decimals[field]
+        print(f"# {field}: unit {unit:g}, smallest sigma {smallest:.3g}")
+        assert unit <= smallest, (field, unit, smallest)
 
 
 @test

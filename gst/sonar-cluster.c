@@ -40,7 +40,7 @@ typedef struct
 {
   float *columns;               /* FLOOR_BLOCK range bins' values over the
                                  * directions, one column per bin */
-  float *bracketed;             /* select_bracketed ()'s: per direction, and
+  float *bracketed;             /* censored_quartile ()'s: 3 per direction,
                                  * at least column_bins */
   float *row_max;               /* per range bin: its directions' strongest */
   float *column_values;         /* one column block's values */
@@ -197,7 +197,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
     const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
     WorkerScratch *ws = &c->scratch[w];
     ws->columns = g_new (float, (gsize) FLOOR_BLOCK * n_dirs);
-    ws->bracketed = g_new (float, MAX (n_dirs, c->column_bins));
+    ws->bracketed = g_new (float, MAX (3 * n_dirs, c->column_bins));
     ws->row_max = g_new (float, grid->n_range);
     ws->column_values = g_new (float, c->column_bins);
     ws->peaks.value = g_new (float, m);
@@ -370,13 +370,14 @@ sonar_select_kth (float *v, gsize n, gsize k)
 /* Share of noise's values censored_quartile () sets aside. */
 #define CENSOR_SHARE SONAR_CLUSTER_CENSOR_SHARE
 
-/* select_bracketed ()'s brackets around a guess, relative half-widths:
- * a range bin's quartile over about 180 directions is a sample of the
- * level the bins around it share, a few per cent off it (neighbouring
- * bins are nearly independent at the band's range resolution). The
- * narrow bracket holds a tenth to a sixth of the values, the wide one
- * nearly always the quartile. */
-#define BRACKET_NARROW 0.06f
+/* The brackets around a guess of censored_quartile () and
+ * select_bracketed (), relative half-widths: a range bin's quartile over
+ * about 180 directions is a sample of the level the bins around it
+ * share, about 10 % off it (neighbouring bins are nearly independent at
+ * the band's range resolution; measured on a Fig. 10 image, against the
+ * running mean of the floors). The narrow bracket holds that level in
+ * two bins of three, the wide one nearly always. */
+#define BRACKET_NARROW 0.1f
 #define BRACKET_WIDE 0.3f
 
 /* Values, at most, that select_small () ranks by counting. */
@@ -431,13 +432,48 @@ keep_within (const float *from, gsize n, float lo, float hi, float *to,
   return inside;
 }
 
+/* Element @k of the @m values of @set (which it reorders), all within
+ * [@lo, @hi], in ascending order: the bracket halved at its middle and
+ * the half that holds it kept, until SMALL_SELECT values are left (or
+ * ties leave nothing to split). */
+static float
+select_within (float *set, gsize m, gsize k, float lo, float hi)
+{
+  while (m > SMALL_SELECT) {
+    const float mid = 0.5f * (lo + hi);
+    gsize under = 0, kept = 0;
+
+    if (!(mid > lo && mid < hi))
+      break;
+    for (gsize i = 0; i < m; i++)
+      under += set[i] < mid;
+    if (k < under) {
+      for (gsize i = 0; i < m; i++) {
+        const float x = set[i];
+        set[kept] = x;
+        kept += x < mid;
+      }
+      hi = mid;
+    } else {
+      for (gsize i = 0; i < m; i++) {
+        const float x = set[i];
+        set[kept] = x;
+        kept += x >= mid;
+      }
+      k -= under;
+      lo = mid;
+    }
+    m = kept;
+  }
+  return select_set (set, m, k);
+}
+
 /* Element @k of the @n @values in ascending order, as sonar_select_kth ()
  * (the same value: an order statistic does not depend on how it is
  * found). When a bracket about @guess holds it (a narrow one, else a wide
- * one), only the values within are selected from: the bracket is halved
- * at its middle and the half that holds it kept, until SMALL_SELECT
- * values are left; else (or with a NaN guess) all of them are, reordering
- * @values only then.
+ * one), only the values within are selected from (select_within ());
+ * else (or with a NaN guess) all of them are, reordering @values only
+ * then.
  * Why: Hoare's selection over random values mispredicts about every
  * other comparison, and the floors make two per range bin (clustering
  * was 56-84x its arithmetic floor); a pass without branches over them
@@ -449,7 +485,7 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
     float lo_share, float hi_share, float *scratch)
 {
   gsize below, inside = 0;
-  float width = BRACKET_NARROW, lo, hi;
+  float width = BRACKET_NARROW;
 
   if (!isfinite (guess))
     return sonar_select_kth (values, n, k);
@@ -462,39 +498,70 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
     if (!(k >= below && k - below < inside))
       return sonar_select_kth (values, n, k);
   }
-  k -= below;
-  /* scratch[0 .. inside) holds it, at rank k, all within [lo, hi]: the
-   * bracket halved at its middle, the half that holds it kept, until few
-   * values are left (or ties leave nothing to split). */
-  lo = guess * (1.0f - lo_share * width);
-  hi = guess * (1.0f + hi_share * width);
-  while (inside > SMALL_SELECT) {
-    const float mid = 0.5f * (lo + hi);
-    gsize under = 0, kept = 0;
+  return select_within (scratch, inside, k - below,
+      guess * (1.0f - lo_share * width), guess * (1.0f + hi_share * width));
+}
 
-    if (!(mid > lo && mid < hi))
-      break;
-    for (gsize i = 0; i < inside; i++)
-      under += scratch[i] < mid;
-    if (k < under) {
-      for (gsize i = 0; i < inside; i++) {
-        const float x = scratch[i];
-        scratch[kept] = x;
-        kept += x < mid;
-      }
-      hi = mid;
-    } else {
-      for (gsize i = 0; i < inside; i++) {
-        const float x = scratch[i];
-        scratch[kept] = x;
-        kept += x >= mid;
-      }
-      k -= under;
-      lo = mid;
-    }
-    inside = kept;
+/* censored_quartile ()'s result in *@result from one pass over the @n
+ * @values, when the bracket [@lo, @hi] (0 <= @lo, @gain > 1) holds every
+ * order statistic it takes; FALSE otherwise. The pass keeps the values
+ * within the bracket and those at or above @gain times @lo, and counts
+ * those below @lo: each level a round sets aside lies at or above @gain
+ * times @lo (it is @gain times a quartile within the bracket), so the
+ * values kept below it are counted from those above alone, and those
+ * below @lo all stay. The rounds then work on a few dozen values instead
+ * of passing over all of them again (two to four passes before).
+ * @scratch holds 3 @n floats; @values are left as they are. */
+static gboolean
+censored_in_bracket (const float *values, gsize n, float gain, float lo,
+    float hi, float *scratch, float *result)
+{
+  float *inside = scratch, *upper = scratch + n, *work = scratch + 2 * n;
+  const float upper_lo = gain * lo;
+  gsize below = 0, n_inside = 0, n_upper = 0, kept = n, rank = n / 4;
+  float q;
+
+  for (gsize i = 0; i < n; i++) {
+    const float x = values[i];
+    below += x < lo;
+    inside[n_inside] = x;
+    n_inside += (x >= lo) & (x <= hi);
+    upper[n_upper] = x;
+    n_upper += x >= upper_lo;
   }
-  return select_set (scratch, inside, k);
+  if (!(rank >= below && rank - below < n_inside))
+    return FALSE;
+  memcpy (work, inside, sizeof (float) * n_inside);
+  q = select_within (work, n_inside, rank - below, lo, hi);
+  for (int round = 0; round < CENSOR_ROUNDS; round++) {
+    const float level = gain * q;
+    gsize end = n - n_upper, next, m = 0;
+
+    if (!(level > q))
+      break;
+    for (gsize k = 0; k < n_upper; k++)
+      end += upper[k] < level;
+    /* Those kept are those below the lowest level so far. */
+    if (end >= kept || end < 4)
+      break;
+    kept = end;
+    next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
+    if (next != rank) {
+      if (next < below)
+        return FALSE;
+      for (gsize k = 0; k < n_inside; k++) {
+        const float x = inside[k];
+        work[m] = x;
+        m += x < level;
+      }
+      if (next - below >= m)
+        return FALSE;
+      q = select_within (work, m, next - below, lo, hi);
+      rank = next;
+    }
+  }
+  *result = q;
+  return TRUE;
 }
 
 /* The lower quartile of the @n @values, those above @gain times it set
@@ -508,8 +575,10 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
  * A function of the values alone, whatever their order (the same value
  * as the Hoare selections it replaced, over 400,000 random rows of ties,
  * zeros and crowds): @guess (near the expected quartile; NaN for none)
- * only speeds the selections up (select_bracketed ()). Reorders @values;
- * @scratch holds @n floats. */
+ * only speeds it up: in one pass when a bracket about it holds every
+ * quartile taken (censored_in_bracket ()), else by the selections'
+ * brackets about the last quartile (select_bracketed ()). Reorders
+ * @values; @scratch holds 3 @n floats. */
 static float
 censored_quartile (float *values, gsize n, float gain, float guess,
     float *scratch)
@@ -519,8 +588,16 @@ censored_quartile (float *values, gsize n, float gain, float guess,
 
   if (n == 0)
     return 0.0f;
+  if (guess > 0.0f && isfinite (guess) && gain > 1.0f && isfinite (gain)
+      && (censored_in_bracket (values, n, gain,
+              guess * (1.0f - BRACKET_NARROW),
+              guess * (1.0f + BRACKET_NARROW), scratch, &q)
+          || censored_in_bracket (values, n, gain,
+              guess * (1.0f - BRACKET_WIDE), guess * (1.0f + BRACKET_WIDE),
+              scratch, &q)))
+    return q;
   rank = n / 4;
-  q = select_bracketed (values, n, rank, guess, 1.0f, 1.0f, scratch);
+  q = sonar_select_kth (values, n, rank);
   for (int round = 0; round < CENSOR_ROUNDS; round++) {
     const float level = gain * q;
     gsize end = 0, next;

@@ -1037,7 +1037,7 @@ test_censored_quartile (void)
   const float offsets[] = { NAN, 1.0f, 1.02f, 0.97f, 1.1f, 0.8f, 1.5f,
     0.3f, 0.0f, -1.0f, INFINITY
   };
-  float values[1100], copy[1100], scratch[1100];
+  float values[1100], copy[1100], scratch[3 * 1100];
   SonarRng rng;
 
   sonar_rng_init (&rng, 13, 0);

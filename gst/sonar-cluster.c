@@ -15,6 +15,10 @@
 
 #define MAX_PEAKS 4096
 
+/* Pixels find_peaks_share () tests at once against c->passing, a loop
+ * the compiler turns into vector compares. */
+#define PASSING_CHUNK 16
+
 /* Range along one direction over which its noise floor is taken, m: a
  * tenth of a pulse (4000 samples at 450 kHz, 1.5 m of range), over which
  * a cross-talk ridge's level changes little, and 56 range bins at the
@@ -69,6 +73,10 @@ struct _SonarClusterer
   float *floor;                 /* per range bin: threshold over the noise floor */
   float *row_max;               /* per range bin: strongest over the directions */
   float *sidelobe;              /* per range bin: the sidelobe threshold */
+  /* Per range bin: the highest of the call's threshold, the floor and the
+   * sidelobe threshold, which a pixel must reach to be a peak (the
+   * search's one test of nearly every pixel). */
+  float *passing;
   /* Per direction and block of column_bins range bins: the lower
    * quartile of the block along the direction, of the image before range
    * compensation (its noise is flat over range); NaN until a pixel there
@@ -184,6 +192,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
     c->range[i] = (float) (grid->range_first + i * grid->range_step);
   c->row_max = g_new (float, grid->n_range);
   c->sidelobe = g_new (float, grid->n_range);
+  c->passing = g_new (float, grid->n_range);
   c->column_bins = sonar_cluster_column_bins (grid);
   c->n_column_blocks = (grid->n_range + c->column_bins - 1) / c->column_bins;
   c->column_quartile = g_new (float, (gsize) grid->n_azimuth *
@@ -265,6 +274,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->range);
   g_free (c->row_max);
   g_free (c->sidelobe);
+  g_free (c->passing);
   g_free (c->column_quartile);
   g_free (c);
 }
@@ -805,6 +815,17 @@ sidelobe_thresholds (SonarClusterer * c)
   }
 }
 
+/* Whether any of the PASSING_CHUNK @pixels reaches its @passing level. */
+static inline gboolean
+any_passing (const float *pixels, const float *passing)
+{
+  int any = 0;
+
+  for (guint j = 0; j < PASSING_CHUNK; j++)
+    any |= pixels[j] >= passing[j];
+  return any;
+}
+
 /* Worker @w's share of find_peaks (): the peaks of its run of
  * directions into its own heap. */
 static void
@@ -823,41 +844,51 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
       d++) {
     const guint e = d / g->n_azimuth, a = d % g->n_azimuth;
-    for (guint i = 0; i < g->n_range; i++) {
-      const gsize p = d * g->n_range + i;
-      const float v = image[p];
-      const float r = c->range[i];
-      gboolean peak = TRUE;
-      if (!(v >= threshold) || !(v >= c->floor[i])
-          || !(v >= c->sidelobe[i]) || !isfinite (v)
-          || !(v >= column_floor (c, ws, d, i) *
-              (c->compensated ? r * r : 1.0f)))
+    const float *column = image + d * g->n_range;
+    for (guint i0 = 0; i0 < g->n_range; i0 += PASSING_CHUNK) {
+      const guint i1 = MIN (i0 + PASSING_CHUNK, g->n_range);
+      /* Nearly every chunk holds no pixel that reaches its level. */
+      if (i1 - i0 == PASSING_CHUNK && !any_passing (column + i0,
+              c->passing + i0))
         continue;
-      for (int de = -1; de <= 1 && peak; de++) {
-        if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
+      for (guint i = i0; i < i1; i++) {
+        const gsize p = d * g->n_range + i;
+        const float v = image[p];
+        const float r = c->range[i];
+        gboolean peak = TRUE;
+        if (!(v >= c->passing[i]))
           continue;
-        for (int da = -1; da <= 1 && peak; da++) {
-          if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
+        if (!(v >= threshold) || !(v >= c->floor[i])
+            || !(v >= c->sidelobe[i]) || !isfinite (v)
+            || !(v >= column_floor (c, ws, d, i) *
+                (c->compensated ? r * r : 1.0f)))
+          continue;
+        for (int de = -1; de <= 1 && peak; de++) {
+          if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
             continue;
-          for (int di = -1; di <= 1; di++) {
-            gsize q;
-            float u;
-            if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
-                || (de == 0 && da == 0 && di == 0))
+          for (int da = -1; da <= 1 && peak; da++) {
+            if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
               continue;
-            q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
-            u = image[q];
-            /* Equal values: the earlier pixel wins, a deterministic
-             * order. Non-finite neighbours do not count. */
-            if (isfinite (u) && (u > v || (u == v && q < p))) {
-              peak = FALSE;
-              break;
+            for (int di = -1; di <= 1; di++) {
+              gsize q;
+              float u;
+              if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
+                  || (de == 0 && da == 0 && di == 0))
+                continue;
+              q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
+              u = image[q];
+              /* Equal values: the earlier pixel wins, a deterministic
+               * order. Non-finite neighbours do not count. */
+              if (isfinite (u) && (u > v || (u == v && q < p))) {
+                peak = FALSE;
+                break;
+              }
             }
           }
         }
+        if (peak)
+          keep_peak (&ws->peaks, capacity, v, p);
       }
-      if (peak)
-        keep_peak (&ws->peaks, capacity, v, p);
     }
   }
 }
@@ -875,6 +906,10 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
 
   c->image = image;
   c->threshold = threshold;
+  /* A pixel below one of them fails that test too (fmaxf () passes a NaN
+   * over, leaving the level lower: the tests themselves still apply). */
+  for (guint i = 0; i < c->grid.n_range; i++)
+    c->passing[i] = fmaxf (threshold, fmaxf (c->floor[i], c->sidelobe[i]));
   sonar_workers_run (c->workers, find_peaks_share, c);
   h->n = 0;
   for (guint w = 0; w < sonar_workers_count (c->workers); w++) {

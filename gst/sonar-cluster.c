@@ -15,9 +15,10 @@
 
 #define MAX_PEAKS 4096
 
-/* Pixels find_peaks_share () tests at once against c->passing, a loop
- * the compiler turns into vector compares. */
-#define PASSING_CHUNK 16
+/* Pixels the passes over the image handle in one loop of a constant
+ * count, which the compiler turns into vector code (at -O2 it vectorises
+ * no loop that needs a scalar remainder). */
+#define CHUNK 16
 
 /* Range along one direction over which its noise floor is taken, m: a
  * tenth of a pulse (4000 samples at 450 kHz, 1.5 m of range), over which
@@ -815,13 +816,13 @@ sidelobe_thresholds (SonarClusterer * c)
   }
 }
 
-/* Whether any of the PASSING_CHUNK @pixels reaches its @passing level. */
+/* Whether any of the CHUNK @pixels reaches its @passing level. */
 static inline gboolean
 any_passing (const float *pixels, const float *passing)
 {
   int any = 0;
 
-  for (guint j = 0; j < PASSING_CHUNK; j++)
+  for (guint j = 0; j < CHUNK; j++)
     any |= pixels[j] >= passing[j];
   return any;
 }
@@ -845,10 +846,10 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
       d++) {
     const guint e = d / g->n_azimuth, a = d % g->n_azimuth;
     const float *column = image + d * g->n_range;
-    for (guint i0 = 0; i0 < g->n_range; i0 += PASSING_CHUNK) {
-      const guint i1 = MIN (i0 + PASSING_CHUNK, g->n_range);
+    for (guint i0 = 0; i0 < g->n_range; i0 += CHUNK) {
+      const guint i1 = MIN (i0 + CHUNK, g->n_range);
       /* Nearly every chunk holds no pixel that reaches its level. */
-      if (i1 - i0 == PASSING_CHUNK && !any_passing (column + i0,
+      if (i1 - i0 == CHUNK && !any_passing (column + i0,
               c->passing + i0))
         continue;
       for (guint i = i0; i < i1; i++) {
@@ -1099,6 +1100,28 @@ refuse_links (SonarClusterer * c, const double *Z, guint n)
   }
 }
 
+/* @n pixels @in times @range squared into @compensated (when not NULL),
+ * and each finite one into @row_max where it is higher: a select, without
+ * branches, and vector code for @n = CHUNK (restrict: none of the arrays
+ * overlap). */
+static inline void
+compensate_pixels (float *restrict compensated, float *restrict row_max,
+    const float *restrict in, const float *restrict range, guint n)
+{
+  if (compensated) {
+    for (guint i = 0; i < n; i++) {
+      const float v = in[i] * range[i] * range[i];
+      compensated[i] = v;
+      row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+    }
+  } else {
+    for (guint i = 0; i < n; i++) {
+      const float v = in[i];
+      row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+    }
+  }
+}
+
 /* Worker @w's share of the first pass: its run of directions compensated
  * (when so set), and their strongest pixel per range bin into its
  * row_max. */
@@ -1116,18 +1139,13 @@ compensate_share (gpointer data, guint w, guint n_workers)
     const float *in = c->image + d * g->n_range;
     float *compensated = c->compensated ? c->compensated + d * g->n_range :
         NULL;
-    /* The row maxima's update as a select, without branches. */
-    if (compensated) {
-      for (guint i = 0; i < g->n_range; i++) {
-        const float v = in[i] * c->range[i] * c->range[i];
-        compensated[i] = v;
-        row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
-      }
-    } else {
-      for (guint i = 0; i < g->n_range; i++)
-        row_max[i] = in[i] > row_max[i] && isfinite (in[i]) ? in[i] :
-            row_max[i];
-    }
+    guint i = 0;
+
+    for (; i + CHUNK <= g->n_range; i += CHUNK)
+      compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
+          in + i, c->range + i, CHUNK);
+    compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
+        in + i, c->range + i, g->n_range - i);
   }
 }
 

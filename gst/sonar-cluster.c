@@ -45,7 +45,7 @@ typedef struct
 {
   float *columns;               /* FLOOR_BLOCK range bins' values over the
                                  * directions, one column per bin */
-  float *bracketed;             /* censored_quartile ()'s: 3 per direction,
+  float *bracketed;             /* censored_quartile ()'s: 2 per direction,
                                  * at least column_bins */
   float *row_max;               /* per range bin: its directions' strongest */
   float *column_values;         /* one column block's values */
@@ -207,7 +207,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
     const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
     WorkerScratch *ws = &c->scratch[w];
     ws->columns = g_new (float, (gsize) FLOOR_BLOCK * n_dirs);
-    ws->bracketed = g_new (float, MAX (3 * n_dirs, c->column_bins));
+    ws->bracketed = g_new (float, MAX (2 * n_dirs, c->column_bins));
     ws->row_max = g_new (float, grid->n_range);
     ws->column_values = g_new (float, c->column_bins);
     ws->peaks.value = g_new (float, m);
@@ -513,53 +513,71 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
       guess * (1.0f - lo_share * width), guess * (1.0f + hi_share * width));
 }
 
-/* censored_quartile ()'s result in *@result from one pass over the @n
- * @values, when the bracket [@lo, @hi] (0 <= @lo, @gain > 1) holds every
- * order statistic it takes; FALSE otherwise. The pass keeps the values
- * within the bracket and those at or above @gain times @lo, and counts
- * those below @lo: each level a round sets aside lies at or above @gain
- * times @lo (it is @gain times a quartile within the bracket), so the
- * values kept below it are counted from those above alone, and those
- * below @lo all stay. The rounds then work on a few dozen values instead
- * of passing over all of them again (two to four passes before).
- * @scratch holds 3 @n floats; @values are left as they are. */
+/* How many of the @n @values lie below @level: vector code over chunks
+ * of CHUNK. */
+static gsize
+count_below (const float *values, gsize n, float level)
+{
+  gsize count = 0, i = 0;
+
+  for (; i + CHUNK <= n; i += CHUNK) {
+    guint chunk = 0;
+    for (guint j = 0; j < CHUNK; j++)
+      chunk += values[i + j] < level;
+    count += chunk;
+  }
+  for (; i < n; i++)
+    count += values[i] < level;
+  return count;
+}
+
+/* censored_quartile ()'s result in *@result, when the bracket [@lo, @hi]
+ * (0 <= @lo, @gain > 1) holds every order statistic it takes; FALSE
+ * otherwise. One pass without branches keeps the values within the
+ * bracket and counts those below it; each round's count of the values
+ * kept is a pass of vector compares (no compaction: those kept are those
+ * below the lowest level so far), and its selection is among the values
+ * within the bracket: a few dozen, down to those on the side of the last
+ * quartile that holds the next. Before, each round compacted the values
+ * and selected among them again (clustering's largest part). @scratch
+ * holds 2 @n floats; @values are left as they are. */
 static gboolean
 censored_in_bracket (const float *values, gsize n, float gain, float lo,
     float hi, float *scratch, float *result)
 {
-  float *inside = scratch, *upper = scratch + n, *work = scratch + 2 * n;
-  const float upper_lo = gain * lo;
-  gsize below = 0, n_inside = 0, n_upper = 0, kept = n, rank = n / 4;
+  float *inside = scratch, *work = scratch + n;
+  gsize below, n_inside, kept = n, rank = n / 4;
   float q;
 
-  for (gsize i = 0; i < n; i++) {
-    const float x = values[i];
-    below += x < lo;
-    inside[n_inside] = x;
-    n_inside += (x >= lo) & (x <= hi);
-    upper[n_upper] = x;
-    n_upper += x >= upper_lo;
-  }
+  n_inside = keep_within (values, n, lo, hi, inside, &below);
   if (!(rank >= below && rank - below < n_inside))
     return FALSE;
   memcpy (work, inside, sizeof (float) * n_inside);
   q = select_within (work, n_inside, rank - below, lo, hi);
   for (int round = 0; round < CENSOR_ROUNDS; round++) {
     const float level = gain * q;
-    gsize end = n - n_upper, next, m = 0;
+    gsize end, next, m = 0;
 
     if (!(level > q))
       break;
-    for (gsize k = 0; k < n_upper; k++)
-      end += upper[k] < level;
     /* Those kept are those below the lowest level so far. */
+    end = count_below (values, n, level);
     if (end >= kept || end < 4)
       break;
     kept = end;
     next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
-    if (next != rank) {
+    /* The next quartile lies on the side of q (below the level, as do
+     * all the values below @lo) that its rank says. */
+    if (next < rank) {
       if (next < below)
         return FALSE;
+      for (gsize k = 0; k < n_inside; k++) {
+        const float x = inside[k];
+        work[m] = x;
+        m += x <= q;
+      }
+      q = select_within (work, m, next - below, lo, q);
+    } else if (next > rank) {
       for (gsize k = 0; k < n_inside; k++) {
         const float x = inside[k];
         work[m] = x;
@@ -568,8 +586,8 @@ censored_in_bracket (const float *values, gsize n, float gain, float lo,
       if (next - below >= m)
         return FALSE;
       q = select_within (work, m, next - below, lo, hi);
-      rank = next;
     }
+    rank = next;
   }
   *result = q;
   return TRUE;
@@ -589,7 +607,7 @@ censored_in_bracket (const float *values, gsize n, float gain, float lo,
  * only speeds it up: in one pass when a bracket about it holds every
  * quartile taken (censored_in_bracket ()), else by the selections'
  * brackets about the last quartile (select_bracketed ()). Reorders
- * @values; @scratch holds 3 @n floats. */
+ * @values; @scratch holds 2 @n floats. */
 static float
 censored_quartile (float *values, gsize n, float gain, float guess,
     float *scratch)

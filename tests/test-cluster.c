@@ -773,7 +773,7 @@ reference_peaks (const SonarImageGrid * g, const SonarClusterParams * p,
   g_autofree float *floors = g_new0 (float, R);
   g_autofree float *sidelobe = g_new (float, R);
   g_autofree float *values = g_new (float, most);
-  g_autofree float *scratch = g_new (float, 3 * most);
+  g_autofree float *scratch = g_new (float, 2 * most);
   g_autofree float *column_q = g_new (float, n_dirs * n_blocks);
   float max = 0.0f, threshold, best = -INFINITY;
   guint count = 0;
@@ -1206,7 +1206,7 @@ test_censored_quartile (void)
   const float offsets[] = { NAN, 1.0f, 1.02f, 0.97f, 1.1f, 0.8f, 1.5f,
     0.3f, 0.0f, -1.0f, INFINITY
   };
-  float values[1100], copy[1100], scratch[3 * 1100];
+  float values[1100], copy[1100], scratch[2 * 1100];
   SonarRng rng;
 
   sonar_rng_init (&rng, 13, 0);

@@ -15,6 +15,11 @@
 
 #define MAX_PEAKS 4096
 
+/* Pixels the passes over the image handle in one loop of a constant
+ * count, which the compiler turns into vector code (at -O2 it vectorises
+ * no loop that needs a scalar remainder). */
+#define CHUNK 16
+
 /* Range along one direction over which its noise floor is taken, m: a
  * tenth of a pulse (4000 samples at 450 kHz, 1.5 m of range), over which
  * a cross-talk ridge's level changes little, and 56 range bins at the
@@ -40,7 +45,7 @@ typedef struct
 {
   float *columns;               /* FLOOR_BLOCK range bins' values over the
                                  * directions, one column per bin */
-  float *bracketed;             /* select_bracketed ()'s: per direction, and
+  float *bracketed;             /* censored_quartile ()'s: 2 per direction,
                                  * at least column_bins */
   float *row_max;               /* per range bin: its directions' strongest */
   float *column_values;         /* one column block's values */
@@ -69,6 +74,10 @@ struct _SonarClusterer
   float *floor;                 /* per range bin: threshold over the noise floor */
   float *row_max;               /* per range bin: strongest over the directions */
   float *sidelobe;              /* per range bin: the sidelobe threshold */
+  /* Per range bin: the highest of the call's threshold, the floor and the
+   * sidelobe threshold, which a pixel must reach to be a peak (the
+   * search's one test of nearly every pixel). */
+  float *passing;
   /* Per direction and block of column_bins range bins: the lower
    * quartile of the block along the direction, of the image before range
    * compensation (its noise is flat over range); NaN until a pixel there
@@ -184,6 +193,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
     c->range[i] = (float) (grid->range_first + i * grid->range_step);
   c->row_max = g_new (float, grid->n_range);
   c->sidelobe = g_new (float, grid->n_range);
+  c->passing = g_new (float, grid->n_range);
   c->column_bins = sonar_cluster_column_bins (grid);
   c->n_column_blocks = (grid->n_range + c->column_bins - 1) / c->column_bins;
   c->column_quartile = g_new (float, (gsize) grid->n_azimuth *
@@ -197,7 +207,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
     const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
     WorkerScratch *ws = &c->scratch[w];
     ws->columns = g_new (float, (gsize) FLOOR_BLOCK * n_dirs);
-    ws->bracketed = g_new (float, MAX (n_dirs, c->column_bins));
+    ws->bracketed = g_new (float, MAX (2 * n_dirs, c->column_bins));
     ws->row_max = g_new (float, grid->n_range);
     ws->column_values = g_new (float, c->column_bins);
     ws->peaks.value = g_new (float, m);
@@ -265,6 +275,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->range);
   g_free (c->row_max);
   g_free (c->sidelobe);
+  g_free (c->passing);
   g_free (c->column_quartile);
   g_free (c);
 }
@@ -370,13 +381,14 @@ sonar_select_kth (float *v, gsize n, gsize k)
 /* Share of noise's values censored_quartile () sets aside. */
 #define CENSOR_SHARE SONAR_CLUSTER_CENSOR_SHARE
 
-/* select_bracketed ()'s brackets around a guess, relative half-widths:
- * a range bin's quartile over about 180 directions is a sample of the
- * level the bins around it share, a few per cent off it (neighbouring
- * bins are nearly independent at the band's range resolution). The
- * narrow bracket holds a tenth to a sixth of the values, the wide one
- * nearly always the quartile. */
-#define BRACKET_NARROW 0.06f
+/* The brackets around a guess of censored_quartile () and
+ * select_bracketed (), relative half-widths: a range bin's quartile over
+ * about 180 directions is a sample of the level the bins around it
+ * share, about 10 % off it (neighbouring bins are nearly independent at
+ * the band's range resolution; measured on a Fig. 10 image, against the
+ * running mean of the floors). The narrow bracket holds that level in
+ * two bins of three, the wide one nearly always. */
+#define BRACKET_NARROW 0.1f
 #define BRACKET_WIDE 0.3f
 
 /* Values, at most, that select_small () ranks by counting. */
@@ -431,13 +443,48 @@ keep_within (const float *from, gsize n, float lo, float hi, float *to,
   return inside;
 }
 
+/* Element @k of the @m values of @set (which it reorders), all within
+ * [@lo, @hi], in ascending order: the bracket halved at its middle and
+ * the half that holds it kept, until SMALL_SELECT values are left (or
+ * ties leave nothing to split). */
+static float
+select_within (float *set, gsize m, gsize k, float lo, float hi)
+{
+  while (m > SMALL_SELECT) {
+    const float mid = 0.5f * (lo + hi);
+    gsize under = 0, kept = 0;
+
+    if (!(mid > lo && mid < hi))
+      break;
+    for (gsize i = 0; i < m; i++)
+      under += set[i] < mid;
+    if (k < under) {
+      for (gsize i = 0; i < m; i++) {
+        const float x = set[i];
+        set[kept] = x;
+        kept += x < mid;
+      }
+      hi = mid;
+    } else {
+      for (gsize i = 0; i < m; i++) {
+        const float x = set[i];
+        set[kept] = x;
+        kept += x >= mid;
+      }
+      k -= under;
+      lo = mid;
+    }
+    m = kept;
+  }
+  return select_set (set, m, k);
+}
+
 /* Element @k of the @n @values in ascending order, as sonar_select_kth ()
  * (the same value: an order statistic does not depend on how it is
  * found). When a bracket about @guess holds it (a narrow one, else a wide
- * one), only the values within are selected from: the bracket is halved
- * at its middle and the half that holds it kept, until SMALL_SELECT
- * values are left; else (or with a NaN guess) all of them are, reordering
- * @values only then.
+ * one), only the values within are selected from (select_within ());
+ * else (or with a NaN guess) all of them are, reordering @values only
+ * then.
  * Why: Hoare's selection over random values mispredicts about every
  * other comparison, and the floors make two per range bin (clustering
  * was 56-84x its arithmetic floor); a pass without branches over them
@@ -449,7 +496,7 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
     float lo_share, float hi_share, float *scratch)
 {
   gsize below, inside = 0;
-  float width = BRACKET_NARROW, lo, hi;
+  float width = BRACKET_NARROW;
 
   if (!isfinite (guess))
     return sonar_select_kth (values, n, k);
@@ -462,39 +509,88 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
     if (!(k >= below && k - below < inside))
       return sonar_select_kth (values, n, k);
   }
-  k -= below;
-  /* scratch[0 .. inside) holds it, at rank k, all within [lo, hi]: the
-   * bracket halved at its middle, the half that holds it kept, until few
-   * values are left (or ties leave nothing to split). */
-  lo = guess * (1.0f - lo_share * width);
-  hi = guess * (1.0f + hi_share * width);
-  while (inside > SMALL_SELECT) {
-    const float mid = 0.5f * (lo + hi);
-    gsize under = 0, kept = 0;
+  return select_within (scratch, inside, k - below,
+      guess * (1.0f - lo_share * width), guess * (1.0f + hi_share * width));
+}
 
-    if (!(mid > lo && mid < hi))
-      break;
-    for (gsize i = 0; i < inside; i++)
-      under += scratch[i] < mid;
-    if (k < under) {
-      for (gsize i = 0; i < inside; i++) {
-        const float x = scratch[i];
-        scratch[kept] = x;
-        kept += x < mid;
-      }
-      hi = mid;
-    } else {
-      for (gsize i = 0; i < inside; i++) {
-        const float x = scratch[i];
-        scratch[kept] = x;
-        kept += x >= mid;
-      }
-      k -= under;
-      lo = mid;
-    }
-    inside = kept;
+/* How many of the @n @values lie below @level: vector code over chunks
+ * of CHUNK. */
+static gsize
+count_below (const float *values, gsize n, float level)
+{
+  gsize count = 0, i = 0;
+
+  for (; i + CHUNK <= n; i += CHUNK) {
+    guint chunk = 0;
+    for (guint j = 0; j < CHUNK; j++)
+      chunk += values[i + j] < level;
+    count += chunk;
   }
-  return select_set (scratch, inside, k);
+  for (; i < n; i++)
+    count += values[i] < level;
+  return count;
+}
+
+/* censored_quartile ()'s result in *@result, when the bracket [@lo, @hi]
+ * (0 <= @lo, @gain > 1) holds every order statistic it takes; FALSE
+ * otherwise. One pass without branches keeps the values within the
+ * bracket and counts those below it; each round's count of the values
+ * kept is a pass of vector compares (no compaction: those kept are those
+ * below the lowest level so far), and its selection is among the values
+ * within the bracket: a few dozen, down to those on the side of the last
+ * quartile that holds the next. Before, each round compacted the values
+ * and selected among them again (clustering's largest part). @scratch
+ * holds 2 @n floats; @values are left as they are. */
+static gboolean
+censored_in_bracket (const float *values, gsize n, float gain, float lo,
+    float hi, float *scratch, float *result)
+{
+  float *inside = scratch, *work = scratch + n;
+  gsize below, n_inside, kept = n, rank = n / 4;
+  float q;
+
+  n_inside = keep_within (values, n, lo, hi, inside, &below);
+  if (!(rank >= below && rank - below < n_inside))
+    return FALSE;
+  memcpy (work, inside, sizeof (float) * n_inside);
+  q = select_within (work, n_inside, rank - below, lo, hi);
+  for (int round = 0; round < CENSOR_ROUNDS; round++) {
+    const float level = gain * q;
+    gsize end, next, m = 0;
+
+    if (!(level > q))
+      break;
+    /* Those kept are those below the lowest level so far. */
+    end = count_below (values, n, level);
+    if (end >= kept || end < 4)
+      break;
+    kept = end;
+    next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
+    /* The next quartile lies on the side of q (below the level, as do
+     * all the values below @lo) that its rank says. */
+    if (next < rank) {
+      if (next < below)
+        return FALSE;
+      for (gsize k = 0; k < n_inside; k++) {
+        const float x = inside[k];
+        work[m] = x;
+        m += x <= q;
+      }
+      q = select_within (work, m, next - below, lo, q);
+    } else if (next > rank) {
+      for (gsize k = 0; k < n_inside; k++) {
+        const float x = inside[k];
+        work[m] = x;
+        m += x < level;
+      }
+      if (next - below >= m)
+        return FALSE;
+      q = select_within (work, m, next - below, lo, hi);
+    }
+    rank = next;
+  }
+  *result = q;
+  return TRUE;
 }
 
 /* The lower quartile of the @n @values, those above @gain times it set
@@ -508,8 +604,10 @@ select_bracketed (float *values, gsize n, gsize k, float guess,
  * A function of the values alone, whatever their order (the same value
  * as the Hoare selections it replaced, over 400,000 random rows of ties,
  * zeros and crowds): @guess (near the expected quartile; NaN for none)
- * only speeds the selections up (select_bracketed ()). Reorders @values;
- * @scratch holds @n floats. */
+ * only speeds it up: in one pass when a bracket about it holds every
+ * quartile taken (censored_in_bracket ()), else by the selections'
+ * brackets about the last quartile (select_bracketed ()). Reorders
+ * @values; @scratch holds 2 @n floats. */
 static float
 censored_quartile (float *values, gsize n, float gain, float guess,
     float *scratch)
@@ -519,8 +617,16 @@ censored_quartile (float *values, gsize n, float gain, float guess,
 
   if (n == 0)
     return 0.0f;
+  if (guess > 0.0f && isfinite (guess) && gain > 1.0f && isfinite (gain)
+      && (censored_in_bracket (values, n, gain,
+              guess * (1.0f - BRACKET_NARROW),
+              guess * (1.0f + BRACKET_NARROW), scratch, &q)
+          || censored_in_bracket (values, n, gain,
+              guess * (1.0f - BRACKET_WIDE), guess * (1.0f + BRACKET_WIDE),
+              scratch, &q)))
+    return q;
   rank = n / 4;
-  q = select_bracketed (values, n, rank, guess, 1.0f, 1.0f, scratch);
+  q = sonar_select_kth (values, n, rank);
   for (int round = 0; round < CENSOR_ROUNDS; round++) {
     const float level = gain * q;
     gsize end = 0, next;
@@ -728,6 +834,17 @@ sidelobe_thresholds (SonarClusterer * c)
   }
 }
 
+/* Whether any of the CHUNK @pixels reaches its @passing level. */
+static inline gboolean
+any_passing (const float *pixels, const float *passing)
+{
+  int any = 0;
+
+  for (guint j = 0; j < CHUNK; j++)
+    any |= pixels[j] >= passing[j];
+  return any;
+}
+
 /* Worker @w's share of find_peaks (): the peaks of its run of
  * directions into its own heap. */
 static void
@@ -746,41 +863,51 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
       d++) {
     const guint e = d / g->n_azimuth, a = d % g->n_azimuth;
-    for (guint i = 0; i < g->n_range; i++) {
-      const gsize p = d * g->n_range + i;
-      const float v = image[p];
-      const float r = c->range[i];
-      gboolean peak = TRUE;
-      if (!(v >= threshold) || !(v >= c->floor[i])
-          || !(v >= c->sidelobe[i]) || !isfinite (v)
-          || !(v >= column_floor (c, ws, d, i) *
-              (c->compensated ? r * r : 1.0f)))
+    const float *column = image + d * g->n_range;
+    for (guint i0 = 0; i0 < g->n_range; i0 += CHUNK) {
+      const guint i1 = MIN (i0 + CHUNK, g->n_range);
+      /* Nearly every chunk holds no pixel that reaches its level. */
+      if (i1 - i0 == CHUNK && !any_passing (column + i0,
+              c->passing + i0))
         continue;
-      for (int de = -1; de <= 1 && peak; de++) {
-        if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
+      for (guint i = i0; i < i1; i++) {
+        const gsize p = d * g->n_range + i;
+        const float v = image[p];
+        const float r = c->range[i];
+        gboolean peak = TRUE;
+        if (!(v >= c->passing[i]))
           continue;
-        for (int da = -1; da <= 1 && peak; da++) {
-          if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
+        if (!(v >= threshold) || !(v >= c->floor[i])
+            || !(v >= c->sidelobe[i]) || !isfinite (v)
+            || !(v >= column_floor (c, ws, d, i) *
+                (c->compensated ? r * r : 1.0f)))
+          continue;
+        for (int de = -1; de <= 1 && peak; de++) {
+          if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
             continue;
-          for (int di = -1; di <= 1; di++) {
-            gsize q;
-            float u;
-            if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
-                || (de == 0 && da == 0 && di == 0))
+          for (int da = -1; da <= 1 && peak; da++) {
+            if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
               continue;
-            q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
-            u = image[q];
-            /* Equal values: the earlier pixel wins, a deterministic
-             * order. Non-finite neighbours do not count. */
-            if (isfinite (u) && (u > v || (u == v && q < p))) {
-              peak = FALSE;
-              break;
+            for (int di = -1; di <= 1; di++) {
+              gsize q;
+              float u;
+              if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
+                  || (de == 0 && da == 0 && di == 0))
+                continue;
+              q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
+              u = image[q];
+              /* Equal values: the earlier pixel wins, a deterministic
+               * order. Non-finite neighbours do not count. */
+              if (isfinite (u) && (u > v || (u == v && q < p))) {
+                peak = FALSE;
+                break;
+              }
             }
           }
         }
+        if (peak)
+          keep_peak (&ws->peaks, capacity, v, p);
       }
-      if (peak)
-        keep_peak (&ws->peaks, capacity, v, p);
     }
   }
 }
@@ -798,6 +925,10 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
 
   c->image = image;
   c->threshold = threshold;
+  /* A pixel below one of them fails that test too (fmaxf () passes a NaN
+   * over, leaving the level lower: the tests themselves still apply). */
+  for (guint i = 0; i < c->grid.n_range; i++)
+    c->passing[i] = fmaxf (threshold, fmaxf (c->floor[i], c->sidelobe[i]));
   sonar_workers_run (c->workers, find_peaks_share, c);
   h->n = 0;
   for (guint w = 0; w < sonar_workers_count (c->workers); w++) {
@@ -987,6 +1118,28 @@ refuse_links (SonarClusterer * c, const double *Z, guint n)
   }
 }
 
+/* @n pixels @in times @range squared into @compensated (when not NULL),
+ * and each finite one into @row_max where it is higher: a select, without
+ * branches, and vector code for @n = CHUNK (restrict: none of the arrays
+ * overlap). */
+static inline void
+compensate_pixels (float *restrict compensated, float *restrict row_max,
+    const float *restrict in, const float *restrict range, guint n)
+{
+  if (compensated) {
+    for (guint i = 0; i < n; i++) {
+      const float v = in[i] * range[i] * range[i];
+      compensated[i] = v;
+      row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+    }
+  } else {
+    for (guint i = 0; i < n; i++) {
+      const float v = in[i];
+      row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+    }
+  }
+}
+
 /* Worker @w's share of the first pass: its run of directions compensated
  * (when so set), and their strongest pixel per range bin into its
  * row_max. */
@@ -1004,18 +1157,13 @@ compensate_share (gpointer data, guint w, guint n_workers)
     const float *in = c->image + d * g->n_range;
     float *compensated = c->compensated ? c->compensated + d * g->n_range :
         NULL;
-    /* The row maxima's update as a select, without branches. */
-    if (compensated) {
-      for (guint i = 0; i < g->n_range; i++) {
-        const float v = in[i] * c->range[i] * c->range[i];
-        compensated[i] = v;
-        row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
-      }
-    } else {
-      for (guint i = 0; i < g->n_range; i++)
-        row_max[i] = in[i] > row_max[i] && isfinite (in[i]) ? in[i] :
-            row_max[i];
-    }
+    guint i = 0;
+
+    for (; i + CHUNK <= g->n_range; i += CHUNK)
+      compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
+          in + i, c->range + i, CHUNK);
+    compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
+        in + i, c->range + i, g->n_range - i);
   }
 }
 

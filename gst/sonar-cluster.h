@@ -223,7 +223,7 @@ float sonar_select_kth (float *v, gsize n, gsize k);
 #define SONAR_CLUSTER_CENSOR_SHARE 0.01
 
 /* The noise floor's statistic over @n @values (reorders them; @scratch
- * holds @n floats): their lower quartile, then again over those below
+ * holds 2 @n floats): their lower quartile, then again over those below
  * @gain times it, until no more are set aside (at most 8 rounds; from the
  * second on at rank 1/4 / (1 - SONAR_CLUSTER_CENSOR_SHARE) of those
  * kept, and not below 4 values). 0 for none. @guess, a value near the

@@ -77,7 +77,7 @@ typedef struct
   float *envelope;              /* one hypothesis's, over the grid's ranges */
   guint passes;                 /* unit x hypothesis passes of this call */
   /* The noise gate's range floors: [FLOOR_BLOCK x coarse direction]
-   * gathered values, and one bin's scratch. */
+   * gathered values, and one bin's scratch (2 x coarse directions). */
   float *floor_values, *floor_scratch;
 } Scratch;
 
@@ -441,7 +441,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     im->scratch[w].envelope = g_new (float, grid->n_range);
     im->scratch[w].floor_values = g_new (float, (gsize) FLOOR_BLOCK *
         im->n_coarse);
-    im->scratch[w].floor_scratch = g_new (float, im->n_coarse);
+    im->scratch[w].floor_scratch = g_new (float, 2 * (gsize) im->n_coarse);
   }
   sonar_fftw_lock ();
   /* FFTW's allocator aligns every array alike: the plan runs on each

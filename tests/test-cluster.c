@@ -746,6 +746,175 @@ test_degenerate (void)
   g_assert_cmpuint (sonar_clusterer_process (c, image, NULL, 0), ==, 0);
 }
 
+/* The peaks of @raw by their definition (sonar-cluster.h, steps 1 and
+ * 2), every test on every pixel: how many, and in @strongest the pixel
+ * of the strongest (ties: the first). */
+static guint
+reference_peaks (const SonarImageGrid * g, const SonarClusterParams * p,
+    const float *raw, gsize * strongest)
+{
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  const guint R = g->n_range;
+  const gsize stride = (n_dirs + 1023) / 1024;
+  const double k_eff = sonar_cluster_effective_hypotheses (p->hypotheses);
+  const double gain = sonar_cluster_floor_gain (p->pfa, k_eff);
+  const float censor = (float) sonar_cluster_floor_gain
+      (SONAR_CLUSTER_CENSOR_SHARE, k_eff);
+  const float column_gain = (float) (SONAR_CLUSTER_COLUMN_MARGIN * gain);
+  const guint bins = sonar_cluster_column_bins (g);
+  const guint n_blocks = (R + bins - 1) / bins;
+  const float ratio = (float) pow (10.0, p->sidelobe_db / 20.0);
+  const int w = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
+      MAX (g->range_step, 1e-9));
+  const gsize size = n_dirs * R, most = MAX (n_dirs, bins);
+  g_autofree float *v = g_new (float, size);
+  g_autofree float *r = g_new (float, R);
+  g_autofree float *row_max = g_new0 (float, R);
+  g_autofree float *floors = g_new0 (float, R);
+  g_autofree float *sidelobe = g_new (float, R);
+  g_autofree float *values = g_new (float, most);
+  g_autofree float *scratch = g_new (float, 2 * most);
+  g_autofree float *column_q = g_new (float, n_dirs * n_blocks);
+  float max = 0.0f, threshold, best = -INFINITY;
+  guint count = 0;
+
+  for (guint i = 0; i < R; i++)
+    r[i] = (float) (g->range_first + i * g->range_step);
+  for (gsize d = 0; d < n_dirs; d++)
+    for (guint i = 0; i < R; i++) {
+      const float x = raw[d * R + i];
+      const float y = p->range_compensation ? x * r[i] * r[i] : x;
+      v[d * R + i] = y;
+      if (isfinite (y) && y > row_max[i])
+        row_max[i] = y;
+    }
+  for (guint i = 0; i < R; i++)
+    max = MAX (max, row_max[i]);
+  if (!(max > 0.0f))
+    return 0;
+  threshold = MAX (max * pow (10.0, p->threshold_db / 20.0),
+      p->absolute_threshold);
+  for (guint i = 0; gain > 0.0 && i < R; i++) {
+    gsize n = 0;
+    for (gsize d = 0; d < n_dirs; d += stride)
+      if (isfinite (v[d * R + i]))
+        values[n++] = v[d * R + i];
+    floors[i] = (float) gain * sonar_cluster_censored_quartile (values, n,
+        censor, NAN, scratch);
+  }
+  for (guint i = 0; i < R; i++) {
+    float top = 0.0f;
+    for (int j = MAX ((int) i - w, 0); j <= MIN ((int) i + w, (int) R - 1);
+        j++)
+      top = MAX (top, row_max[j]);
+    sidelobe[i] = top * ratio;
+  }
+  for (gsize d = 0; d < n_dirs; d++)
+    for (guint b = 0; b < n_blocks; b++) {
+      gsize n = 0;
+      for (guint i = b * bins; i < MIN ((b + 1) * bins, R); i++)
+        if (isfinite (raw[d * R + i]))
+          values[n++] = raw[d * R + i];
+      column_q[d * n_blocks + b] = n > 0 ? sonar_select_kth (values, n,
+          n / 4) : 0.0f;
+    }
+  for (gsize d = 0; d < n_dirs; d++)
+    for (guint i = 0; i < R; i++) {
+      const gsize px = d * R + i;
+      const guint a = d % g->n_azimuth, e = d / g->n_azimuth, b = i / bins;
+      const float y = v[px];
+      float q = column_q[d * n_blocks + b];
+      gboolean peak = TRUE;
+      if (b > 0)
+        q = MAX (q, column_q[d * n_blocks + b - 1]);
+      if (b + 1 < n_blocks)
+        q = MAX (q, column_q[d * n_blocks + b + 1]);
+      if (!(y >= threshold && y >= floors[i] && y >= sidelobe[i]
+              && isfinite (y) && y >= column_gain * q *
+              (p->range_compensation ? r[i] * r[i] : 1.0f)))
+        continue;
+      for (int de = -1; de <= 1; de++)
+        for (int da = -1; da <= 1; da++)
+          for (int di = -1; di <= 1; di++) {
+            gsize nb;
+            if ((int) e + de < 0 || (int) e + de >= (int) g->n_elevation
+                || (int) a + da < 0 || (int) a + da >= (int) g->n_azimuth
+                || (int) i + di < 0 || (int) i + di >= (int) R
+                || (de == 0 && da == 0 && di == 0))
+              continue;
+            nb = (((gsize) (e + de) * g->n_azimuth + a + da) * R) + i + di;
+            if (isfinite (v[nb]) && (v[nb] > y || (v[nb] == y && nb < px)))
+              peak = FALSE;
+          }
+      if (!peak)
+        continue;
+      count++;
+      if (y > best) {
+        best = y;
+        *strongest = px;
+      }
+    }
+  return count;
+}
+
+/* The peak search's shortcuts (the noise floors' brackets, a per-range
+ * level tested for chunks of pixels at once) find exactly the peaks of
+ * the definition: 2-D and 3-D images of blobs, ridges and noise, with
+ * non-finite pixels and a plateau, every threshold on and off. */
+static void
+test_peak_search (void)
+{
+  const Blob blobs[] = {
+    {10.3, 1.2013, -5.2, 1.0, 3.0},
+    {-20.4, 0.9021, 12.3, 0.7, 3.0},
+    {3.1, 1.5007, 7.9, 0.05, 3.0},
+  };
+  const SonarImageGrid grids[] = {
+    {91, -45.0, 1.0, 1, 0.0, 1.0, 600, 0.5, 0.003},
+    {61, -30.0, 1.0, 41, -20.0, 1.0, 200, 0.8, 0.003},
+  };
+  const double pfas[] = { 1e-10, 1e-3, 1.0 };
+
+  for (guint k = 0; k < G_N_ELEMENTS (grids); k++) {
+    const SonarImageGrid *g = &grids[k];
+    g_autofree float *image = render (g, blobs, 3, 0.004, 0.1, 7 + k);
+
+    image[1234] = NAN;
+    image[20 * g->n_range + 99] = INFINITY;
+    /* A plateau: one peak, the first pixel. */
+    for (guint i = 300; i < 303; i++)
+      image[40 * g->n_range + i % g->n_range] = 0.5f;
+    for (guint variant = 0; variant < 24; variant++) {
+      SonarClusterParams p;
+      g_autoptr (SonarClusterer) c = NULL;
+      SonarCentroid out[1];
+      gsize strongest = 0;
+      guint want, n;
+
+      sonar_cluster_params_init_default (&p);
+      p.range_compensation = variant % 2;
+      p.pfa = pfas[variant / 2 % 3];
+      p.sidelobe_db = variant / 6 % 2 ? -40.0 : -16.0;
+      p.threshold_db = variant / 12 ? -30.0 : -200.0;
+      p.hypotheses = 1 + variant % 5 * 10;
+      p.max_peaks = 4096;
+      c = sonar_clusterer_new (g, &p, NULL);
+      n = sonar_clusterer_process (c, image, out, 1);
+      want = reference_peaks (g, &p, image, &strongest);
+      g_test_message ("grid %u, variant %u: %u peaks", k, variant, want);
+      g_assert_cmpuint (sonar_clusterer_n_peaks (c), ==, want);
+      g_assert_cmpuint (n, ==, want > 0);
+      if (want > 0) {
+        g_assert_cmpuint (out[0].peak_range_index, ==, strongest % g->n_range);
+        g_assert_cmpuint (out[0].peak_azimuth_index, ==, strongest /
+            g->n_range % g->n_azimuth);
+        g_assert_cmpuint (out[0].peak_elevation_index, ==, strongest /
+            g->n_range / g->n_azimuth);
+      }
+    }
+  }
+}
+
 static void
 test_max_centroids (void)
 {
@@ -1037,7 +1206,7 @@ test_censored_quartile (void)
   const float offsets[] = { NAN, 1.0f, 1.02f, 0.97f, 1.1f, 0.8f, 1.5f,
     0.3f, 0.0f, -1.0f, INFINITY
   };
-  float values[1100], copy[1100], scratch[1100];
+  float values[1100], copy[1100], scratch[2 * 1100];
   SonarRng rng;
 
   sonar_rng_init (&rng, 13, 0);
@@ -1088,6 +1257,7 @@ main (int argc, char **argv)
       test_tilted_peak_continuity);
   g_test_add_func ("/cluster/threads", test_threads);
   g_test_add_func ("/cluster/degenerate", test_degenerate);
+  g_test_add_func ("/cluster/peak-search", test_peak_search);
   g_test_add_func ("/cluster/max-centroids", test_max_centroids);
   g_test_add_func ("/cluster/bad-params", test_bad_params);
   g_test_add_func ("/cluster/retune", test_retune);

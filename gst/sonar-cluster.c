@@ -1003,59 +1003,96 @@ fit_direction (const float *image, gsize p, guint a, guint e,
   return TRUE;
 }
 
-/* @offset clamped to between the pixel and its neighbour at @step (-1, 0
- * or 1), or to half a step either side where @step is 0. */
+/* The neighbour's fits' weight along one axis, from where the fits of
+ * the pixel and its neighbour put the peak (@position, steps from the
+ * pixel towards the neighbour): none within BLEND_START of the pixel,
+ * all within BLEND_START of the neighbour, linear between. */
+#define BLEND_START 0.25
+
 static double
-within_step (double offset, int step)
+neighbour_weight (double position)
 {
-  return step > 0 ? CLAMP (offset, 0.0, 1.0) : step < 0 ?
-      CLAMP (offset, -1.0, 0.0) : CLAMP (offset, -0.5, 0.5);
+  return CLAMP ((position - BLEND_START) / (1.0 - 2.0 * BLEND_START), 0.0,
+      1.0);
 }
 
 /* Sub-step offsets along azimuth and elevation of the peak at pixel @p
- * (@a, @e): fit_direction ()'s, and where that lands beyond half a step,
- * the fit around the neighbour on that side when it lands within half a
- * step of its own centre, or the mean of the two when the neighbour's
- * lands beyond half a step back towards @p (each overshoots towards the
- * other: the peak lies between them). The array's beam is tilted in
- * azimuth and elevation (the eRTIS layout has no symmetry), so parabolas
- * along the peak's row and column alone read an azimuth that depends on
- * the row; and the log beam is not a quadratic, so each pixel's fit errs
- * its own way near the half step: an echo midway between two rows, its
- * peak on one row or the other from ping to ping, scattered twice its
- * noise's share in azimuth (tools/uncertainty-3d.py --per-point). FALSE
- * where no fit holds (then the separable parabolas). */
+ * (@a, @e): the fits (fit_direction ()) around the four pixels of the
+ * 2 x 2 block the peak lies in (the pixel, its neighbours on the sides
+ * its own fit points to, and their common neighbour), blended with
+ * bilinear weights that go from the pixel's fit alone near its centre to
+ * the neighbours' near theirs.
+ * Why: the array's beam is tilted in azimuth and elevation (the eRTIS
+ * layout has no symmetry), so parabolas along the peak's row and column
+ * alone read an azimuth that depends on the row; and the log beam is not
+ * a quadratic, so each pixel's fit errs its own way near the half step.
+ * Taking one pixel's fit, or its neighbour's beyond the half step, made
+ * the direction jump by up to 0.3 degrees as noise moved the peak pixel
+ * across it (a still point's estimates in two clusters,
+ * tools/uncertainty-3d.py --seeds); the blend is the same whichever of
+ * the block's pixels is the peak, so it moves continuously. A
+ * neighbour's weight follows the mean of the positions of the peak's
+ * pixel and that neighbour (the fits of the one pair that both peak
+ * pixels share). FALSE where the pixel's own fit does not hold (then the
+ * separable parabolas); a neighbour's that does not hold is left out. */
 static gboolean
 refine_direction (const float *image, gsize p, guint a, guint e,
     const SonarImageGrid * g, double *offset_a, double *offset_e)
 {
   const gssize stride_a = g->n_range;
   const gssize stride_e = (gssize) g->n_azimuth * g->n_range;
-  double x, y, x2, y2;
-  int step_a, step_e;
+  /* [row][column] of the block: 0 the pixel's, 1 the neighbour's; the
+   * positions in steps from the pixel. */
+  double x[2][2], y[2][2], weight_a, weight_e, sum = 0.0, sum_x = 0.0,
+      sum_y = 0.0;
+  gboolean held[2][2] = { {FALSE, FALSE}, {FALSE, FALSE} };
+  int side_a, side_e;
 
-  if (!fit_direction (image, p, a, e, g, &x, &y))
+  if (!fit_direction (image, p, a, e, g, &x[0][0], &y[0][0]))
     return FALSE;
-  step_a = x > 0.5 ? 1 : x < -0.5 ? -1 : 0;
-  step_e = y > 0.5 ? 1 : y < -0.5 ? -1 : 0;
-  if ((step_a || step_e) && fit_direction (image, p + step_a * stride_a +
-          step_e * stride_e, a + step_a, e + step_e, g, &x2, &y2)) {
-    if (fabs (x2) <= 0.5 && fabs (y2) <= 0.5) {
-      *offset_a = step_a + x2;
-      *offset_e = step_e + y2;
-      return TRUE;
+  held[0][0] = TRUE;
+  side_a = x[0][0] >= 0.0 ? 1 : -1;
+  side_e = y[0][0] >= 0.0 ? 1 : -1;
+  for (int row = 0; row < 2; row++)
+    for (int col = 0; col < 2; col++) {
+      const int da = col * side_a, de = row * side_e;
+      double u, v;
+      if ((row == 0 && col == 0) || (int) a + da < 0
+          || (int) a + da >= (int) g->n_azimuth || (int) e + de < 0
+          || (int) e + de >= (int) g->n_elevation)
+        continue;
+      held[row][col] = fit_direction (image, p + da * stride_a +
+          de * stride_e, a + da, e + de, g, &u, &v);
+      x[row][col] = da + u;
+      y[row][col] = de + v;
     }
-    /* Back towards @p along each axis stepped, within half a step along
-     * the other. */
-    if ((step_a ? step_a * x2 < -0.5 : fabs (x2) <= 0.5)
-        && (step_e ? step_e * y2 < -0.5 : fabs (y2) <= 0.5)) {
-      *offset_a = within_step (0.5 * (x + step_a + x2), step_a);
-      *offset_e = within_step (0.5 * (y + step_e + y2), step_e);
-      return TRUE;
+  weight_a = held[0][1] ? neighbour_weight (0.5 * side_a * (x[0][0] +
+          x[0][1])) : 0.0;
+  weight_e = held[1][0] ? neighbour_weight (0.5 * side_e * (y[0][0] +
+          y[1][0])) : 0.0;
+  for (int row = 0; row < 2; row++)
+    for (int col = 0; col < 2; col++) {
+      const double w = (col ? weight_a : 1.0 - weight_a) *
+          (row ? weight_e : 1.0 - weight_e);
+      if (!held[row][col] || !(w > 0.0))
+        continue;
+      sum += w;
+      sum_x += w * x[row][col];
+      sum_y += w * y[row][col];
     }
+  if (!(sum > 0.0)) {
+    /* Only the common neighbour weighs, and its fit does not hold. */
+    sum = 1.0;
+    sum_x = x[0][0];
+    sum_y = y[0][0];
   }
-  *offset_a = CLAMP (x, -0.5, 0.5);
-  *offset_e = CLAMP (y, -0.5, 0.5);
+  /* Within the cells of the block's pixels. */
+  *offset_a = side_a * CLAMP (side_a * sum_x / sum, -0.5, 1.5);
+  *offset_e = side_e * CLAMP (side_e * sum_y / sum, -0.5, 1.5);
+  if (!(weight_a > 0.0))
+    *offset_a = CLAMP (*offset_a, -0.5, 0.5);
+  if (!(weight_e > 0.0))
+    *offset_e = CLAMP (*offset_e, -0.5, 0.5);
   return TRUE;
 }
 

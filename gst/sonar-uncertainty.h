@@ -42,27 +42,19 @@
  * 0.97-1.05 from 15 to 44 dB of image SNR (with the median block the
  * echo's own cross-talk lifted the noise read above 40 dB: 1.3-1.4).
  *
- * On a 3-D image (2 degree grid) the elevation's sigma is 1.4-1.5 times
- * its scatter since wardcluster fits the direction in 3 x 3 samples
- * (1.2-1.6 with its separable parabolas; README, Robot-ready results).
- * What was measured with those parabolas (tools/uncertainty-3d.py
- * --samples) and why this bound is still what is reported: the scatter
- * of wardcluster's offset followed the linear
- * propagation of the log samples' noise through its three-sample
- * parabola (sonar_uncertainty_parabola_sigma ()) with their measured
- * covariance; neighbours correlate as noise shaped like the peak itself
- * would (exp (kappa / 2) per step) for the still 3-D points. On a
- * one-hypothesis image the peak's noise is the meter's and that
- * propagation fits (range 1.06, azimuth 0.89, elevation 1.30 where this
- * bound gives 0.64, 0.80, 1.22); on the detection image the meter (K_eff
- * calibrated with this bound on the 2-D scatter) reads 1.5-1.9 times the
- * one-hypothesis noise, which is the peak's (more at higher SNR, where
- * more of the image is interpolated), and the 2-D sweep's moving echoes
- * have peaks broader
- * than the noise's own correlation, so peak-shaped propagation with one
- * noise factor puts the 3-D ratios at 0.66-1.26 but every 2-D one at
- * 0.75-0.80. Not done: the noise's own correlation per axis in the
- * propagation, with K_eff from a one-hypothesis image. */
+ * On a 3-D image (2 degree grid, the hemisphere) the same sigmas, with
+ * the direction wardcluster blends from the 3 x 3 fits around its peak's
+ * 2 x 2 block, read 0.87-1.06 of the scatter for every coordinate over
+ * 36 still points at random directions, 22.7-31.2 dB of image SNR
+ * (tools/uncertainty-3d.py --seeds 1 2 3; README, Robot-ready results).
+ * There a still point's peak has the virtual array's beam shape, the
+ * noise's correlation between directions is that beam too, and on a
+ * one-hypothesis image the parabola's scatter is the linear propagation
+ * of that noise (sonar_uncertainty_parabola_sigma ()); on the detection
+ * image the maximum over the hypotheses changes the samples' noise,
+ * which K_eff, calibrated with this bound on the 2-D scatter, absorbs.
+ * Not in these sigmas: velocityest's direction search, which moves a
+ * detection by whole quarter steps. */
 #ifndef SONAR_UNCERTAINTY_H
 #define SONAR_UNCERTAINTY_H
 

@@ -1,14 +1,18 @@
 #!/usr/bin/python3
 """The 1-sigma each detection reports on a 3-D image against the scatter
-of its estimates: four still points in front of a 3-D sensor (directions
-off the 2-degree grid), N noisy pings through the chain at the elements'
+of its estimates: still points in front of a 3-D sensor (directions off
+the 2-degree grid), N noisy pings through the chain at the elements'
 defaults (the hemisphere at 2 degrees, the -7..7 m/s bank), per
 noise-amplitude. Prints, per coordinate, the median reported sigma and
 the ratio reported / measured (1: calibrated), the measured scatter being
 the rms deviation from each point's mean over the pings (a fixed bias per
 point is left out, as the sigmas leave it out), pooled over the points.
+The points: four fixed ones, or with --seeds the 12 random ones per seed
+of tools/direction-errors-3d.py (one every 35 cm of range from 0.8 m,
+azimuth +-60, elevation +-45 degrees, each scene run on its own).
 
     /usr/bin/python3 tools/uncertainty-3d.py --pings 24 0.12 0.5 1.2
+    /usr/bin/python3 tools/uncertainty-3d.py --pings 24 0.5 --seeds 1 2 3
 
 --samples also reads what sonar_uncertainty_measure () saw
 (SONAR_UNCERTAINTY_SAMPLES, gst/sonar-uncertainty.c): per coordinate,
@@ -25,6 +29,7 @@ velocityest's direction search moved the centroid.
 """
 
 import argparse
+import importlib.util
 import json
 import math
 import os
@@ -39,20 +44,42 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 POINTS = [(1.53, -41.6, 12.3, 0.45), (2.07, 23.2, -17.7, 0.8),
           (2.71, -8.4, 31.1, 1.0), (3.32, 37.7, 5.6, 1.5)]
 FIELDS = ("range", "azimuth", "elevation", "radial_velocity")
-# A detection belongs to a point within this many degrees of its direction.
+# A detection belongs to a point within this many degrees of its direction
+# (and, for the random points, within this many metres of its range).
 MATCH_DEGREES = 3.0
+MATCH_RANGE = 0.05
 
 
-def run(noise, pings, folder, samples=False, imager=""):
-    """Per point, the valid detections of @pings pings at @noise (with
-    @samples, also each one's samples line, as a list of numbers, under
-    "samples")."""
+def random_points(seed):
+    """tools/direction-errors-3d.py's points of @seed, as POINTS gives
+    them."""
+    spec = importlib.util.spec_from_file_location(
+        "direction_errors_3d", ROOT / "tools" / "direction-errors-3d.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return [(r, a, e, 1.0) for r, a, e in module.points(seed, 12)]
+
+
+def matches(d, point, by_range):
+    """Whether detection @d is @point's: within MATCH_DEGREES of its
+    direction (and with @by_range, MATCH_RANGE of its range)."""
+    r, a, e, _ = point
+    return (abs(d["azimuth"] - a) < MATCH_DEGREES
+            and abs(d["elevation"] - e) < MATCH_DEGREES
+            and (not by_range or abs(d["range"] - r) < MATCH_RANGE))
+
+
+def run(noise, pings, folder, samples=False, imager="", points=POINTS,
+        by_range=False):
+    """Per point of @points, the valid detections of @pings pings at
+    @noise (with @samples, also each one's samples line, as a list of
+    numbers, under "samples")."""
     scene = folder / "points-3d.json"
     scene.write_text(json.dumps({
         "dimensions": 3,
         "reflectors": [{"kind": "point", "range": r, "azimuth": a,
                         "elevation": e, "strength": s}
-                       for r, a, e, s in POINTS]}))
+                       for r, a, e, s in points]}))
     launch = (f"sonarsrc scene-file={scene} num-buffers={pings} "
               f"noise-amplitude={noise} ! dopplerbank ! mimobeamform "
               f"{imager} ! "
@@ -68,23 +95,24 @@ def run(noise, pings, folder, samples=False, imager=""):
     lines = iter([[float(v) for v in line.split()[1:]]
                   for line in out.stderr.splitlines()
                   if line.startswith("sonar-uncertainty-samples:")])
-    per_point = [[] for _ in POINTS]
+    per_point = [[] for _ in points]
     for line in out.stdout.splitlines():
         for d in json.loads(line)["detections"]:
             if samples:
                 d["samples"] = next(lines)
-            for k, (_, a, e, _) in enumerate(POINTS):
-                if (abs(d["azimuth"] - a) < MATCH_DEGREES
-                        and abs(d["elevation"] - e) < MATCH_DEGREES):
+            for k, point in enumerate(points):
+                if matches(d, point, by_range):
                     per_point[k].append(d)
                     break
     return per_point
 
 
 def ratio(per_point, field):
-    """Reported sigma over the measured scatter, pooled over the points."""
+    """Reported sigma over the measured scatter, pooled over the points
+    (each one's detections with a sigma, at least two)."""
     sum_z2, dof = 0.0, 0
     for p in per_point:
+        p = [d for d in p if d[field + "_sigma"] is not None]
         if len(p) < 2:
             continue
         mean = statistics.fmean(d[field] for d in p)
@@ -94,12 +122,12 @@ def ratio(per_point, field):
     return 1.0 / math.sqrt(sum_z2 / dof) if sum_z2 > 0 else math.nan, dof
 
 
-def print_points(per_point):
+def print_points(per_point, points):
     """Per point and coordinate: mean - truth, scatter, median sigma."""
     for k, p in enumerate(per_point):
         if len(p) < 2:
             continue
-        truth = dict(zip(("range", "azimuth", "elevation"), POINTS[k][:3]))
+        truth = dict(zip(("range", "azimuth", "elevation"), points[k][:3]))
         cells = []
         for f in FIELDS[:3]:
             values = [d[f] for d in p]
@@ -134,7 +162,6 @@ def parabola_sigma(y, var, rho1, rho2):
 def print_samples(per_point):
     """--samples: the parabola's inputs against the noise models."""
     for axis, name in enumerate(("range", "azimuth", "elevation")):
-        gamma_sum = [0.0, 0.0, 0.0]
         cov = [[0.0] * 3 for _ in range(3)]
         kappas, moved, total = [], 0, 0
         z2 = {"CRB": 0.0, "peak-shaped": 0.0}
@@ -207,31 +234,41 @@ def main():
     parser.add_argument("--mimobeamform", default="",
                         help="its properties, e.g. \"mode=fixed "
                         "velocity=0\" (one hypothesis)")
+    parser.add_argument("--seeds", type=int, nargs="+",
+                        help="the random points of these seeds instead of "
+                        "the four fixed ones")
     parser.add_argument("--per-point", action="store_true",
                         help="also print each point's mean, scatter and "
                         "median sigma per coordinate")
     args = parser.parse_args()
     print(f"{'noise':>6} {'found':>11} {'image SNR':>9} " + " ".join(
         f"{f + ' sigma':>22} {'ratio':>5}" for f in FIELDS) + f" {'dof':>4}")
+    scenes = ([random_points(seed) for seed in args.seeds] if args.seeds
+              else [POINTS])
+    points = [p for scene in scenes for p in scene]
     with tempfile.TemporaryDirectory() as folder:
         for noise in args.noise:
-            per_point = run(noise, args.pings, pathlib.Path(folder),
-                            args.samples, args.mimobeamform)
-            found = "/".join(str(len(p)) for p in per_point)
+            per_point = [p for scene in scenes for p in run(
+                noise, args.pings, pathlib.Path(folder), args.samples,
+                args.mimobeamform, scene, by_range=bool(args.seeds))]
             detections = [d for p in per_point for d in p]
+            found = (f"{len(detections)}/{len(points) * args.pings}"
+                     if args.seeds else
+                     "/".join(str(len(p)) for p in per_point))
             if not detections:
                 print(f"{noise:>6} {found:>11} (nothing found)")
                 continue
             snr = statistics.median(d["snr"] for d in detections)
             cells = []
             for f in FIELDS:
-                sigma = statistics.median(d[f + "_sigma"] for d in detections)
+                sigma = statistics.median(d[f + "_sigma"] for d in detections
+                                          if d[f + "_sigma"] is not None)
                 r, dof = ratio(per_point, f)
                 cells.append(f"{sigma:>22.3g} {r:>5.2f}")
             print(f"{noise:>6} {found:>11} {snr:>9.1f} " + " ".join(cells)
                   + f" {dof:>4}")
             if args.per_point:
-                print_points(per_point)
+                print_points(per_point, points)
             if args.samples:
                 print_samples(per_point)
     return 0

@@ -122,6 +122,7 @@ struct _SonarVelocityEstimator
   SonarComplex *read_outputs;
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
+  double *log_acf;              /* [velocity]: one emitter's, in the log */
   double *scratch;              /* [velocity] */
   guint8 *wanted, *done;        /* [velocity]: to evaluate, evaluated */
   guint coarse_stride;          /* bank steps between coarse evaluations */
@@ -403,6 +404,7 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->read_outputs = g_new (SonarComplex, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
+  est->log_acf = g_new (double, est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
   est->wanted = g_new (guint8, est->n_velocities);
   est->done = g_new (guint8, est->n_velocities);
@@ -455,6 +457,7 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->read_outputs);
   g_free (est->acf);
   g_free (est->log_product);
+  g_free (est->log_acf);
   g_free (est->scratch);
   g_free (est->wanted);
   g_free (est->done);
@@ -1053,35 +1056,41 @@ static guint
 fill_and_multiply (SonarVelocityEstimator * est)
 {
   const guint nv = est->n_velocities;
-  double *lp = est->log_product;
+  double *lp = est->log_product, *la = est->log_acf;
   guint peak = 0;
 
+  for (guint v = 0; v < nv; v++)
+    lp[v] = 0.0;
   for (guint n = 0; n < est->n_emitters; n++) {
     double *acf = est->acf + (gsize) n * nv;
     int prev = -1;
+    guint next = 0;
+    /* The evaluated values' logarithms once: a gap reads its ends' for
+     * every value in it. */
+    for (guint v = 0; v < nv; v++)
+      if (est->done[v])
+        la[v] = log (acf[v] + ACF_FLOOR);
     for (guint v = 0; v < nv; v++) {
-      guint next;
       if (est->done[v]) {
         prev = v;
         continue;
       }
-      for (next = v + 1; next < nv && !est->done[next]; next++);
+      if (next <= v)
+        for (next = v + 1; next < nv && !est->done[next]; next++);
       if (prev < 0 || next >= nv) {
         acf[v] = prev < 0 ? acf[next < nv ? next : v] : acf[prev];
       } else {
         const double t = (double) (v - prev) / (next - prev);
-        acf[v] = exp ((1.0 - t) * log (acf[prev] + ACF_FLOOR) +
-            t * log (acf[next] + ACF_FLOOR));
+        acf[v] = exp ((1.0 - t) * la[prev] + t * la[next]);
       }
+      la[v] = log (acf[v] + ACF_FLOOR);
     }
+    for (guint v = 0; v < nv; v++)
+      lp[v] += la[v];
   }
-  for (guint v = 0; v < nv; v++) {
-    lp[v] = 0.0;
-    for (guint n = 0; n < est->n_emitters; n++)
-      lp[v] += log (est->acf[(gsize) n * nv + v] + ACF_FLOOR);
+  for (guint v = 0; v < nv; v++)
     if (lp[v] > lp[peak])
       peak = v;
-  }
   return peak;
 }
 

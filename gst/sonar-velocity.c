@@ -122,9 +122,11 @@ struct _SonarVelocityEstimator
   SonarComplex *read_outputs;
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
-  double *log_acf;              /* [velocity]: one emitter's, in the log */
+  /* [emitter][velocity]: log (acf + ACF_FLOOR), as of the last fill. */
+  double *log_acf;
   double *scratch;              /* [velocity] */
   guint8 *wanted, *done;        /* [velocity]: to evaluate, evaluated */
+  guint8 *changed;              /* [velocity]: acf or done since the last fill */
   guint coarse_stride;          /* bank steps between coarse evaluations */
   guint n_hypotheses;           /* the prescreen's Doppler hypotheses */
   guint *hypotheses;
@@ -404,10 +406,11 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->read_outputs = g_new (SonarComplex, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
-  est->log_acf = g_new (double, est->n_velocities);
+  est->log_acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
   est->wanted = g_new (guint8, est->n_velocities);
   est->done = g_new (guint8, est->n_velocities);
+  est->changed = g_new (guint8, est->n_velocities);
   /* The curves are a main lobe wide: sampled every half of it (a quarter
    * measured the same errors in sonar-bench for twice the work), their
    * peak is found, then the bank is evaluated in full around it only. */
@@ -461,6 +464,7 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->scratch);
   g_free (est->wanted);
   g_free (est->done);
+  g_free (est->changed);
   g_free (est->hypotheses);
   g_free (est->lag_offsets);
   g_free (est->lag_kinds);
@@ -1028,8 +1032,10 @@ evaluate_window (SonarVelocityEstimator * est,
       }
     }
   }
-  for (guint v = 0; v < est->n_velocities; v++)
+  for (guint v = 0; v < est->n_velocities; v++) {
+    est->changed[v] |= est->wanted[v] && !est->done[v];
     est->done[v] |= est->wanted[v];
+  }
 }
 
 /* Wants the velocities within half a main lobe (plus a coarse step) of
@@ -1051,43 +1057,52 @@ evaluate_around (SonarVelocityEstimator * est,
 
 /* Fills the curves between evaluated velocities (linearly in the log
  * domain: they are smooth at a quarter of a main lobe), sums the log
- * product into est->log_product and returns its peak's index. */
+ * product into est->log_product and returns its peak's index. A gap
+ * whose ends and values have not changed since the last fill
+ * (est->changed) keeps its values: the same numbers. */
 static guint
 fill_and_multiply (SonarVelocityEstimator * est)
 {
   const guint nv = est->n_velocities;
-  double *lp = est->log_product, *la = est->log_acf;
+  const guint8 *changed = est->changed;
+  double *lp = est->log_product;
   guint peak = 0;
 
   for (guint v = 0; v < nv; v++)
     lp[v] = 0.0;
   for (guint n = 0; n < est->n_emitters; n++) {
     double *acf = est->acf + (gsize) n * nv;
+    double *la = est->log_acf + (gsize) n * nv;
     int prev = -1;
-    guint next = 0;
-    /* The evaluated values' logarithms once: a gap reads its ends' for
-     * every value in it. */
     for (guint v = 0; v < nv; v++)
-      if (est->done[v])
+      if (est->done[v] && changed[v])
         la[v] = log (acf[v] + ACF_FLOOR);
-    for (guint v = 0; v < nv; v++) {
+    for (guint v = 0, end; v < nv; v = end) {
+      gboolean stale;
       if (est->done[v]) {
         prev = v;
+        end = v + 1;
         continue;
       }
-      if (next <= v)
-        for (next = v + 1; next < nv && !est->done[next]; next++);
-      if (prev < 0 || next >= nv) {
-        acf[v] = prev < 0 ? acf[next < nv ? next : v] : acf[prev];
-      } else {
-        const double t = (double) (v - prev) / (next - prev);
-        acf[v] = exp ((1.0 - t) * la[prev] + t * la[next]);
+      /* The gap from v to the next evaluated velocity, end. */
+      for (end = v + 1; end < nv && !est->done[end]; end++);
+      stale = (prev >= 0 && changed[prev]) || (end < nv && changed[end]);
+      for (guint u = v; u < end && !stale; u++)
+        stale = changed[u];
+      for (guint u = v; stale && u < end; u++) {
+        if (prev < 0 || end >= nv) {
+          acf[u] = prev < 0 ? acf[end < nv ? end : u] : acf[prev];
+        } else {
+          const double t = (double) (u - prev) / (end - prev);
+          acf[u] = exp ((1.0 - t) * la[prev] + t * la[end]);
+        }
+        la[u] = log (acf[u] + ACF_FLOOR);
       }
-      la[v] = log (acf[v] + ACF_FLOOR);
     }
     for (guint v = 0; v < nv; v++)
       lp[v] += la[v];
   }
+  memset (est->changed, 0, nv);
   for (guint v = 0; v < nv; v++)
     if (lp[v] > lp[peak])
       peak = v;
@@ -1292,6 +1307,7 @@ refine_alone (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
         sonar_doppler_bank_step (est->bank))
       continue;
     est->done[v] = FALSE;
+    est->changed[v] = TRUE;
     for (guint n = 0; n < est->n_emitters; n++)
       est->acf[(gsize) n * nv + v] = 0.0;
   }
@@ -1367,6 +1383,7 @@ estimate_at (SonarVelocityEstimator * est,
     est->acf[i] = 0.0;
   for (guint v = 0; v < nv; v++) {
     est->done[v] = FALSE;
+    est->changed[v] = TRUE;
     est->wanted[v] = v % est->coarse_stride == 0 || v + 1 == nv;
   }
   evaluate_window (est, mic_spectra, range, azimuth, elevation);

@@ -140,6 +140,14 @@ steer_sum_phasors_generic (const SonarComplex * x, const float *re,
 }
 
 static void
+steer_sums_phasors_generic (SonarComplex * out, const SonarComplex * x,
+    const float *const *re, const float *const *im, guint n_tables, guint n)
+{
+  for (guint t = 0; t < n_tables; t++)
+    out[t] = steer_sum_phasors_generic (x, re[t], im[t], n);
+}
+
+static void
 multiply_split_generic (SonarComplex * out, const float *a_re,
     const float *a_im, const float *b_re, const float *b_im, guint n)
 {
@@ -592,6 +600,72 @@ steer_sum_phasors_avx2 (const SonarComplex * x, const float *re,
       im + whole, n - whole);
 }
 
+/* ramp_accumulate_avx2 () from zero on @group (1 to 4, a constant where
+ * it is inlined) tables at once, @x loaded once for the group: each
+ * table's sums spelt as there, which the compiler fuses alike
+ * (tests/test-kernels.c compares the two bit for bit). */
+static inline __attribute__ ((always_inline)) AVX2_TARGET void
+ramp_accumulate_group_avx2 (Vec * sum_re, Vec * sum_im,
+    const SonarComplex * x, const float *const *re, const float *const *im,
+    const guint group, guint count)
+{
+  Vec acc_re[4], acc_im[4];
+
+  for (guint g = 0; g < group; g++) {
+    acc_re[g] = (Vec) { 0 };
+    acc_im[g] = (Vec) { 0 };
+  }
+  for (guint k = 0; k < count; k += LANES) {
+    Vec xr, xi;
+    LOAD_SPLIT (x + k, xr, xi);
+    for (guint g = 0; g < group; g++) {
+      Vec pr, pi;
+      memcpy (&pr, re[g] + k, sizeof pr);
+      memcpy (&pi, im[g] + k, sizeof pi);
+      acc_re[g] += xr * pr - xi * pi;
+      acc_im[g] += xr * pi + xi * pr;
+    }
+  }
+  for (guint g = 0; g < group; g++) {
+    sum_re[g] = acc_re[g];
+    sum_im[g] = acc_im[g];
+  }
+}
+
+/* steer_sum_phasors_avx2 () on each table, four tables a pass. */
+AVX2_TARGET static void
+steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
+    const float *const *re, const float *const *im, guint n_tables, guint n)
+{
+  const guint whole = n - n % LANES;
+
+  for (guint t = 0; t < n_tables; t += 4) {
+    const guint group = MIN (4, n_tables - t);
+    Vec sum_re[4], sum_im[4];
+    switch (group) {
+      case 4:
+        ramp_accumulate_group_avx2 (sum_re, sum_im, x, re + t, im + t, 4,
+            whole);
+        break;
+      case 3:
+        ramp_accumulate_group_avx2 (sum_re, sum_im, x, re + t, im + t, 3,
+            whole);
+        break;
+      case 2:
+        ramp_accumulate_group_avx2 (sum_re, sum_im, x, re + t, im + t, 2,
+            whole);
+        break;
+      default:
+        ramp_accumulate_group_avx2 (sum_re, sum_im, x, re + t, im + t, 1,
+            whole);
+        break;
+    }
+    for (guint g = 0; g < group; g++)
+      out[t + g] = ramp_finish_avx2 (sum_re[g], sum_im[g], x + whole,
+          re[t + g] + whole, im[t + g] + whole, n - whole);
+  }
+}
+
 #endif /* HAVE_AVX2_KERNELS */
 
 /* ORC versions -----------------------------------------------------------*/
@@ -703,6 +777,14 @@ const SonarSteerSumPhasorsImpl sonar_kernel_steer_sum_phasors_impls[] = {
   {NULL, NULL, NULL}
 };
 
+const SonarSteerSumsPhasorsImpl sonar_kernel_steer_sums_phasors_impls[] = {
+  {"generic", steer_sums_phasors_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", steer_sums_phasors_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
 /* ORC compiles for the running CPU, or runs its C backup where it cannot:
  * always available. */
 const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
@@ -724,7 +806,7 @@ static struct
   SonarSteerBlockSumsConjFn steer_block_sums_conj;
   SonarSteerSumFn steer_sum;
   SonarSteerPhasorsFn steer_phasors;
-  SonarSteerSumPhasorsFn steer_sum_phasors;
+  SonarSteerSumsPhasorsFn steer_sums_phasors;
   SonarMultiplySplitFn multiply_split;
   SonarEnvelopeFn envelope;
 } chosen;
@@ -748,8 +830,8 @@ choose (void)
         chosen.steer_block_sums_conj);
     LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
     LAST_AVAILABLE (sonar_kernel_steer_phasors_impls, chosen.steer_phasors);
-    LAST_AVAILABLE (sonar_kernel_steer_sum_phasors_impls,
-        chosen.steer_sum_phasors);
+    LAST_AVAILABLE (sonar_kernel_steer_sums_phasors_impls,
+        chosen.steer_sums_phasors);
     LAST_AVAILABLE (sonar_kernel_multiply_split_impls,
         chosen.multiply_split);
     LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
@@ -794,12 +876,12 @@ sonar_kernel_steer_phasors (float *re, float *im, guint n, double phase0,
   chosen.steer_phasors (re, im, n, phase0, dphase);
 }
 
-SonarComplex
-sonar_kernel_steer_sum_phasors (const SonarComplex * x, const float *re,
-    const float *im, guint n)
+void
+sonar_kernel_steer_sums_phasors (SonarComplex * out, const SonarComplex * x,
+    const float *const *re, const float *const *im, guint n_tables, guint n)
 {
   choose ();
-  return chosen.steer_sum_phasors (x, re, im, n);
+  chosen.steer_sums_phasors (out, x, re, im, n_tables, n);
 }
 
 void

@@ -74,8 +74,8 @@ typedef SONAR_KERNEL_IMPL (SonarSteerSumFn) SonarSteerSumImpl;
 extern const SonarSteerSumImpl sonar_kernel_steer_sum_impls[];
 
 /* The phasors sonar_kernel_steer_sum () applies to bins 0 to @n - 1 for
- * @phase0 and @dphase, into @re and @im (n each), and that sum on them:
- * sonar_kernel_steer_sum_phasors (x, re, im, n) is bit for bit
+ * @phase0 and @dphase, into @re and @im (n each), and that sum on them
+ * (a SonarSteerSumPhasorsFn): its sum (x, re, im, n) is bit for bit
  * sonar_kernel_steer_sum (x, n, phase0, dphase) (each implementation
  * reproduces its own namesake's phasors and order of operations). A
  * caller that sums many inputs on one ramp (the velocity stage's lag
@@ -89,12 +89,26 @@ typedef void (*SonarSteerPhasorsFn) (float *re, float *im, guint n,
 typedef SONAR_KERNEL_IMPL (SonarSteerPhasorsFn) SonarSteerPhasorsImpl;
 extern const SonarSteerPhasorsImpl sonar_kernel_steer_phasors_impls[];
 
-SonarComplex sonar_kernel_steer_sum_phasors (const SonarComplex * x,
-    const float *re, const float *im, guint n);
 typedef SonarComplex (*SonarSteerSumPhasorsFn) (const SonarComplex * x,
     const float *re, const float *im, guint n);
 typedef SONAR_KERNEL_IMPL (SonarSteerSumPhasorsFn) SonarSteerSumPhasorsImpl;
 extern const SonarSteerSumPhasorsImpl sonar_kernel_steer_sum_phasors_impls[];
+
+/* The sums of @x on @n_tables phasor tables (re[t], im[t], n each) into
+ * out[t], bit for bit those of the SonarSteerSumPhasorsFn of the same
+ * name on each table. The tables' sums run side by side: a lone sum
+ * waits on its own chain of additions, and the velocity stage reads each
+ * set of blocks at several lags. */
+void sonar_kernel_steer_sums_phasors (SonarComplex * out,
+    const SonarComplex * x, const float *const *re, const float *const *im,
+    guint n_tables, guint n);
+typedef void (*SonarSteerSumsPhasorsFn) (SonarComplex * out,
+    const SonarComplex * x, const float *const *re, const float *const *im,
+    guint n_tables, guint n);
+typedef SONAR_KERNEL_IMPL (SonarSteerSumsPhasorsFn)
+    SonarSteerSumsPhasorsImpl;
+extern const SonarSteerSumsPhasorsImpl
+    sonar_kernel_steer_sums_phasors_impls[];
 
 /* out[k] = (a_re[k] + i a_im[k]) (b_re[k] + i b_im[k]): split operands,
  * interleaved product. */

@@ -132,11 +132,11 @@ sonar_steering_blocks_phasors (const SonarSteering * s, guint block,
       phase0, dphase);
 }
 
-SonarComplex
-sonar_steering_blocks_sum (const SonarSteering * s,
-    const SonarComplex * blocks, guint block, const float *re,
-    const float *im)
+void
+sonar_steering_blocks_sums (const SonarSteering * s,
+    const SonarComplex * blocks, guint block, const float *const *re,
+    const float *const *im, guint n_tables, SonarComplex * out)
 {
-  return sonar_kernel_steer_sum_phasors (blocks, re, im,
+  sonar_kernel_steer_sums_phasors (out, blocks, re, im, n_tables,
       sonar_steering_n_blocks (s, block));
 }

@@ -106,14 +106,16 @@ guint sonar_steering_n_blocks (const SonarSteering * steering, guint block);
 
 /* sonar_steering_blocks_at () in two steps: the phasors of its lag
  * @offset into @re and @im (sonar_steering_n_blocks () each), then the
- * sum of @blocks on them, bit for bit the same output. The phasors depend
- * on the offset alone: a caller that reads the same offsets on many
- * blocks makes them once (sonar_kernel_steer_phasors ()). */
+ * sums of @blocks on @n_tables such tables (re[t], im[t]) into out[t],
+ * bit for bit the same outputs. The phasors depend on the offset alone: a
+ * caller that reads the same offsets on many blocks makes them once
+ * (sonar_kernel_steer_phasors ()), and the sums of one set of blocks at
+ * several offsets run together (sonar_kernel_steer_sums_phasors ()). */
 void sonar_steering_blocks_phasors (const SonarSteering * steering,
     guint block, double offset, float *re, float *im);
-SonarComplex sonar_steering_blocks_sum (const SonarSteering * steering,
-    const SonarComplex * blocks, guint block, const float *re,
-    const float *im);
+void sonar_steering_blocks_sums (const SonarSteering * steering,
+    const SonarComplex * blocks, guint block, const float *const *re,
+    const float *const *im, guint n_tables, SonarComplex * out);
 
 G_END_DECLS
 

@@ -59,17 +59,20 @@
 #define GATE_RANGES 8
 /* Bins per block of the gated lag sums: the gate's bins are gate_m /
  * gate_size times wider than the ping's, so its blocks are shorter and
- * recentred (output_at ()) to keep the lag phase's turn over a block
+ * recentred (outputs_at ()) to keep the lag phase's turn over a block
  * within the ping's (0.06 rad). */
 #define GATE_BLOCK 8
 
-/* Phasor tables of the lag reads (lag_read ()), at most: a window reads
+/* Phasor tables of the lag reads (lag_table ()), at most: a window reads
  * its lags at offsets of whole and quarter range steps from its blocks'
  * centre, the same few dozen for every emitter, velocity and centroid,
  * and a lag read's ramp costs more to set up (its sincos, reseeds) than
  * to sum. A power of two; filled to three quarters at most, beyond which
  * the rare offsets left are read without a table. */
 #define LAG_TABLES 64
+
+/* Lag reads summed together, at most (lag_reads ()). */
+#define LAG_BATCH 16
 
 /* The templates' spectra on the gate's bins, shared by a pool's
  * estimators: [velocity][emitter][bin], split, divided by gate_m. */
@@ -113,10 +116,17 @@ struct _SonarVelocityEstimator
   /* window_peak ()'s reads at the window's lags, [lag - lag_first], and
    * the blocks' centre each was read at. */
   double *peak_values, *peak_centres;
+  /* The offsets (m) and outputs of a run of lag reads (outputs_at ()):
+   * the window's lags, or the fine lags about its best. */
+  double *read_offsets;
+  SonarComplex *read_outputs;
   double *acf;                  /* [emitter][velocity], linear */
   double *log_product;          /* [velocity] */
+  /* [emitter][velocity]: log (acf + ACF_FLOOR), as of the last fill. */
+  double *log_acf;
   double *scratch;              /* [velocity] */
   guint8 *wanted, *done;        /* [velocity]: to evaluate, evaluated */
+  guint8 *changed;              /* [velocity]: acf or done since the last fill */
   guint coarse_stride;          /* bank steps between coarse evaluations */
   guint n_hypotheses;           /* the prescreen's Doppler hypotheses */
   guint *hypotheses;
@@ -152,7 +162,7 @@ struct _SonarVelocityEstimator
   guint blocks_emitter, blocks_velocity;
   double blocks_range, blocks_centre;
 
-  /* The lag reads' phasor tables (lag_read ()), hashed by offset: its
+  /* The lag reads' phasor tables (lag_table ()), hashed by offset: its
    * bits and the blocks' kind (LAG_WHOLE or LAG_GATED; 0: free), and
    * lag_stride floats each of re and im. */
   guint64 *lag_offsets;
@@ -392,11 +402,15 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->peak_values = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->peak_centres = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->read_offsets = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->read_outputs = g_new (SonarComplex, 2 * MAX_WINDOW_RANGES + 1);
   est->acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->log_product = g_new (double, est->n_velocities);
+  est->log_acf = g_new (double, (gsize) est->n_emitters * est->n_velocities);
   est->scratch = g_new (double, est->n_velocities);
   est->wanted = g_new (guint8, est->n_velocities);
   est->done = g_new (guint8, est->n_velocities);
+  est->changed = g_new (guint8, est->n_velocities);
   /* The curves are a main lobe wide: sampled every half of it (a quarter
    * measured the same errors in sonar-bench for twice the work), their
    * peak is found, then the bank is evaluated in full around it only. */
@@ -442,11 +456,15 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->lag_powers);
   g_free (est->peak_values);
   g_free (est->peak_centres);
+  g_free (est->read_offsets);
+  g_free (est->read_outputs);
   g_free (est->acf);
   g_free (est->log_product);
+  g_free (est->log_acf);
   g_free (est->scratch);
   g_free (est->wanted);
   g_free (est->done);
+  g_free (est->changed);
   g_free (est->hypotheses);
   g_free (est->lag_offsets);
   g_free (est->lag_kinds);
@@ -594,7 +612,7 @@ gated_blocks (SonarVelocityEstimator * est, double centre)
 /* Emitter @n's matched filter output at velocity index @v, at the lag of
  * the point focused on (range @range), by blocks of LAG_BLOCK bins into
  * est->blocks: its outputs at the lags of nearby ranges are then short
- * sums over the blocks (output_at ()), the window's dozen lags one pass
+ * sums over the blocks (outputs_at ()), the window's dozen lags one pass
  * over the bins instead of a dozen. */
 static void
 emitter_blocks (SonarVelocityEstimator * est, guint n, guint v, double range)
@@ -618,11 +636,11 @@ emitter_blocks (SonarVelocityEstimator * est, guint n, guint v, double range)
   }
 }
 
-/* sonar_steering_blocks_at () of est->blocks (of @kind, on @steering by
- * blocks of @block bins) at @offset m, bit for bit, its phasors made once
- * per offset (est->lag_re, _im). */
-static SonarComplex
-lag_read (SonarVelocityEstimator * est, const SonarSteering * steering,
+/* The phasor table of the lag @offset m on est->blocks (of @kind, on
+ * @steering by blocks of @block bins): its slot in est->lag_re, _im, made
+ * on its first read, or -1 when the tables are full. */
+static gint
+lag_table (SonarVelocityEstimator * est, const SonarSteering * steering,
     guint block, guint8 kind, double offset)
 {
   guint64 bits;
@@ -636,41 +654,87 @@ lag_read (SonarVelocityEstimator * est, const SonarSteering * steering,
   for (;; slot = (slot + 1) & (LAG_TABLES - 1)) {
     const gsize at = (gsize) slot * est->lag_stride;
     if (est->lag_kinds[slot] == kind && est->lag_offsets[slot] == bits)
-      return sonar_steering_blocks_sum (steering, est->blocks, block,
-          est->lag_re + at, est->lag_im + at);
+      return slot;
     if (est->lag_kinds[slot] == 0) {
       if (4 * (est->n_lag_tables + 1) > 3 * LAG_TABLES)
-        break;
+        return -1;
       sonar_steering_blocks_phasors (steering, block, offset,
           est->lag_re + at, est->lag_im + at);
       est->lag_kinds[slot] = kind;
       est->lag_offsets[slot] = bits;
       est->n_lag_tables++;
-      return sonar_steering_blocks_sum (steering, est->blocks, block,
-          est->lag_re + at, est->lag_im + at);
+      return slot;
     }
   }
-  return sonar_steering_blocks_at (steering, est->blocks, block, offset);
 }
 
-/* The output in est->blocks at the lag of @offset m further in range.
- * Gated blocks further than a range step from it are centred first a
- * step beyond it, where the next lags read (the window's, from the first
- * up) lie. */
-static SonarComplex
-output_at (SonarVelocityEstimator * est, double offset)
+/* sonar_steering_blocks_at () of est->blocks at each of @n (at most
+ * LAG_BATCH) @offsets into @out, bit for bit, on the phasor tables
+ * (lag_table ()) summed together. */
+static void
+lag_reads (SonarVelocityEstimator * est, const SonarSteering * steering,
+    guint block, guint8 kind, const double *offsets, guint n,
+    SonarComplex * out)
 {
-  if (est->gated) {
-    const double step = est->grid.range_step;
-    if (fabs (offset - est->blocks_centre) > 1.001 * step)
-      gated_blocks (est, offset + (offset > est->blocks_centre ? step :
-              -step));
-    return lag_read (est, &est->gate_steering, GATE_BLOCK, LAG_GATED,
-        offset - est->blocks_centre) * (2.0f /
-        ((float) est->band.fft_size * est->gate_size));
+  const float *re[LAG_BATCH], *im[LAG_BATCH];
+  SonarComplex sums[LAG_BATCH];
+  guint which[LAG_BATCH], n_tables = 0;
+
+  for (guint i = 0; i < n; i++) {
+    const gint slot = lag_table (est, steering, block, kind, offsets[i]);
+    if (slot < 0) {
+      out[i] = sonar_steering_blocks_at (steering, est->blocks, block,
+          offsets[i]);
+      continue;
+    }
+    re[n_tables] = est->lag_re + (gsize) slot * est->lag_stride;
+    im[n_tables] = est->lag_im + (gsize) slot * est->lag_stride;
+    which[n_tables++] = i;
   }
-  return lag_read (est, &est->steering, LAG_BLOCK, LAG_WHOLE, offset) *
-      (2.0f / est->band.fft_size);
+  if (n_tables)
+    sonar_steering_blocks_sums (steering, est->blocks, block, re, im,
+        n_tables, sums);
+  for (guint t = 0; t < n_tables; t++)
+    out[which[t]] = sums[t];
+}
+
+/* The outputs in est->blocks at the lags of @n @offsets m further in
+ * range, read in turn, into @out, and the blocks' centre each was read
+ * at into @centres (may be NULL). Gated blocks further than a range
+ * step from an offset are centred first a step beyond it, where the next
+ * lags read (the window's, from the first up) lie; the reads between two
+ * centrings are made together. */
+static void
+outputs_at (SonarVelocityEstimator * est, const double *offsets, guint n,
+    SonarComplex * out, double *centres)
+{
+  const double step = est->grid.range_step;
+  double lags[LAG_BATCH];
+
+  for (guint i = 0, end; i < n; i = end) {
+    if (est->gated && fabs (offsets[i] - est->blocks_centre) > 1.001 * step)
+      gated_blocks (est, offsets[i] + (offsets[i] > est->blocks_centre ?
+              step : -step));
+    for (end = i + 1; end < n && end - i < LAG_BATCH && !(est->gated
+            && fabs (offsets[end] - est->blocks_centre) > 1.001 * step);
+        end++);
+    if (est->gated) {
+      for (guint j = i; j < end; j++)
+        lags[j - i] = offsets[j] - est->blocks_centre;
+      lag_reads (est, &est->gate_steering, GATE_BLOCK, LAG_GATED, lags,
+          end - i, out + i);
+      for (guint j = i; j < end; j++)
+        out[j] = out[j] * (2.0f / ((float) est->band.fft_size *
+                est->gate_size));
+    } else {
+      lag_reads (est, &est->steering, LAG_BLOCK, LAG_WHOLE, offsets + i,
+          end - i, out + i);
+      for (guint j = i; j < end; j++)
+        out[j] = out[j] * (2.0f / est->band.fft_size);
+    }
+    for (guint j = i; centres && j < end; j++)
+      centres[j] = est->blocks_centre;
+  }
 }
 
 static double parabola_offset (double a, double b, double c);
@@ -721,8 +785,12 @@ coherence_over (SonarVelocityEstimator * est,
         }
         for (guint n = 0; n < est->n_emitters; n++) {
           emitter_blocks (est, n, vs[i], range);
+          for (int dr = first; dr <= last; dr++)
+            est->read_offsets[dr - first] = dr * grid->range_step;
+          outputs_at (est, est->read_offsets, last - first + 1,
+              est->read_outputs, NULL);
           for (int dr = first; dr <= last; dr++) {
-            const double complex y = output_at (est, dr * grid->range_step);
+            const double complex y = est->read_outputs[dr - first];
             sums[dr] += y;
             powers[dr] += cabs2 (y);
           }
@@ -884,20 +952,27 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   double *values = est->peak_values - est->lag_first;
   double *centres = est->peak_centres - est->lag_first;
   double fine[9], best_value = -1.0, best_lag = 0.0;
-  int best = 4, best_dr = 0;
+  double fine_offsets[8];
+  SonarComplex fine_outputs[8];
+  int best = 4, best_dr = 0, fine_q[8];
+  guint n_fine = 0;
 
   emitter_blocks (est, n, v, range);
+  for (int dr = est->lag_first; dr <= est->lag_last; dr++)
+    est->read_offsets[dr - est->lag_first] = dr * step;
+  outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
+      est->read_outputs, est->peak_centres);
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
-    const double y = cabsf (output_at (est, dr * step));
+    const double y = cabsf (est->read_outputs[dr - est->lag_first]);
     values[dr] = y;
-    centres[dr] = est->blocks_centre;
     if (y > best_value) {
       best_value = y;
       best_lag = dr * step;
       best_dr = dr;
     }
   }
-  /* Quarter steps from -1 to +1 bin around the best. */
+  /* Quarter steps from -1 to +1 bin around the best, read at the best's
+   * centre (none a step from it needs another). */
   if (est->gated && best_lag != est->blocks_centre)
     gated_blocks (est, best_lag);
   for (int q = 0; q < 9; q++) {
@@ -912,9 +987,13 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
        * the offset is exactly that lag's): the same output. */
       fine[q] = values[dr];
     } else {
-      fine[q] = cabsf (output_at (est, offset));
+      fine_q[n_fine] = q;
+      fine_offsets[n_fine++] = offset;
     }
   }
+  outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
+  for (guint i = 0; i < n_fine; i++)
+    fine[fine_q[i]] = cabsf (fine_outputs[i]);
   for (int q = 1; q < 8; q++)
     if (fine[q] > fine[best])
       best = q;
@@ -953,8 +1032,10 @@ evaluate_window (SonarVelocityEstimator * est,
       }
     }
   }
-  for (guint v = 0; v < est->n_velocities; v++)
+  for (guint v = 0; v < est->n_velocities; v++) {
+    est->changed[v] |= est->wanted[v] && !est->done[v];
     est->done[v] |= est->wanted[v];
+  }
 }
 
 /* Wants the velocities within half a main lobe (plus a coarse step) of
@@ -976,40 +1057,55 @@ evaluate_around (SonarVelocityEstimator * est,
 
 /* Fills the curves between evaluated velocities (linearly in the log
  * domain: they are smooth at a quarter of a main lobe), sums the log
- * product into est->log_product and returns its peak's index. */
+ * product into est->log_product and returns its peak's index. A gap
+ * whose ends and values have not changed since the last fill
+ * (est->changed) keeps its values: the same numbers. */
 static guint
 fill_and_multiply (SonarVelocityEstimator * est)
 {
   const guint nv = est->n_velocities;
+  const guint8 *changed = est->changed;
   double *lp = est->log_product;
   guint peak = 0;
 
+  for (guint v = 0; v < nv; v++)
+    lp[v] = 0.0;
   for (guint n = 0; n < est->n_emitters; n++) {
     double *acf = est->acf + (gsize) n * nv;
+    double *la = est->log_acf + (gsize) n * nv;
     int prev = -1;
-    for (guint v = 0; v < nv; v++) {
-      guint next;
+    for (guint v = 0; v < nv; v++)
+      if (est->done[v] && changed[v])
+        la[v] = log (acf[v] + ACF_FLOOR);
+    for (guint v = 0, end; v < nv; v = end) {
+      gboolean stale;
       if (est->done[v]) {
         prev = v;
+        end = v + 1;
         continue;
       }
-      for (next = v + 1; next < nv && !est->done[next]; next++);
-      if (prev < 0 || next >= nv) {
-        acf[v] = prev < 0 ? acf[next < nv ? next : v] : acf[prev];
-      } else {
-        const double t = (double) (v - prev) / (next - prev);
-        acf[v] = exp ((1.0 - t) * log (acf[prev] + ACF_FLOOR) +
-            t * log (acf[next] + ACF_FLOOR));
+      /* The gap from v to the next evaluated velocity, end. */
+      for (end = v + 1; end < nv && !est->done[end]; end++);
+      stale = (prev >= 0 && changed[prev]) || (end < nv && changed[end]);
+      for (guint u = v; u < end && !stale; u++)
+        stale = changed[u];
+      for (guint u = v; stale && u < end; u++) {
+        if (prev < 0 || end >= nv) {
+          acf[u] = prev < 0 ? acf[end < nv ? end : u] : acf[prev];
+        } else {
+          const double t = (double) (u - prev) / (end - prev);
+          acf[u] = exp ((1.0 - t) * la[prev] + t * la[end]);
+        }
+        la[u] = log (acf[u] + ACF_FLOOR);
       }
     }
+    for (guint v = 0; v < nv; v++)
+      lp[v] += la[v];
   }
-  for (guint v = 0; v < nv; v++) {
-    lp[v] = 0.0;
-    for (guint n = 0; n < est->n_emitters; n++)
-      lp[v] += log (est->acf[(gsize) n * nv + v] + ACF_FLOOR);
+  memset (est->changed, 0, nv);
+  for (guint v = 0; v < nv; v++)
     if (lp[v] > lp[peak])
       peak = v;
-  }
   return peak;
 }
 
@@ -1211,6 +1307,7 @@ refine_alone (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
         sonar_doppler_bank_step (est->bank))
       continue;
     est->done[v] = FALSE;
+    est->changed[v] = TRUE;
     for (guint n = 0; n < est->n_emitters; n++)
       est->acf[(gsize) n * nv + v] = 0.0;
   }
@@ -1286,6 +1383,7 @@ estimate_at (SonarVelocityEstimator * est,
     est->acf[i] = 0.0;
   for (guint v = 0; v < nv; v++) {
     est->done[v] = FALSE;
+    est->changed[v] = TRUE;
     est->wanted[v] = v % est->coarse_stride == 0 || v + 1 == nv;
   }
   evaluate_window (est, mic_spectra, range, azimuth, elevation);

@@ -241,6 +241,44 @@ test_steer_phasors (gconstpointer data)
   }
 }
 
+/* The sums on several tables at once against the sum on each alone, bit
+ * for bit (the velocity stage reads its lags either way): every group of
+ * the fast versions (1 to 9 tables: whole groups of four and each
+ * remainder), at every length. */
+static void
+test_steer_sums_phasors (gconstpointer data)
+{
+  const SonarSteerSumsPhasorsImpl *impl = data;
+  const guint i = impl - sonar_kernel_steer_sums_phasors_impls;
+  const SonarSteerSumPhasorsImpl *one =
+      &sonar_kernel_steer_sum_phasors_impls[i];
+  SonarRng rng;
+  SonarComplex x[2882], sums[9];
+  float re[9][2882], im[9][2882];
+  const float *re_of[9], *im_of[9];
+
+  g_assert_cmpstr (one->name, ==, impl->name);
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 22, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    for (guint j = 0; j < 9; j++) {
+      sonar_kernel_steer_phasors_impls[i].fn (re[j], im[j], n,
+          366.4 * 0.01 * (j - 4.0), 0.3814 * 8.0 * 0.01 * (j - 4.0));
+      re_of[j] = re[j];
+      im_of[j] = im[j];
+    }
+    for (guint n_tables = 0; n_tables <= 9; n_tables++) {
+      random_spectrum (&rng, x, n);
+      impl->fn (sums, x, re_of, im_of, n_tables, n);
+      for (guint j = 0; j < n_tables; j++) {
+        const SonarComplex alone = one->fn (x, re[j], im[j], n);
+        g_assert_cmpmem (&sums[j], sizeof sums[j], &alone, sizeof alone);
+      }
+    }
+  }
+}
+
 /* The use the block sums are made for: a matched filter's output at lag
  * offsets of up to two range bins (the velocity stage's window and its
  * quarter-bin refinement), summed over 16-bin blocks at the blocks'
@@ -456,6 +494,8 @@ main (int argc, char **argv)
   ADD_IMPL_TESTS ("steer-sum", sonar_kernel_steer_sum_impls, test_steer_sum);
   ADD_IMPL_TESTS ("steer-phasors", sonar_kernel_steer_phasors_impls,
       test_steer_phasors);
+  ADD_IMPL_TESTS ("steer-sums-phasors",
+      sonar_kernel_steer_sums_phasors_impls, test_steer_sums_phasors);
   ADD_IMPL_TESTS ("multiply-split", sonar_kernel_multiply_split_impls,
       test_multiply_split);
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);

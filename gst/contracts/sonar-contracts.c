@@ -822,6 +822,20 @@ add_number (JsonBuilder * b, const char *name, double value, int decimals)
 
 static double significant (double value, int digits);
 
+/* A point in the sensor frame, as detections and tracks give it: range,
+ * azimuth, elevation, then x, y, z. */
+static void
+add_point (JsonBuilder * b, double range, double azimuth, double elevation,
+    SonarVec3 position)
+{
+  add_number (b, "range", range, METRE_DECIMALS);
+  add_number (b, "azimuth", azimuth, DEGREE_DECIMALS);
+  add_number (b, "elevation", elevation, DEGREE_DECIMALS);
+  add_number (b, "x", position.x, METRE_DECIMALS);
+  add_number (b, "y", position.y, METRE_DECIMALS);
+  add_number (b, "z", position.z, METRE_DECIMALS);
+}
+
 /* A number that spans decades (an uncertainty) to @digits significant
  * digits. */
 static void
@@ -892,12 +906,7 @@ sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
   for (guint k = 0; k < n; k++) {
     const SonarDetection *d = &detections[k];
     json_builder_begin_object (b);
-    add_number (b, "range", d->range, METRE_DECIMALS);
-    add_number (b, "azimuth", d->azimuth, DEGREE_DECIMALS);
-    add_number (b, "elevation", d->elevation, DEGREE_DECIMALS);
-    add_number (b, "x", d->position.x, METRE_DECIMALS);
-    add_number (b, "y", d->position.y, METRE_DECIMALS);
-    add_number (b, "z", d->position.z, METRE_DECIMALS);
+    add_point (b, d->range, d->azimuth, d->elevation, d->position);
     add_number (b, "instant", d->instant, 7);
     add_number (b, "radial_velocity", d->radial_velocity, VELOCITY_DECIMALS);
     add_boolean (b, "approaching", d->approaching);
@@ -1163,12 +1172,7 @@ sonar_tracks_to_json (guint64 ping_index, GstClockTime timestamp,
     add_string (b, "state", sonar_track_state_to_string (t->state));
     add_boolean (b, "moving", t->moving);
     add_number (b, "instant", t->instant, 7);
-    add_number (b, "range", t->range, METRE_DECIMALS);
-    add_number (b, "azimuth", t->azimuth, DEGREE_DECIMALS);
-    add_number (b, "elevation", t->elevation, DEGREE_DECIMALS);
-    add_number (b, "x", t->position.x, METRE_DECIMALS);
-    add_number (b, "y", t->position.y, METRE_DECIMALS);
-    add_number (b, "z", t->position.z, METRE_DECIMALS);
+    add_point (b, t->range, t->azimuth, t->elevation, t->position);
     add_number (b, "radial_velocity", t->radial_velocity, VELOCITY_DECIMALS);
     add_vector (b, "velocity", t->velocity, VELOCITY_DECIMALS);
     add_number (b, "radius", t->radius, METRE_DECIMALS);

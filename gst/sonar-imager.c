@@ -622,22 +622,22 @@ image_units (gpointer data, guint w, guint n_workers)
             FALSE);
         for (guint zz = 0; zz < im->n_zones; zz++) {
           const FocusZone *part = &im->zones[zz];
-          float peak = 0.0f;
-          for (guint i = part->first_range; i < part->end_range; i++)
-            peak = MAX (peak, scratch->envelope[i] * im->range_weight[i]);
-          job->zone_peaks[UNIT (im, d, zz) * n_hyp + h] = peak;
+          job->zone_peaks[UNIT (im, d, zz) * n_hyp + h] = sonar_kernel_peak
+              (scratch->envelope + part->first_range, im->range_weight +
+              part->first_range, part->end_range - part->first_range);
         }
-        for (guint i = 0; i < count; i++)
-          job->image[pixels + i] = overwrite ? scratch->envelope[i] :
-              MAX (job->image[pixels + i], scratch->envelope[i]);
+        if (overwrite)
+          memcpy (job->image + pixels, scratch->envelope,
+              count * sizeof (float));
+        else
+          sonar_kernel_max (job->image + pixels, scratch->envelope, count);
         /* Which hypothesis is strongest, per block of range bins: a
          * branch per block, not per bin (on noise every other
          * comparison would mispredict). */
         for (guint b = 0; b * HYPOTHESIS_BLOCK < count; b++) {
-          const guint i1 = MIN ((b + 1) * HYPOTHESIS_BLOCK, count);
-          float top = 0.0f;
-          for (guint i = b * HYPOTHESIS_BLOCK; i < i1; i++)
-            top = MAX (top, scratch->envelope[i]);
+          const guint i0 = b * HYPOTHESIS_BLOCK;
+          const float top = sonar_kernel_peak (scratch->envelope + i0, NULL,
+              MIN (HYPOTHESIS_BLOCK, count - i0));
           if (overwrite || top > best_value[b]) {
             best_value[b] = top;
             best[b] = (guint16) h;

@@ -127,6 +127,21 @@ typedef void (*SonarEnvelopeFn) (float *out, const SonarComplex * x, guint n,
 typedef SONAR_KERNEL_IMPL (SonarEnvelopeFn) SonarEnvelopeImpl;
 extern const SonarEnvelopeImpl sonar_kernel_envelope_impls[];
 
+/* The largest of 0 and x[k] * w[k], k < n (of x[k] when @w is NULL); a
+ * NaN never wins. The coarse image's peaks per zone and range block for
+ * each hypothesis (sonar-imager.c): one chain of comparisons waits on
+ * each, lanes of them do not. */
+float sonar_kernel_peak (const float *x, const float *w, guint n);
+typedef float (*SonarPeakFn) (const float *x, const float *w, guint n);
+typedef SONAR_KERNEL_IMPL (SonarPeakFn) SonarPeakImpl;
+extern const SonarPeakImpl sonar_kernel_peak_impls[];
+
+/* out[k] = max (out[k], x[k]) (out[k] > x[k] ? out[k] : x[k]), k < n. */
+void sonar_kernel_max (float *out, const float *x, guint n);
+typedef void (*SonarMaxFn) (float *out, const float *x, guint n);
+typedef SONAR_KERNEL_IMPL (SonarMaxFn) SonarMaxImpl;
+extern const SonarMaxImpl sonar_kernel_max_impls[];
+
 G_END_DECLS
 
 #endif

@@ -469,6 +469,71 @@ test_entry_points_choose_best (void)
       sizeof via_table);
 }
 
+/* The peak of non-negative values (an envelope, r^2 weights), weighted
+ * or not, equal to the reference bit for bit (a maximum and one product
+ * each: no rounding to differ in), every length's tail included; a NaN
+ * never wins, wherever it lies. */
+static void
+test_peak (gconstpointer data)
+{
+  const SonarPeakImpl *impl = data;
+  const SonarPeakFn reference = sonar_kernel_peak_impls[0].fn;
+  SonarRng rng;
+  float x[2882], w[2882];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 23, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    for (guint k = 0; k < n; k++) {
+      x[k] = (float) sonar_rng_uniform (&rng);
+      w[k] = (float) (1.0 + 25.0 * sonar_rng_uniform (&rng));
+    }
+    for (guint top = 0; top < n; top += MAX (1u, n / 7)) {
+      float want = 0.0f, want_weighted = 0.0f, peak, weighted;
+      x[top] += 2.0f;
+      for (guint k = 0; k < n; k++) {
+        want = MAX (want, x[k]);
+        want_weighted = MAX (want_weighted, x[k] * w[k]);
+      }
+      peak = impl->fn (x, NULL, n);
+      weighted = impl->fn (x, w, n);
+      g_assert_cmpfloat (peak, ==, want);
+      g_assert_cmpfloat (weighted, ==, want_weighted);
+      g_assert_cmpfloat (peak, ==, reference (x, NULL, n));
+      g_assert_cmpfloat (weighted, ==, reference (x, w, n));
+      x[top] = NAN;
+      peak = impl->fn (x, NULL, n);
+      g_assert_false (isnan (peak));
+      g_assert_cmpfloat (peak, <=, want);
+      x[top] = want - 2.0f;
+    }
+    g_assert_cmpfloat (impl->fn (x, NULL, 0), ==, 0.0f);
+  }
+}
+
+/* The running maximum, bit for bit, every length's tail included. */
+static void
+test_max (gconstpointer data)
+{
+  const SonarMaxImpl *impl = data;
+  SonarRng rng;
+  float x[2882], out[2882], kept[2882];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 29, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    for (guint k = 0; k < n; k++) {
+      x[k] = (float) sonar_rng_uniform (&rng);
+      out[k] = kept[k] = (float) sonar_rng_uniform (&rng);
+    }
+    impl->fn (out, x, n);
+    for (guint k = 0; k < n; k++)
+      g_assert_cmpfloat (out[k], ==, MAX (kept[k], x[k]));
+  }
+}
+
 /* One test case per implementation: /kernels/<kernel>/<implementation>. */
 #define ADD_IMPL_TESTS(path, impls, func) G_STMT_START {                \
   for (guint i_ = 0; (impls)[i_].name; i_++) {                          \
@@ -499,6 +564,8 @@ main (int argc, char **argv)
   ADD_IMPL_TESTS ("multiply-split", sonar_kernel_multiply_split_impls,
       test_multiply_split);
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);
+  ADD_IMPL_TESTS ("peak", sonar_kernel_peak_impls, test_peak);
+  ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
   g_test_add_func ("/kernels/entry-points-choose-best",

@@ -211,12 +211,12 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
 
   /* Position and velocity at one instant: the velocity's. */
   d.centroid = index;
-  d.range = sonar_velocity_centre_range (e->range, e->radial_velocity, c,
-      self->emission_centre, &delay);
+  d.range = sonar_velocity_centre_range (e->echo_range, e->radial_velocity,
+      c, self->emission_centre, &delay);
   d.azimuth = e->azimuth;
   d.elevation = e->elevation;
-  d.position = sonar_vec3_scale (sonar_vec3_from_direction (e->azimuth,
-          e->elevation), d.range);
+  d.position = sonar_vec3_scale (sonar_vec3_from_direction (d.azimuth,
+          d.elevation), d.range);
   d.instant = GST_CLOCK_TIME_IS_VALID (ping_time) ?
       (double) ping_time / GST_SECOND + delay : NAN;
   d.radial_velocity = e->radial_velocity;

@@ -30,7 +30,7 @@ GST_DEBUG_CATEGORY_STATIC (ward_cluster_debug);
  * section 8): more is noise clustered into dust, not reflectors. The
  * default holds a 20 x 20 grid of objects (400, each its own centroid);
  * the array is allocated when the caps are set, (max-centroids + 1) x
- * sizeof (SonarCentroid) (96) bytes: 0.1 MB at the default, 0.4 MB at
+ * sizeof (SonarCentroid) (104) bytes: 0.1 MB at the default, 0.4 MB at
  * most. */
 #define DEFAULT_MAX_CENTROIDS 1024
 #define MAX_MAX_CENTROIDS 4096
@@ -438,7 +438,7 @@ gst_ward_cluster_class_init (GstWardClusterClass * klass)
   g_object_class_install_property (gobject_class, PROP_MAX_CENTROIDS,
       g_param_spec_uint ("max-centroids", "Maximum centroids", "Centroids "
           "kept per ping, the strongest (more post one warning); held in "
-          "(max-centroids + 1) x 96 bytes", 1, MAX_MAX_CENTROIDS,
+          "(max-centroids + 1) x 104 bytes", 1, MAX_MAX_CENTROIDS,
           DEFAULT_MAX_CENTROIDS, flags));
   g_object_class_install_property (gobject_class, PROP_RANGE_COMPENSATION,
       g_param_spec_boolean ("range-compensation", "Range compensation",

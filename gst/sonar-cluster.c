@@ -1276,6 +1276,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
       o->peak_range_index = p % g->n_range;
       o->peak_azimuth_index = (p / g->n_range) % g->n_azimuth;
       o->peak_elevation_index = p / ((gsize) g->n_azimuth * g->n_range);
+      o->peak_range = c->peak_range[k];
       o->range_min = o->range_max = c->peak_range[k];
     }
     o = &out[c->slot[label]];

@@ -153,6 +153,10 @@ typedef struct
    * centimetres apart in range merge into one cluster, its centroid
    * between them, and velocityest looks for each over this span. */
   double range_min, range_max;
+  /* The strongest member peak's own range (m, its sub-pixel fit): its
+   * echo's, which the weighted mean above leaves when other members
+   * (noise on the echo's range sidelobes, a neighbour) pull it over. */
+  double peak_range;
   double peak_value;            /* strongest member peak (linear envelope) */
   double energy;                /* sum of the member peak values squared */
   guint n_members;              /* peaks in the cluster */

@@ -1329,13 +1329,38 @@ refine_alone (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
   est->lag_last = last;
 }
 
+/* Where estimate_at () reports the echo's range. */
+typedef enum
+{
+  ECHO_AT_PEAK,                 /* the centroid's strongest member peak */
+  ECHO_AT_EVALUATED,            /* where the bank was evaluated */
+} EchoPosition;
+
+/* Sets the echo's range (SonarVelocityEstimate) of @out's @count
+ * estimates at @centroid. A lone estimate whose window lag (whole range
+ * steps, describe_peak ()) lands within a step of the strongest member
+ * peak is that peak's echo, whose fit is finer. */
+static void
+place_echoes (const SonarVelocityEstimator * est,
+    const SonarCentroid * centroid, EchoPosition echo,
+    SonarVelocityEstimate * out, guint count)
+{
+  const gboolean at_peak = echo == ECHO_AT_PEAK;
+
+  for (guint i = 0; i < count; i++) {
+    out[i].echo_range = at_peak && count == 1 && (!est->spread
+        || fabs (out[i].range - centroid->peak_range) <=
+        est->grid.range_step) ? centroid->peak_range : out[i].range;
+  }
+}
+
 /* estimate () at (@azimuth, @elevation) instead of the centroid's
  * direction (its range and span of ranges kept). */
 static guint
 estimate_at (SonarVelocityEstimator * est,
     const SonarSplitSpectra * mic_spectra, const SonarCentroid * centroid,
-    double azimuth, double elevation, SonarVelocityEstimate * out,
-    float *curves)
+    double azimuth, double elevation, EchoPosition echo,
+    SonarVelocityEstimate * out, float *curves)
 {
   const guint nv = est->n_velocities;
   const double range = centroid->range;
@@ -1375,6 +1400,7 @@ estimate_at (SonarVelocityEstimator * est,
     if (curves)
       for (gsize i = 0; i < (gsize) (est->n_emitters + 1) * nv; i++)
         curves[i] = NAN;
+    place_echoes (est, centroid, echo, out, 1);
     return 1;
   }
 
@@ -1449,6 +1475,7 @@ estimate_at (SonarVelocityEstimator * est,
       curves[(gsize) est->n_emitters * nv + v] = (float) (20.0 / G_LN10 *
           lp[v] / est->n_emitters);
   }
+  place_echoes (est, centroid, echo, out, count);
   return count;
 }
 
@@ -1497,14 +1524,15 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
 
   est->screen_snr = 0.0;
   count = estimate_at (est, mic_spectra, centroid, centroid->azimuth,
-      centroid->elevation, out, curves);
+      centroid->elevation, ECHO_AT_PEAK, out, curves);
   if (out[0].valid || centroid->n_members < 2)
     return count;
   strongest_direction (est, centroid, &az, &el);
   if (angle_between (az, el, centroid->azimuth, centroid->elevation) <
       BLEND_STEPS * step - 1e-9)
     return count;
-  count = estimate_at (est, mic_spectra, centroid, az, el, out, curves);
+  count = estimate_at (est, mic_spectra, centroid, az, el,
+      ECHO_AT_EVALUATED, out, curves);
   if (!out[0].valid || count > 1)
     return count;
   {
@@ -1547,7 +1575,8 @@ estimate (SonarVelocityEstimator * est, const SonarSplitSpectra * mic_spectra,
         }
       }
     }
-    estimate_at (est, mic_spectra, centroid, raz, rel, other, NULL);
+    estimate_at (est, mic_spectra, centroid, raz, rel, ECHO_AT_EVALUATED,
+        other, NULL);
     if (other[0].valid) {
       out[1] = other[0];
       out[1].second = TRUE;
@@ -1574,7 +1603,7 @@ sonar_velocity_point (double range, double azimuth, double elevation)
 {
   SonarCentroid c = { 0 };
 
-  c.range = c.range_min = c.range_max = range;
+  c.range = c.range_min = c.range_max = c.peak_range = range;
   c.azimuth = azimuth;
   c.elevation = elevation;
   c.position = sonar_vec3_scale (sonar_vec3_from_direction (azimuth,
@@ -2283,7 +2312,7 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
         pool->split_re, pool->split_im);
     est->screen_snr = 0.0;
     estimate_at (est, &rest, centroid, blend->azimuth + (own - reach) *
-        step, blend->elevation, out, NULL);
+        step, blend->elevation, ECHO_AT_EVALUATED, out, NULL);
     if (!out[0].valid || est->screen_snr < SPLIT_HALF_SNR *
         est->min_pooled_snr)
       return FALSE;

@@ -152,6 +152,15 @@ double sonar_velocity_coherence_threshold (double pfa, guint n_emitters);
 typedef struct
 {
   double range, azimuth, elevation;     /* where it was evaluated (m, degrees) */
+  /* The echo's range (m), which its detection reports: at a centroid,
+   * its strongest member peak's sub-pixel fit, unless the estimate took
+   * an echo of its own (two in the centroid, or, with members spread
+   * beyond the window, a lag more than a range step from that peak's):
+   * the members' weighted mean is pulled over by the others (noise on
+   * the echo's range sidelobes, a neighbour) and the window's lags are
+   * whole range steps. Elsewhere (a blend's other echo, a split half)
+   * where it was evaluated. */
+  double echo_range;
   double radial_velocity;       /* m/s, + = moving away */
   guint bank_index;             /* bank velocity nearest the estimate */
   double peak_db;               /* product peak above the curve's median, dB per emitter */

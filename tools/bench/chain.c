@@ -574,7 +574,7 @@ chain_velocity (Chain * ch, guint n_centroids)
         continue;
       ch->positions[ch->n_detections] = sonar_vec3_scale
           (sonar_vec3_from_direction (e[i].azimuth, e[i].elevation),
-          e[i].range);
+          e[i].echo_range);
       ch->velocities[ch->n_detections++] = e[i].radial_velocity;
     }
   }

@@ -815,13 +815,14 @@ uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
         for (guint j = 0; j < ch->counts[k] && !hit; j++) {
           const SonarVelocityEstimate *e = &ch->results[2 * k + j];
           SonarUncertainty s;
-          if (!e->valid || fabs (e->range - truth.range) > MATCH_DISTANCE
+          if (!e->valid
+              || fabs (e->echo_range - truth.range) > MATCH_DISTANCE
               || fabs (e->azimuth - truth.azimuth) > 3.0)
             continue;
           sonar_uncertainty_measure (ch->image, ch->grid,
               sonar_noise_meter_power (noise, ch->image),
               &ch->centroids[k], e, ch->n_emitters, &s);
-          values[3 * n] = e->range;
+          values[3 * n] = e->echo_range;
           values[3 * n + 1] = e->azimuth;
           values[3 * n + 2] = e->radial_velocity;
           sigmas[3 * n] = s.range_sigma;

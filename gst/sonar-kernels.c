@@ -91,6 +91,28 @@ steer_block_sums_conj_generic (SonarComplex * out,
   }
 }
 
+/* Bin by bin in their order, each read where the block8 layout holds it. */
+G_STATIC_ASSERT (SONAR_BLOCK8_CHUNK == RESEED_INTERVAL
+    && RESEED_INTERVAL == 8 * LANES);
+static void
+block8_sums_conj_generic (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k0 + RESEED_INTERVAL; k++) {
+      const guint i = SONAR_BLOCK8_INDEX (k);
+      if (k % 8 == 0)
+        out[k / 8] = 0.0f;
+      out[k / 8] += (a_re[i] + I * a_im[i]) * (b_re[i] - I * b_im[i]) * p;
+      p *= rotation;
+    }
+  }
+}
+
 static SonarComplex
 steer_sum_generic (const SonarComplex * x, guint n,
     double phase0, double dphase)
@@ -487,6 +509,94 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
   }
 }
 
+/* Half a Vec in float and in double: the lanes' seeds, in two halves. */
+typedef float Vec4f __attribute__ ((vector_size (LANES / 2 * sizeof (float))));
+typedef double Vec4d
+    __attribute__ ((vector_size (LANES / 2 * sizeof (double))));
+
+/* exp(i 8 x) from (cos x, sin x) in (*re, *im), by squaring. */
+static inline void
+power8 (double *re, double *im)
+{
+  for (int q = 1; q < 8; q *= 2) {
+    const double r = *re * *re - *im * *im;
+    *im = 2.0 * *re * *im;
+    *re = r;
+  }
+}
+
+/* Lane j holds block j of a chunk: bin 8 j + t at step t. The lanes'
+ * phasors are seeded at every chunk from seeds kept in double precision
+ * (exp(i (phase0 + 8 j dphase)) at first, rotated a chunk on each time)
+ * and rotated by one bin in float over the chunk's 8 steps: the float
+ * rounding of 8 rotations, and double's over the chunks (near 1e-15),
+ * for the vector work of a rotation per chunk (a seed per lane from a
+ * sincos cost as much as the chunk's products). */
+AVX2_TARGET static void
+block8_sums_conj_avx2 (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase)
+{
+  const double c = cos (dphase), s = sin (dphase);
+  const float step_re = (float) c, step_im = (float) s;
+  double c8 = c, s8 = s, chunk_re, chunk_im;
+  double lane_re = cos (phase0), lane_im = sin (phase0);
+  Vec4d seed_re[2], seed_im[2];
+
+  power8 (&c8, &s8);
+  chunk_re = c8;
+  chunk_im = s8;
+  power8 (&chunk_re, &chunk_im);
+  for (int j = 0; j < LANES; j++) {
+    const double re = lane_re * c8 - lane_im * s8;
+    seed_re[j / 4][j % 4] = lane_re;
+    seed_im[j / 4][j % 4] = lane_im;
+    lane_im = lane_re * s8 + lane_im * c8;
+    lane_re = re;
+  }
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    Vec pr = __builtin_shufflevector (__builtin_convertvector (seed_re[0],
+            Vec4f), __builtin_convertvector (seed_re[1], Vec4f), 0, 1, 2, 3,
+        4, 5, 6, 7);
+    Vec pi = __builtin_shufflevector (__builtin_convertvector (seed_im[0],
+            Vec4f), __builtin_convertvector (seed_im[1], Vec4f), 0, 1, 2, 3,
+        4, 5, 6, 7);
+    Vec sum_re = { 0 }, sum_im = { 0 };
+    for (int h = 0; h < 2; h++) {
+      const Vec4d re = seed_re[h] * chunk_re - seed_im[h] * chunk_im;
+      seed_im[h] = seed_re[h] * chunk_im + seed_im[h] * chunk_re;
+      seed_re[h] = re;
+    }
+    for (guint k = k0; k < k0 + RESEED_INTERVAL; k += LANES) {
+      Vec ar, ai, br, bi, tr, ti, next;
+      memcpy (&ar, a_re + k, sizeof ar);
+      memcpy (&ai, a_im + k, sizeof ai);
+      memcpy (&br, b_re + k, sizeof br);
+      memcpy (&bi, b_im + k, sizeof bi);
+      tr = ar * br + ai * bi;
+      ti = ai * br - ar * bi;
+      /* Each term a fused multiply-add into its sum. */
+      sum_re += tr * pr;
+      sum_re -= ti * pi;
+      sum_im += tr * pi;
+      sum_im += ti * pr;
+      next = pr * step_re - pi * step_im;
+      pi = pr * step_im + pi * step_re;
+      pr = next;
+    }
+    {
+      /* The eight sums, interleaved. */
+      const Vec first = __builtin_shufflevector (sum_re, sum_im, 0, 8, 1, 9,
+          2, 10, 3, 11);
+      const Vec second = __builtin_shufflevector (sum_re, sum_im, 4, 12, 5,
+          13, 6, 14, 7, 15);
+      memcpy (out + k0 / LANES, &first, sizeof first);
+      memcpy (out + k0 / LANES + LANES / 2, &second, sizeof second);
+    }
+  }
+}
+
 /* The steering sum's pieces, shared by steer_sum_avx2 () and the sum on
  * a phasor table (steer_phasors_avx2 (), steer_sum_phasors_avx2 ()), so
  * that the two are the same operations bit for bit whatever the compiler
@@ -753,6 +863,14 @@ const SonarSteerBlockSumsConjImpl sonar_kernel_steer_block_sums_conj_impls[]
   {NULL, NULL, NULL}
 };
 
+const SonarBlock8SumsConjImpl sonar_kernel_block8_sums_conj_impls[] = {
+  {"generic", block8_sums_conj_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", block8_sums_conj_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
 const SonarSteerSumImpl sonar_kernel_steer_sum_impls[] = {
   {"generic", steer_sum_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
@@ -804,6 +922,7 @@ static struct
 {
   SonarSteerSumSplitFn steer_sum_split;
   SonarSteerBlockSumsConjFn steer_block_sums_conj;
+  SonarBlock8SumsConjFn block8_sums_conj;
   SonarSteerSumFn steer_sum;
   SonarSteerPhasorsFn steer_phasors;
   SonarSteerSumsPhasorsFn steer_sums_phasors;
@@ -828,6 +947,8 @@ choose (void)
         chosen.steer_sum_split);
     LAST_AVAILABLE (sonar_kernel_steer_block_sums_conj_impls,
         chosen.steer_block_sums_conj);
+    LAST_AVAILABLE (sonar_kernel_block8_sums_conj_impls,
+        chosen.block8_sums_conj);
     LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
     LAST_AVAILABLE (sonar_kernel_steer_phasors_impls, chosen.steer_phasors);
     LAST_AVAILABLE (sonar_kernel_steer_sums_phasors_impls,
@@ -858,6 +979,16 @@ sonar_kernel_steer_block_sums_conj (SonarComplex * out, const float *a_re,
   choose ();
   chosen.steer_block_sums_conj (out, a_re, a_im, b_re, b_im, n, phase0,
       dphase, block);
+}
+
+void
+sonar_kernel_block8_sums_conj (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase)
+{
+  g_return_if_fail (n % SONAR_BLOCK8_CHUNK == 0);
+  choose ();
+  chosen.block8_sums_conj (out, a_re, a_im, b_re, b_im, n, phase0, dphase);
 }
 
 SonarComplex

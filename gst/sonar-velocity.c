@@ -60,7 +60,8 @@
 /* Bins per block of the gated lag sums: the gate's bins are gate_m /
  * gate_size times wider than the ping's, so its blocks are shorter and
  * recentred (outputs_at ()) to keep the lag phase's turn over a block
- * within the ping's (0.06 rad). */
+ * within the ping's (0.06 rad). 8: the gate's spectra are in the block8
+ * layout (sonar_steering_emitter_blocks8 ()). */
 #define GATE_BLOCK 8
 
 /* Phasor tables of the lag reads (lag_table ()), at most: a window reads
@@ -75,7 +76,8 @@
 #define LAG_BATCH 16
 
 /* The templates' spectra on the gate's bins, shared by a pool's
- * estimators: [velocity][emitter][bin], split, divided by gate_m. */
+ * estimators: [velocity][emitter][gate_padded bins], split, divided by
+ * gate_m, in the block8 layout (SONAR_BLOCK8_INDEX ()). */
 typedef struct
 {
   gint ref;
@@ -148,6 +150,7 @@ struct _SonarVelocityEstimator
    * with their tails), about a quarter of the work per evaluation. */
   gboolean gated;               /* the current focus is gated */
   guint gate_m, gate_size, gate_bins;
+  guint gate_padded;            /* SONAR_BLOCK8_PADDED (gate_bins) */
   double gate_per_metre;        /* baseband samples per metre of path */
   guint gate_template;          /* the longest template, baseband samples */
   double stretch_min, stretch_max;      /* of the bank's velocities */
@@ -156,7 +159,8 @@ struct _SonarVelocityEstimator
   fftwf_complex *gate_band, *gate_baseband;     /* gate_m */
   fftwf_complex *gate_time, *gate_spectrum;     /* gate_size */
   fftwf_plan gate_inverse, gate_forward;
-  float *gate_re, *gate_im;     /* the gated receive sum, gate_bins */
+  /* The gated receive sum, gate_padded, in the block8 layout. */
+  float *gate_re, *gate_im;
   /* The emitter, velocity index and range of est->blocks, and the lag
    * offset (m) they are centred at. */
   guint blocks_emitter, blocks_velocity;
@@ -297,8 +301,10 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
   est->gate_steering = est->steering;
   est->gate_steering.n_bins = est->gate_bins;
   est->gate_steering.dk = est->steering.dk * m / g;
-  est->gate_re = g_new (float, est->gate_bins);
-  est->gate_im = g_new (float, est->gate_bins);
+  /* The block8 layout's padding stays zero. */
+  est->gate_padded = SONAR_BLOCK8_PADDED (est->gate_bins);
+  est->gate_re = g_new0 (float, est->gate_padded);
+  est->gate_im = g_new0 (float, est->gate_padded);
   est->gate_band = fftwf_alloc_complex (m);
   est->gate_baseband = fftwf_alloc_complex (m);
   est->gate_time = fftwf_alloc_complex (g);
@@ -320,15 +326,15 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
   }
   est->gate_templates = g_new0 (GateTemplates, 1);
   est->gate_templates->ref = 1;
-  est->gate_templates->re = g_new (float, (gsize) nv * est->n_emitters *
-      est->gate_bins);
-  est->gate_templates->im = g_new (float, (gsize) nv * est->n_emitters *
-      est->gate_bins);
+  est->gate_templates->re = g_new0 (float, (gsize) nv * est->n_emitters *
+      est->gate_padded);
+  est->gate_templates->im = g_new0 (float, (gsize) nv * est->n_emitters *
+      est->gate_padded);
   for (guint v = 0; v < nv; v++) {
     const SonarSplitSpectra spectra = sonar_doppler_bank_spectra (est->bank,
         v);
     for (guint n = 0; n < est->n_emitters; n++) {
-      const gsize at = ((gsize) v * est->n_emitters + n) * est->gate_bins;
+      const gsize at = ((gsize) v * est->n_emitters + n) * est->gate_padded;
       for (guint k = 0; k < n_bins; k++) {
         est->gate_band[k] = spectra.re[(gsize) n * n_bins + k] +
             I * spectra.im[(gsize) n * n_bins + k];
@@ -342,8 +348,9 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
       }
       fftwf_execute (est->gate_forward);
       for (guint q = 0; q < est->gate_bins; q++) {
-        est->gate_templates->re[at + q] = crealf (est->gate_spectrum[q]) / m;
-        est->gate_templates->im[at + q] = cimagf (est->gate_spectrum[q]) / m;
+        const gsize i = at + SONAR_BLOCK8_INDEX (q);
+        est->gate_templates->re[i] = crealf (est->gate_spectrum[q]) / m;
+        est->gate_templates->im[i] = cimagf (est->gate_spectrum[q]) / m;
       }
     }
   }
@@ -396,8 +403,6 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
       setup->geometry.n_microphones);
   est->spectra_im = g_new (float, (gsize) band->n_bins *
       setup->geometry.n_microphones);
-  est->blocks = g_new (SonarComplex, (band->n_bins + LAG_BLOCK - 1) /
-      LAG_BLOCK);
   est->lag_sums = g_new (double complex, 2 * MAX_WINDOW_RANGES + 1);
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->peak_values = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
@@ -420,6 +425,8 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
       PRESCREEN_SPACING, est->hypotheses);
   gate_init (est, share);
+  est->blocks = g_new (SonarComplex, MAX ((band->n_bins + LAG_BLOCK - 1) /
+          LAG_BLOCK, est->gate_padded / GATE_BLOCK));
   est->lag_stride = sonar_steering_n_blocks (&est->steering, LAG_BLOCK);
   if (est->gate_size)
     est->lag_stride = MAX (est->lag_stride,
@@ -545,8 +552,8 @@ gate_focus (SonarVelocityEstimator * est, double range)
   }
   fftwf_execute (est->gate_forward);
   for (guint q = 0; q < est->gate_bins; q++) {
-    est->gate_re[q] = crealf (est->gate_spectrum[q]);
-    est->gate_im[q] = cimagf (est->gate_spectrum[q]);
+    est->gate_re[SONAR_BLOCK8_INDEX (q)] = crealf (est->gate_spectrum[q]);
+    est->gate_im[SONAR_BLOCK8_INDEX (q)] = cimagf (est->gate_spectrum[q]);
   }
   est->gated = TRUE;
 }
@@ -596,16 +603,16 @@ static void
 gated_blocks (SonarVelocityEstimator * est, double centre)
 {
   const guint v = est->blocks_velocity, n = est->blocks_emitter;
-  const gsize at = (gsize) v * est->n_emitters * est->gate_bins;
+  const gsize at = (gsize) v * est->n_emitters * est->gate_padded;
   const SonarSplitSpectra templates = { est->gate_templates->re + at,
     est->gate_templates->im + at
   };
 
-  sonar_steering_emitter_blocks (&est->gate_steering, est->gate_re,
+  sonar_steering_emitter_blocks8 (&est->gate_steering, est->gate_re,
       est->gate_im, &templates, n, est->emitter_legs[n],
       sonar_steering_stretch (&est->steering,
           sonar_doppler_bank_velocity (est->bank, v)),
-      est->blocks_range + centre, GATE_BLOCK, est->blocks);
+      est->blocks_range + centre, est->blocks);
   est->blocks_centre = centre;
 }
 

@@ -287,13 +287,6 @@ lanes_seed (Lanes * p)
   (SonarComplex) (e_[0] + I * e_[4]);                                    \
 })
 
-/* The sums of the lanes of each of eight vectors @v, into the lanes of
- * one, in the order of LANES_SUM () (lanes l and l + 4, then those two
- * apart, then neighbours: float additions are commutative, so each sum
- * is bit for bit LANES_SUM ()'s), at 14 additions for the eight instead
- * of 24: lane b of the result sums v[b]. */
-#define LANES_SUM8(v) ({                                                   const Vec x0_ = __builtin_shufflevector ((v)[0], (v)[4], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[0], (v)[4], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x1_ = __builtin_shufflevector ((v)[2], (v)[6], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[2], (v)[6], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x2_ = __builtin_shufflevector ((v)[1], (v)[5], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[1], (v)[5], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x3_ = __builtin_shufflevector ((v)[3], (v)[7], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[3], (v)[7], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec z0_ = __builtin_shufflevector (x0_, x1_, 0, 1, 8, 9, 4, 5,         12, 13) + __builtin_shufflevector (x0_, x1_, 2, 3, 10, 11, 6, 7,         14, 15);                                                             const Vec z1_ = __builtin_shufflevector (x2_, x3_, 0, 1, 8, 9, 4, 5,         12, 13) + __builtin_shufflevector (x2_, x3_, 2, 3, 10, 11, 6, 7,         14, 15);                                                             __builtin_shufflevector (z0_, z1_, 0, 8, 2, 10, 4, 12, 6, 14) +              __builtin_shufflevector (z0_, z1_, 1, 9, 3, 11, 5, 13, 7, 15);     })
-
 /* Every lane moves LANES bins on. */
 #define LANES_ADVANCE(p) G_STMT_START {                                 \
   const Vec re_ = (p).re * (p).step_re - (p).im * (p).step_im;          \
@@ -394,46 +387,12 @@ steer_sum_split_avx2 (float *out_re, float *out_im, const float *x_re,
   }
 }
 
-/* The eight blocks of one vector each of a reseed interval (the gated lag
- * sums), summed across their lanes together (LANES_SUM8 ()), bit for bit
- * the sums of steer_block_sums_conj_avx2 ()'s general loop. Apart, not
- * inlined: the compiler's fused multiply-adds of the general loop and of
- * the last block stay as they were. */
-static AVX2_TARGET __attribute__ ((noinline)) void
-block_sums8_avx2 (SonarComplex * out, const float *a_re, const float *a_im,
-    const float *b_re, const float *b_im, Lanes * p)
-{
-  Vec sums_re[RESEED_INTERVAL / LANES], sums_im[RESEED_INTERVAL / LANES];
-  Vec total_re, total_im;
-
-  for (guint b = 0; b < RESEED_INTERVAL / LANES; b++) {
-    const guint k = b * LANES;
-    Vec ar, ai, br, bi, tr, ti, sum_re = { 0 }, sum_im = { 0 };
-    memcpy (&ar, a_re + k, sizeof ar);
-    memcpy (&ai, a_im + k, sizeof ai);
-    memcpy (&br, b_re + k, sizeof br);
-    memcpy (&bi, b_im + k, sizeof bi);
-    tr = ar * br + ai * bi;
-    ti = ai * br - ar * bi;
-    sum_re += tr * p->re - ti * p->im;
-    sum_im += tr * p->im + ti * p->re;
-    LANES_ADVANCE (*p);
-    sums_re[b] = sum_re;
-    sums_im[b] = sum_im;
-  }
-  total_re = LANES_SUM8 (sums_re);
-  total_im = LANES_SUM8 (sums_im);
-  for (guint b = 0; b < RESEED_INTERVAL / LANES; b++)
-    out[b] = total_re[b] + I * total_im[b];
-}
-
 /* The last, shorter block of steer_block_sums_conj_avx2 (): the sum of
  * (a_re + i a_im) conj (b_re + i b_im) (lane_re + i lane_im) over @n
  * bins, spelt out as GCC compiled its complex products when this block
  * was inline ((x + 0 y) for x + I y, the first product fused, the
- * second not), so that the block sums stayed bit for bit what they were
- * when the blocks of one vector got their own path (block_sums8_avx2 ()):
- * an inline loop's fusing changes with the code around it. */
+ * second not), so that the block sums stay bit for bit what they were
+ * then: an inline loop's fusing changes with the code around it. */
 #if defined(__clang__)
 #define NO_CONTRACT
 #else
@@ -471,11 +430,6 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
     lanes_seed (&p);
-    if (block == LANES && k1 - k0 == RESEED_INTERVAL) {
-      block_sums8_avx2 (out + k0 / LANES, a_re + k0, a_im + k0, b_re + k0,
-          b_im + k0, &p);
-      continue;
-    }
     for (guint kb = k0; kb < k1; kb += block) {
       Vec sum_re = { 0 }, sum_im = { 0 };
       for (guint k = kb; k < kb + block; k += LANES) {

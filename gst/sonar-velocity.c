@@ -937,6 +937,17 @@ coherent_enough (const SonarVelocityEstimator * est, double coherence,
       (1.0 / ISOLATED_COHERENCE - 1.0) / (est->n_emitters - 1.0));
 }
 
+/* |@z|, as glibc's cabsf () computes it (the root in double of the
+ * squares, exact there) without its call: window_peak () takes a dozen
+ * per evaluation, and the calls cost as much as the roots. */
+static inline double
+magnitude (SonarComplex z)
+{
+  const double re = crealf (z), im = cimagf (z);
+
+  return (float) sqrt (re * re + im * im);
+}
+
 /* Whether @a and @b are the same double, bit for bit (a lag read's
  * output depends on its offset's bits, the sign of a zero included). */
 static gboolean
@@ -970,7 +981,7 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
       est->read_outputs, est->peak_centres);
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
-    const double y = cabsf (est->read_outputs[dr - est->lag_first]);
+    const double y = magnitude (est->read_outputs[dr - est->lag_first]);
     values[dr] = y;
     if (y > best_value) {
       best_value = y;
@@ -1000,7 +1011,7 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   }
   outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
   for (guint i = 0; i < n_fine; i++)
-    fine[fine_q[i]] = cabsf (fine_outputs[i]);
+    fine[fine_q[i]] = magnitude (fine_outputs[i]);
   for (int q = 1; q < 8; q++)
     if (fine[q] > fine[best])
       best = q;

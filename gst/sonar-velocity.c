@@ -154,7 +154,7 @@ struct _SonarVelocityEstimator
   double gate_per_metre;        /* baseband samples per metre of path */
   guint gate_template;          /* the longest template, baseband samples */
   double stretch_min, stretch_max;      /* of the bank's velocities */
-  SonarSteering gate_steering;  /* on the gate's bins */
+  SonarSteering gate_steering;  /* on the gate's bins, gate_padded */
   GateTemplates *gate_templates;
   fftwf_complex *gate_band, *gate_baseband;     /* gate_m */
   fftwf_complex *gate_time, *gate_spectrum;     /* gate_size */
@@ -298,11 +298,13 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
   est->gate_m = m;
   est->gate_size = g;
   est->gate_bins = MIN (g, (guint) ceil ((double) n_bins * g / m) + 1);
-  est->gate_steering = est->steering;
-  est->gate_steering.n_bins = est->gate_bins;
-  est->gate_steering.dk = est->steering.dk * m / g;
-  /* The block8 layout's padding stays zero. */
+  /* The block8 layout's padding stays zero. The gate's steering takes it
+   * in as bins (their products are zero): its blocks fill whole vectors,
+   * and the lag reads sum them without a tail. */
   est->gate_padded = SONAR_BLOCK8_PADDED (est->gate_bins);
+  est->gate_steering = est->steering;
+  est->gate_steering.n_bins = est->gate_padded;
+  est->gate_steering.dk = est->steering.dk * m / g;
   est->gate_re = g_new0 (float, est->gate_padded);
   est->gate_im = g_new0 (float, est->gate_padded);
   est->gate_band = fftwf_alloc_complex (m);

@@ -73,7 +73,7 @@ extern const SonarSteerBlockSumsConjImpl
 #define SONAR_BLOCK8_PADDED(n) \
   (((n) + SONAR_BLOCK8_CHUNK - 1) / SONAR_BLOCK8_CHUNK * SONAR_BLOCK8_CHUNK)
 #define SONAR_BLOCK8_INDEX(k) \
-  (((k) & ~63u) | (((k) & 7u) << 3) | (((k) >> 3) & 7u))
+  ((k) - ((k) & 63u) + (((k) & 7u) << 3) + (((k) >> 3) & 7u))
 
 /* sonar_kernel_steer_block_sums_conj () by blocks of 8 bins, a and b in
  * the block8 layout (SONAR_BLOCK8_INDEX (); @n a multiple of

@@ -91,6 +91,28 @@ steer_block_sums_conj_generic (SonarComplex * out,
   }
 }
 
+/* Bin by bin in their order, each read where the block8 layout holds it. */
+G_STATIC_ASSERT (SONAR_BLOCK8_CHUNK == RESEED_INTERVAL
+    && RESEED_INTERVAL == 8 * LANES);
+static void
+block8_sums_conj_generic (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    SonarComplex p = unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k0 + RESEED_INTERVAL; k++) {
+      const guint i = SONAR_BLOCK8_INDEX (k);
+      if (k % 8 == 0)
+        out[k / 8] = 0.0f;
+      out[k / 8] += (a_re[i] + I * a_im[i]) * (b_re[i] - I * b_im[i]) * p;
+      p *= rotation;
+    }
+  }
+}
+
 static SonarComplex
 steer_sum_generic (const SonarComplex * x, guint n,
     double phase0, double dphase)
@@ -285,13 +307,6 @@ lanes_seed (Lanes * p)
   (SonarComplex) (e_[0] + I * e_[4]);                                    \
 })
 
-/* The sums of the lanes of each of eight vectors @v, into the lanes of
- * one, in the order of LANES_SUM () (lanes l and l + 4, then those two
- * apart, then neighbours: float additions are commutative, so each sum
- * is bit for bit LANES_SUM ()'s), at 14 additions for the eight instead
- * of 24: lane b of the result sums v[b]. */
-#define LANES_SUM8(v) ({                                                   const Vec x0_ = __builtin_shufflevector ((v)[0], (v)[4], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[0], (v)[4], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x1_ = __builtin_shufflevector ((v)[2], (v)[6], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[2], (v)[6], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x2_ = __builtin_shufflevector ((v)[1], (v)[5], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[1], (v)[5], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec x3_ = __builtin_shufflevector ((v)[3], (v)[7], 0, 1, 2, 3,         8, 9, 10, 11) + __builtin_shufflevector ((v)[3], (v)[7], 4, 5, 6,        7, 12, 13, 14, 15);                                                  const Vec z0_ = __builtin_shufflevector (x0_, x1_, 0, 1, 8, 9, 4, 5,         12, 13) + __builtin_shufflevector (x0_, x1_, 2, 3, 10, 11, 6, 7,         14, 15);                                                             const Vec z1_ = __builtin_shufflevector (x2_, x3_, 0, 1, 8, 9, 4, 5,         12, 13) + __builtin_shufflevector (x2_, x3_, 2, 3, 10, 11, 6, 7,         14, 15);                                                             __builtin_shufflevector (z0_, z1_, 0, 8, 2, 10, 4, 12, 6, 14) +              __builtin_shufflevector (z0_, z1_, 1, 9, 3, 11, 5, 13, 7, 15);     })
-
 /* Every lane moves LANES bins on. */
 #define LANES_ADVANCE(p) G_STMT_START {                                 \
   const Vec re_ = (p).re * (p).step_re - (p).im * (p).step_im;          \
@@ -392,46 +407,12 @@ steer_sum_split_avx2 (float *out_re, float *out_im, const float *x_re,
   }
 }
 
-/* The eight blocks of one vector each of a reseed interval (the gated lag
- * sums), summed across their lanes together (LANES_SUM8 ()), bit for bit
- * the sums of steer_block_sums_conj_avx2 ()'s general loop. Apart, not
- * inlined: the compiler's fused multiply-adds of the general loop and of
- * the last block stay as they were. */
-static AVX2_TARGET __attribute__ ((noinline)) void
-block_sums8_avx2 (SonarComplex * out, const float *a_re, const float *a_im,
-    const float *b_re, const float *b_im, Lanes * p)
-{
-  Vec sums_re[RESEED_INTERVAL / LANES], sums_im[RESEED_INTERVAL / LANES];
-  Vec total_re, total_im;
-
-  for (guint b = 0; b < RESEED_INTERVAL / LANES; b++) {
-    const guint k = b * LANES;
-    Vec ar, ai, br, bi, tr, ti, sum_re = { 0 }, sum_im = { 0 };
-    memcpy (&ar, a_re + k, sizeof ar);
-    memcpy (&ai, a_im + k, sizeof ai);
-    memcpy (&br, b_re + k, sizeof br);
-    memcpy (&bi, b_im + k, sizeof bi);
-    tr = ar * br + ai * bi;
-    ti = ai * br - ar * bi;
-    sum_re += tr * p->re - ti * p->im;
-    sum_im += tr * p->im + ti * p->re;
-    LANES_ADVANCE (*p);
-    sums_re[b] = sum_re;
-    sums_im[b] = sum_im;
-  }
-  total_re = LANES_SUM8 (sums_re);
-  total_im = LANES_SUM8 (sums_im);
-  for (guint b = 0; b < RESEED_INTERVAL / LANES; b++)
-    out[b] = total_re[b] + I * total_im[b];
-}
-
 /* The last, shorter block of steer_block_sums_conj_avx2 (): the sum of
  * (a_re + i a_im) conj (b_re + i b_im) (lane_re + i lane_im) over @n
  * bins, spelt out as GCC compiled its complex products when this block
  * was inline ((x + 0 y) for x + I y, the first product fused, the
- * second not), so that the block sums stayed bit for bit what they were
- * when the blocks of one vector got their own path (block_sums8_avx2 ()):
- * an inline loop's fusing changes with the code around it. */
+ * second not), so that the block sums stay bit for bit what they were
+ * then: an inline loop's fusing changes with the code around it. */
 #if defined(__clang__)
 #define NO_CONTRACT
 #else
@@ -469,11 +450,6 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
   for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
     lanes_seed (&p);
-    if (block == LANES && k1 - k0 == RESEED_INTERVAL) {
-      block_sums8_avx2 (out + k0 / LANES, a_re + k0, a_im + k0, b_re + k0,
-          b_im + k0, &p);
-      continue;
-    }
     for (guint kb = k0; kb < k1; kb += block) {
       Vec sum_re = { 0 }, sum_im = { 0 };
       for (guint k = kb; k < kb + block; k += LANES) {
@@ -504,6 +480,94 @@ steer_block_sums_conj_avx2 (SonarComplex * out, const float *a_re,
     }
     out[whole / block] = block_tail_avx2 (a_re + whole, a_im + whole,
         b_re + whole, b_im + whole, lane_re, lane_im, n - whole);
+  }
+}
+
+/* Half a Vec in float and in double: the lanes' seeds, in two halves. */
+typedef float Vec4f __attribute__ ((vector_size (LANES / 2 * sizeof (float))));
+typedef double Vec4d
+    __attribute__ ((vector_size (LANES / 2 * sizeof (double))));
+
+/* exp(i 8 x) from (cos x, sin x) in (*re, *im), by squaring. */
+static inline void
+power8 (double *re, double *im)
+{
+  for (int q = 1; q < 8; q *= 2) {
+    const double r = *re * *re - *im * *im;
+    *im = 2.0 * *re * *im;
+    *re = r;
+  }
+}
+
+/* Lane j holds block j of a chunk: bin 8 j + t at step t. The lanes'
+ * phasors are seeded at every chunk from seeds kept in double precision
+ * (exp(i (phase0 + 8 j dphase)) at first, rotated a chunk on each time)
+ * and rotated by one bin in float over the chunk's 8 steps: the float
+ * rounding of 8 rotations, and double's over the chunks (near 1e-15),
+ * for the vector work of a rotation per chunk (a seed per lane from a
+ * sincos cost as much as the chunk's products). */
+AVX2_TARGET static void
+block8_sums_conj_avx2 (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase)
+{
+  const double c = cos (dphase), s = sin (dphase);
+  const float step_re = (float) c, step_im = (float) s;
+  double c8 = c, s8 = s, chunk_re, chunk_im;
+  double lane_re = cos (phase0), lane_im = sin (phase0);
+  Vec4d seed_re[2], seed_im[2];
+
+  power8 (&c8, &s8);
+  chunk_re = c8;
+  chunk_im = s8;
+  power8 (&chunk_re, &chunk_im);
+  for (int j = 0; j < LANES; j++) {
+    const double re = lane_re * c8 - lane_im * s8;
+    seed_re[j / 4][j % 4] = lane_re;
+    seed_im[j / 4][j % 4] = lane_im;
+    lane_im = lane_re * s8 + lane_im * c8;
+    lane_re = re;
+  }
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    Vec pr = __builtin_shufflevector (__builtin_convertvector (seed_re[0],
+            Vec4f), __builtin_convertvector (seed_re[1], Vec4f), 0, 1, 2, 3,
+        4, 5, 6, 7);
+    Vec pi = __builtin_shufflevector (__builtin_convertvector (seed_im[0],
+            Vec4f), __builtin_convertvector (seed_im[1], Vec4f), 0, 1, 2, 3,
+        4, 5, 6, 7);
+    Vec sum_re = { 0 }, sum_im = { 0 };
+    for (int h = 0; h < 2; h++) {
+      const Vec4d re = seed_re[h] * chunk_re - seed_im[h] * chunk_im;
+      seed_im[h] = seed_re[h] * chunk_im + seed_im[h] * chunk_re;
+      seed_re[h] = re;
+    }
+    for (guint k = k0; k < k0 + RESEED_INTERVAL; k += LANES) {
+      Vec ar, ai, br, bi, tr, ti, next;
+      memcpy (&ar, a_re + k, sizeof ar);
+      memcpy (&ai, a_im + k, sizeof ai);
+      memcpy (&br, b_re + k, sizeof br);
+      memcpy (&bi, b_im + k, sizeof bi);
+      tr = ar * br + ai * bi;
+      ti = ai * br - ar * bi;
+      /* Each term a fused multiply-add into its sum. */
+      sum_re += tr * pr;
+      sum_re -= ti * pi;
+      sum_im += tr * pi;
+      sum_im += ti * pr;
+      next = pr * step_re - pi * step_im;
+      pi = pr * step_im + pi * step_re;
+      pr = next;
+    }
+    {
+      /* The eight sums, interleaved. */
+      const Vec first = __builtin_shufflevector (sum_re, sum_im, 0, 8, 1, 9,
+          2, 10, 3, 11);
+      const Vec second = __builtin_shufflevector (sum_re, sum_im, 4, 12, 5,
+          13, 6, 14, 7, 15);
+      memcpy (out + k0 / LANES, &first, sizeof first);
+      memcpy (out + k0 / LANES + LANES / 2, &second, sizeof second);
+    }
   }
 }
 
@@ -559,15 +623,15 @@ ramp_accumulate_avx2 (Vec * sum_re, Vec * sum_im, const SonarComplex * x,
   }
 }
 
-/* The lanes' sum, then the @count tail values of @x on their phasors. */
+/* The lanes' sum (by halves: lane by lane took a chain of 8 dependent
+ * additions per table read), then the @count tail values of @x on their
+ * phasors. */
 static AVX2_TARGET __attribute__ ((noinline)) SonarComplex
 ramp_finish_avx2 (Vec sum_re, Vec sum_im, const SonarComplex * x,
     const float *re, const float *im, guint count)
 {
-  SonarComplex sum = 0.0f;
+  SonarComplex sum = LANES_SUM (sum_re, sum_im);
 
-  for (int l = 0; l < LANES; l++)
-    sum += sum_re[l] + I * sum_im[l];
   for (guint k = 0; k < count; k++)
     sum += x[k] * (re[k] + I * im[k]);
   return sum;
@@ -815,6 +879,14 @@ const SonarSteerBlockSumsConjImpl sonar_kernel_steer_block_sums_conj_impls[]
   {NULL, NULL, NULL}
 };
 
+const SonarBlock8SumsConjImpl sonar_kernel_block8_sums_conj_impls[] = {
+  {"generic", block8_sums_conj_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", block8_sums_conj_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
 const SonarSteerSumImpl sonar_kernel_steer_sum_impls[] = {
   {"generic", steer_sum_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
@@ -882,6 +954,7 @@ static struct
 {
   SonarSteerSumSplitFn steer_sum_split;
   SonarSteerBlockSumsConjFn steer_block_sums_conj;
+  SonarBlock8SumsConjFn block8_sums_conj;
   SonarSteerSumFn steer_sum;
   SonarSteerPhasorsFn steer_phasors;
   SonarSteerSumsPhasorsFn steer_sums_phasors;
@@ -908,6 +981,8 @@ choose (void)
         chosen.steer_sum_split);
     LAST_AVAILABLE (sonar_kernel_steer_block_sums_conj_impls,
         chosen.steer_block_sums_conj);
+    LAST_AVAILABLE (sonar_kernel_block8_sums_conj_impls,
+        chosen.block8_sums_conj);
     LAST_AVAILABLE (sonar_kernel_steer_sum_impls, chosen.steer_sum);
     LAST_AVAILABLE (sonar_kernel_steer_phasors_impls, chosen.steer_phasors);
     LAST_AVAILABLE (sonar_kernel_steer_sums_phasors_impls,
@@ -940,6 +1015,16 @@ sonar_kernel_steer_block_sums_conj (SonarComplex * out, const float *a_re,
   choose ();
   chosen.steer_block_sums_conj (out, a_re, a_im, b_re, b_im, n, phase0,
       dphase, block);
+}
+
+void
+sonar_kernel_block8_sums_conj (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase)
+{
+  g_return_if_fail (n % SONAR_BLOCK8_CHUNK == 0);
+  choose ();
+  chosen.block8_sums_conj (out, a_re, a_im, b_re, b_im, n, phase0, dphase);
 }
 
 SonarComplex

@@ -65,6 +65,33 @@ typedef SONAR_KERNEL_IMPL (SonarSteerBlockSumsConjFn)
 extern const SonarSteerBlockSumsConjImpl
     sonar_kernel_steer_block_sums_conj_impls[];
 
+/* The bins of a block8 layout (sonar_kernel_block8_sums_conj ()): a
+ * length padded to whole chunks of SONAR_BLOCK8_CHUNK bins, and the
+ * index there of bin @k (in chunk c, bin t of its block j goes to
+ * 64 c + 8 t + j). */
+#define SONAR_BLOCK8_CHUNK 64
+#define SONAR_BLOCK8_PADDED(n) \
+  (((n) + SONAR_BLOCK8_CHUNK - 1) / SONAR_BLOCK8_CHUNK * SONAR_BLOCK8_CHUNK)
+#define SONAR_BLOCK8_INDEX(k) \
+  ((k) - ((k) & 63u) + (((k) & 7u) << 3) + (((k) >> 3) & 7u))
+
+/* sonar_kernel_steer_block_sums_conj () by blocks of 8 bins, a and b in
+ * the block8 layout (SONAR_BLOCK8_INDEX (); @n a multiple of
+ * SONAR_BLOCK8_CHUNK, the bins past the data zero): writes n / 8 sums.
+ * Each vector then holds one bin of eight blocks, whose sums build up in
+ * its lanes: no sum across the lanes per block (that and its shuffles
+ * cost as much as the products in the contiguous layout), and the phase
+ * ramp rotates by one bin per step, re-seeded every chunk. The velocity
+ * stage's gated blocks: it makes their spectra, so it lays them out so. */
+void sonar_kernel_block8_sums_conj (SonarComplex * out, const float *a_re,
+    const float *a_im, const float *b_re, const float *b_im, guint n,
+    double phase0, double dphase);
+typedef void (*SonarBlock8SumsConjFn) (SonarComplex * out,
+    const float *a_re, const float *a_im, const float *b_re,
+    const float *b_im, guint n, double phase0, double dphase);
+typedef SONAR_KERNEL_IMPL (SonarBlock8SumsConjFn) SonarBlock8SumsConjImpl;
+extern const SonarBlock8SumsConjImpl sonar_kernel_block8_sums_conj_impls[];
+
 /* sum over k < n of x[k] * exp(i (phase0 + k * dphase)). */
 SonarComplex sonar_kernel_steer_sum (const SonarComplex * x, guint n,
     double phase0, double dphase);

@@ -76,20 +76,41 @@ sonar_steering_transmit_sum (const SonarSteering * s,
       TRUE);
 }
 
+/* The path of an emitter's output at the lag of @range: the two-way
+ * range plus the stretched emitter leg (the receive sum already holds the
+ * microphone legs). */
+static double
+emitter_path (double emitter_leg, double stretch, double range)
+{
+  return 2.0 * range + emitter_leg * stretch;
+}
+
 void
 sonar_steering_emitter_blocks (const SonarSteering * s,
     const float *receive_re, const float *receive_im,
     const SonarSplitSpectra * templates, guint emitter, double emitter_leg,
     double stretch, double range, guint block, SonarComplex * blocks)
 {
-  /* The two-way range plus the stretched emitter leg: the receive sum
-   * already holds the microphone legs. */
-  const double path = 2.0 * range + emitter_leg * stretch;
+  const double path = emitter_path (emitter_leg, stretch, range);
   const gsize at = (gsize) emitter * s->n_bins;
 
   sonar_kernel_steer_block_sums_conj (blocks, receive_re, receive_im,
       templates->re + at, templates->im + at, s->n_bins, s->k0 * path,
       s->dk * path, block);
+}
+
+void
+sonar_steering_emitter_blocks8 (const SonarSteering * s,
+    const float *receive_re, const float *receive_im,
+    const SonarSplitSpectra * templates, guint emitter, double emitter_leg,
+    double stretch, double range, SonarComplex * blocks)
+{
+  const double path = emitter_path (emitter_leg, stretch, range);
+  const guint n = SONAR_BLOCK8_PADDED (s->n_bins);
+
+  sonar_kernel_block8_sums_conj (blocks, receive_re, receive_im,
+      templates->re + (gsize) emitter * n, templates->im + (gsize) emitter *
+      n, n, s->k0 * path, s->dk * path);
 }
 
 /* The ramp of sonar_steering_blocks_at (): the phase at each block's

@@ -93,6 +93,15 @@ void sonar_steering_emitter_blocks (const SonarSteering * steering,
     const SonarSplitSpectra * templates, guint emitter, double emitter_leg,
     double stretch, double range, guint block, SonarComplex * blocks);
 
+/* sonar_steering_emitter_blocks () by blocks of 8 bins, the receive sum
+ * and each emitter's template in the block8 layout
+ * (sonar_kernel_block8_sums_conj ()), SONAR_BLOCK8_PADDED (n_bins) bins
+ * each: writes that over 8 blocks, those past the data zero. */
+void sonar_steering_emitter_blocks8 (const SonarSteering * steering,
+    const float *receive_re, const float *receive_im,
+    const SonarSplitSpectra * templates, guint emitter, double emitter_leg,
+    double stretch, double range, SonarComplex * blocks);
+
 /* The output of sonar_steering_emitter_blocks ()'s @blocks at the lag of
  * @offset m further in range, each block's phase taken at its centre bin:
  * over a block, the extra phase of a lag two range bins away turns by

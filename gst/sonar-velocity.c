@@ -60,7 +60,8 @@
 /* Bins per block of the gated lag sums: the gate's bins are gate_m /
  * gate_size times wider than the ping's, so its blocks are shorter and
  * recentred (outputs_at ()) to keep the lag phase's turn over a block
- * within the ping's (0.06 rad). */
+ * within the ping's (0.06 rad). 8: the gate's spectra are in the block8
+ * layout (sonar_steering_emitter_blocks8 ()). */
 #define GATE_BLOCK 8
 
 /* Phasor tables of the lag reads (lag_table ()), at most: a window reads
@@ -75,7 +76,8 @@
 #define LAG_BATCH 16
 
 /* The templates' spectra on the gate's bins, shared by a pool's
- * estimators: [velocity][emitter][bin], split, divided by gate_m. */
+ * estimators: [velocity][emitter][gate_padded bins], split, divided by
+ * gate_m, in the block8 layout (SONAR_BLOCK8_INDEX ()). */
 typedef struct
 {
   gint ref;
@@ -148,15 +150,17 @@ struct _SonarVelocityEstimator
    * with their tails), about a quarter of the work per evaluation. */
   gboolean gated;               /* the current focus is gated */
   guint gate_m, gate_size, gate_bins;
+  guint gate_padded;            /* SONAR_BLOCK8_PADDED (gate_bins) */
   double gate_per_metre;        /* baseband samples per metre of path */
   guint gate_template;          /* the longest template, baseband samples */
   double stretch_min, stretch_max;      /* of the bank's velocities */
-  SonarSteering gate_steering;  /* on the gate's bins */
+  SonarSteering gate_steering;  /* on the gate's bins, gate_padded */
   GateTemplates *gate_templates;
   fftwf_complex *gate_band, *gate_baseband;     /* gate_m */
   fftwf_complex *gate_time, *gate_spectrum;     /* gate_size */
   fftwf_plan gate_inverse, gate_forward;
-  float *gate_re, *gate_im;     /* the gated receive sum, gate_bins */
+  /* The gated receive sum, gate_padded, in the block8 layout. */
+  float *gate_re, *gate_im;
   /* The emitter, velocity index and range of est->blocks, and the lag
    * offset (m) they are centred at. */
   guint blocks_emitter, blocks_velocity;
@@ -294,11 +298,15 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
   est->gate_m = m;
   est->gate_size = g;
   est->gate_bins = MIN (g, (guint) ceil ((double) n_bins * g / m) + 1);
+  /* The block8 layout's padding stays zero. The gate's steering takes it
+   * in as bins (their products are zero): its blocks fill whole vectors,
+   * and the lag reads sum them without a tail. */
+  est->gate_padded = SONAR_BLOCK8_PADDED (est->gate_bins);
   est->gate_steering = est->steering;
-  est->gate_steering.n_bins = est->gate_bins;
+  est->gate_steering.n_bins = est->gate_padded;
   est->gate_steering.dk = est->steering.dk * m / g;
-  est->gate_re = g_new (float, est->gate_bins);
-  est->gate_im = g_new (float, est->gate_bins);
+  est->gate_re = g_new0 (float, est->gate_padded);
+  est->gate_im = g_new0 (float, est->gate_padded);
   est->gate_band = fftwf_alloc_complex (m);
   est->gate_baseband = fftwf_alloc_complex (m);
   est->gate_time = fftwf_alloc_complex (g);
@@ -320,15 +328,15 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
   }
   est->gate_templates = g_new0 (GateTemplates, 1);
   est->gate_templates->ref = 1;
-  est->gate_templates->re = g_new (float, (gsize) nv * est->n_emitters *
-      est->gate_bins);
-  est->gate_templates->im = g_new (float, (gsize) nv * est->n_emitters *
-      est->gate_bins);
+  est->gate_templates->re = g_new0 (float, (gsize) nv * est->n_emitters *
+      est->gate_padded);
+  est->gate_templates->im = g_new0 (float, (gsize) nv * est->n_emitters *
+      est->gate_padded);
   for (guint v = 0; v < nv; v++) {
     const SonarSplitSpectra spectra = sonar_doppler_bank_spectra (est->bank,
         v);
     for (guint n = 0; n < est->n_emitters; n++) {
-      const gsize at = ((gsize) v * est->n_emitters + n) * est->gate_bins;
+      const gsize at = ((gsize) v * est->n_emitters + n) * est->gate_padded;
       for (guint k = 0; k < n_bins; k++) {
         est->gate_band[k] = spectra.re[(gsize) n * n_bins + k] +
             I * spectra.im[(gsize) n * n_bins + k];
@@ -342,8 +350,9 @@ gate_init (SonarVelocityEstimator * est, const SonarVelocityEstimator * share)
       }
       fftwf_execute (est->gate_forward);
       for (guint q = 0; q < est->gate_bins; q++) {
-        est->gate_templates->re[at + q] = crealf (est->gate_spectrum[q]) / m;
-        est->gate_templates->im[at + q] = cimagf (est->gate_spectrum[q]) / m;
+        const gsize i = at + SONAR_BLOCK8_INDEX (q);
+        est->gate_templates->re[i] = crealf (est->gate_spectrum[q]) / m;
+        est->gate_templates->im[i] = cimagf (est->gate_spectrum[q]) / m;
       }
     }
   }
@@ -396,8 +405,6 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
       setup->geometry.n_microphones);
   est->spectra_im = g_new (float, (gsize) band->n_bins *
       setup->geometry.n_microphones);
-  est->blocks = g_new (SonarComplex, (band->n_bins + LAG_BLOCK - 1) /
-      LAG_BLOCK);
   est->lag_sums = g_new (double complex, 2 * MAX_WINDOW_RANGES + 1);
   est->lag_powers = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
   est->peak_values = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
@@ -420,6 +427,8 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
       PRESCREEN_SPACING, est->hypotheses);
   gate_init (est, share);
+  est->blocks = g_new (SonarComplex, MAX ((band->n_bins + LAG_BLOCK - 1) /
+          LAG_BLOCK, est->gate_padded / GATE_BLOCK));
   est->lag_stride = sonar_steering_n_blocks (&est->steering, LAG_BLOCK);
   if (est->gate_size)
     est->lag_stride = MAX (est->lag_stride,
@@ -545,8 +554,8 @@ gate_focus (SonarVelocityEstimator * est, double range)
   }
   fftwf_execute (est->gate_forward);
   for (guint q = 0; q < est->gate_bins; q++) {
-    est->gate_re[q] = crealf (est->gate_spectrum[q]);
-    est->gate_im[q] = cimagf (est->gate_spectrum[q]);
+    est->gate_re[SONAR_BLOCK8_INDEX (q)] = crealf (est->gate_spectrum[q]);
+    est->gate_im[SONAR_BLOCK8_INDEX (q)] = cimagf (est->gate_spectrum[q]);
   }
   est->gated = TRUE;
 }
@@ -596,16 +605,16 @@ static void
 gated_blocks (SonarVelocityEstimator * est, double centre)
 {
   const guint v = est->blocks_velocity, n = est->blocks_emitter;
-  const gsize at = (gsize) v * est->n_emitters * est->gate_bins;
+  const gsize at = (gsize) v * est->n_emitters * est->gate_padded;
   const SonarSplitSpectra templates = { est->gate_templates->re + at,
     est->gate_templates->im + at
   };
 
-  sonar_steering_emitter_blocks (&est->gate_steering, est->gate_re,
+  sonar_steering_emitter_blocks8 (&est->gate_steering, est->gate_re,
       est->gate_im, &templates, n, est->emitter_legs[n],
       sonar_steering_stretch (&est->steering,
           sonar_doppler_bank_velocity (est->bank, v)),
-      est->blocks_range + centre, GATE_BLOCK, est->blocks);
+      est->blocks_range + centre, est->blocks);
   est->blocks_centre = centre;
 }
 
@@ -930,6 +939,17 @@ coherent_enough (const SonarVelocityEstimator * est, double coherence,
       (1.0 / ISOLATED_COHERENCE - 1.0) / (est->n_emitters - 1.0));
 }
 
+/* |@z|, as glibc's cabsf () computes it (the root in double of the
+ * squares, exact there) without its call: window_peak () takes a dozen
+ * per evaluation, and the calls cost as much as the roots. */
+static inline double
+magnitude (SonarComplex z)
+{
+  const double re = crealf (z), im = cimagf (z);
+
+  return (float) sqrt (re * re + im * im);
+}
+
 /* Whether @a and @b are the same double, bit for bit (a lag read's
  * output depends on its offset's bits, the sign of a zero included). */
 static gboolean
@@ -963,7 +983,7 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
       est->read_outputs, est->peak_centres);
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
-    const double y = cabsf (est->read_outputs[dr - est->lag_first]);
+    const double y = magnitude (est->read_outputs[dr - est->lag_first]);
     values[dr] = y;
     if (y > best_value) {
       best_value = y;
@@ -993,7 +1013,7 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   }
   outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
   for (guint i = 0; i < n_fine; i++)
-    fine[fine_q[i]] = cabsf (fine_outputs[i]);
+    fine[fine_q[i]] = magnitude (fine_outputs[i]);
   for (int q = 1; q < 8; q++)
     if (fine[q] > fine[best])
       best = q;

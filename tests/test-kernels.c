@@ -166,6 +166,56 @@ test_steer_block_sums (gconstpointer data)
   }
 }
 
+/* The block8 layout's sums against the reference and, block by block,
+ * against double precision: whole chunks, data ending inside a block
+ * (the rest padded with zeros), large phases. */
+static void
+test_block8_sums (gconstpointer data)
+{
+  static const guint sizes[] = { 0, 1, 8, 63, 64, 65, 200, 722, 2882 };
+  enum { N = SONAR_BLOCK8_PADDED (2882) };
+  const SonarBlock8SumsConjImpl *impl = data;
+  const SonarBlock8SumsConjFn reference =
+      sonar_kernel_block8_sums_conj_impls[0].fn;
+  SonarRng rng;
+  SonarComplex a[N], b[N], fast[N / 8], ref[N / 8];
+  float a_re[N], a_im[N], b_re[N], b_im[N];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 21, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (sizes); t++) {
+    const guint size = sizes[t], n = SONAR_BLOCK8_PADDED (size);
+    const double phase0 = -412.25 * (t + 1), dphase = 0.023 * (t + 1);
+    double worst = 0.0, worst_exact = 0.0;
+
+    random_spectrum (&rng, a, size);
+    random_spectrum (&rng, b, size);
+    for (guint k = 0; k < n; k++) {
+      const guint i = SONAR_BLOCK8_INDEX (k);
+      g_assert_cmpuint (i, <, n);
+      a_re[i] = k < size ? crealf (a[k]) : 0.0f;
+      a_im[i] = k < size ? cimagf (a[k]) : 0.0f;
+      b_re[i] = k < size ? crealf (b[k]) : 0.0f;
+      b_im[i] = k < size ? cimagf (b[k]) : 0.0f;
+    }
+    impl->fn (fast, a_re, a_im, b_re, b_im, n, phase0, dphase);
+    reference (ref, a_re, a_im, b_re, b_im, n, phase0, dphase);
+    for (guint j = 0; j < n / 8; j++) {
+      const guint first = MIN (8 * j, size), count = MIN (8, size - first);
+      double magnitudes;
+      const double complex exact = exact_dot_conj (a + first, b + first,
+          count, phase0 + first * dphase, dphase, &magnitudes);
+      const double scale = MAX (magnitudes, 1e-6);
+      worst = MAX (worst, cabsf (fast[j] - ref[j]) / scale);
+      worst_exact = MAX (worst_exact, cabs (fast[j] - exact) / scale);
+    }
+    g_test_message ("%u bins: worst relative error %.2e against the "
+        "reference, %.2e against double", size, worst, worst_exact);
+    g_assert_cmpfloat (worst, <, 1e-5);
+    g_assert_cmpfloat (worst_exact, <, 1e-5);
+  }
+}
+
 static void
 test_steer_sum (gconstpointer data)
 {
@@ -553,6 +603,8 @@ main (int argc, char **argv)
       test_phase_ramp_exact);
   ADD_IMPL_TESTS ("steer-block-sums",
       sonar_kernel_steer_block_sums_conj_impls, test_steer_block_sums);
+  ADD_IMPL_TESTS ("block8-sums", sonar_kernel_block8_sums_conj_impls,
+      test_block8_sums);
   ADD_IMPL_TESTS ("long-sums-against-double",
       sonar_kernel_steer_block_sums_conj_impls,
       test_long_sums_against_double);

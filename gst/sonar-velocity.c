@@ -1354,15 +1354,15 @@ typedef enum
 {
   ECHO_AT_PEAK,                 /* the centroid's strongest member peak */
   ECHO_AT_EVALUATED,            /* where the bank was evaluated */
-} EchoPosition;
+} EchoRange;
 
 /* Sets the echo's range (SonarVelocityEstimate) of @out's @count
  * estimates at @centroid. A lone estimate whose window lag (whole range
  * steps, describe_peak ()) lands within a step of the strongest member
  * peak is that peak's echo, whose fit is finer. */
 static void
-place_echoes (const SonarVelocityEstimator * est,
-    const SonarCentroid * centroid, EchoPosition echo,
+place_echo_ranges (const SonarVelocityEstimator * est,
+    const SonarCentroid * centroid, EchoRange echo,
     SonarVelocityEstimate * out, guint count)
 {
   const gboolean at_peak = echo == ECHO_AT_PEAK;
@@ -1379,7 +1379,7 @@ place_echoes (const SonarVelocityEstimator * est,
 static guint
 estimate_at (SonarVelocityEstimator * est,
     const SonarSplitSpectra * mic_spectra, const SonarCentroid * centroid,
-    double azimuth, double elevation, EchoPosition echo,
+    double azimuth, double elevation, EchoRange echo,
     SonarVelocityEstimate * out, float *curves)
 {
   const guint nv = est->n_velocities;
@@ -1420,7 +1420,7 @@ estimate_at (SonarVelocityEstimator * est,
     if (curves)
       for (gsize i = 0; i < (gsize) (est->n_emitters + 1) * nv; i++)
         curves[i] = NAN;
-    place_echoes (est, centroid, echo, out, 1);
+    place_echo_ranges (est, centroid, echo, out, 1);
     return 1;
   }
 
@@ -1495,7 +1495,7 @@ estimate_at (SonarVelocityEstimator * est,
       curves[(gsize) est->n_emitters * nv + v] = (float) (20.0 / G_LN10 *
           lp[v] / est->n_emitters);
   }
-  place_echoes (est, centroid, echo, out, count);
+  place_echo_ranges (est, centroid, echo, out, count);
   return count;
 }
 

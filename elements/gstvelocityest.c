@@ -213,8 +213,8 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   d.centroid = index;
   d.range = sonar_velocity_centre_range (e->echo_range, e->radial_velocity,
       c, self->emission_centre, &delay);
-  d.azimuth = e->azimuth;
-  d.elevation = e->elevation;
+  d.azimuth = e->echo_azimuth;
+  d.elevation = e->echo_elevation;
   d.position = sonar_vec3_scale (sonar_vec3_from_direction (d.azimuth,
           d.elevation), d.range);
   d.instant = GST_CLOCK_TIME_IS_VALID (ping_time) ?

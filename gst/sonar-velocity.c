@@ -842,6 +842,53 @@ coherence_over (SonarVelocityEstimator * est,
  * the 2-degree MIMO beam's peak, and no search is made (every searched
  * direction is one more chance for noise to look coherent). */
 #define FINE_GRID_STEP 1.0
+/* The search's sub-directions per axis: -DIRECTION_SUBSTEPS .. +. */
+#define SEARCH_SIDE (2 * DIRECTION_SUBSTEPS + 1)
+
+/* The vertex (*x, *y) of the quadratic a + b x + c y + d x^2 + e xy +
+ * g y^2 fitted by least squares to ln @f over the 3 x 3 points x, y in
+ * {-1, 0, 1} (f[(y + 1) * 3 + x + 1]; with @two_d FALSE, the row y = 0
+ * alone, *y = 0 and e = g = 0), each coordinate kept within the patch,
+ * and @hessian its second derivatives (2d, e, 2g). FALSE where a value
+ * is not positive or the fit has no maximum. On this regular patch the
+ * normal equations are diagonal but for the constant and the squares:
+ * b = sum f x / 6, e = sum f x y / 4, d = sum f (x^2 - 2/3) / 2. */
+static gboolean
+quadratic_vertex (const double f[9], gboolean two_d, double *x, double *y,
+    double hessian[3])
+{
+  double l[9], b = 0.0, c = 0.0, d = 0.0, e = 0.0, g = 0.0, det;
+
+  for (int k = 0; k < 9; k++) {
+    if (!(f[k] > 0.0) && (two_d || k / 3 == 1))
+      return FALSE;
+    l[k] = f[k] > 0.0 ? log (f[k]) : 0.0;
+  }
+  if (two_d) {
+    for (int k = 0; k < 9; k++) {
+      const int px = k % 3 - 1, py = k / 3 - 1;
+      b += l[k] * px / 6.0;
+      c += l[k] * py / 6.0;
+      d += l[k] * (px * px - 2.0 / 3.0) / 2.0;
+      g += l[k] * (py * py - 2.0 / 3.0) / 2.0;
+      e += l[k] * px * py / 4.0;
+    }
+  } else {
+    b = 0.5 * (l[5] - l[3]);
+    d = 0.5 * (l[3] + l[5]) - l[4];
+    g = -1.0;                   /* any maximum along y: x alone is fitted */
+  }
+  /* A maximum: the Hessian [2d e; e 2g] negative definite. */
+  det = 4.0 * d * g - e * e;
+  if (!(d < 0.0) || !(det > 0.0))
+    return FALSE;
+  *x = CLAMP ((e * c - 2.0 * g * b) / det, -1.0, 1.0);
+  *y = CLAMP ((e * b - 2.0 * d * c) / det, -1.0, 1.0);
+  hessian[0] = 2.0 * d;
+  hessian[1] = e;
+  hessian[2] = two_d ? 2.0 * g : NAN;
+  return TRUE;
+}
 
 /* On a coarse grid, moves (*azimuth, *elevation) to the strongest
  * sub-direction within half a grid step (steps of a quarter), at the
@@ -852,11 +899,30 @@ coherence_over (SonarVelocityEstimator * est,
  * the centroid's own direction, the other directions at its strongest
  * one and the neighbours either side only: an echo's Doppler does not
  * change within half a grid step (with the +-7 m/s bank, 47 hypotheses:
- * 3-D centroids cost a sixth). */
+ * 3-D centroids cost a sixth).
+ *
+ * (*echo_azimuth, *echo_elevation) receive the echo's direction, which
+ * its detection reports: the vertex of a quadratic in the logarithm of
+ * the same strength over the 3 x 3 directions half a grid step apart
+ * about the search's best (3 along azimuth on a 2-D grid), where the
+ * patch is close to symmetric about the beam's peak (the beam's log is
+ * no parabola over a whole step: a lopsided patch biases the vertex). The search
+ * moves in quarter steps, too coarse for the beam's precision at high
+ * SNR, and at low SNR its best step jumps with the noise; the given
+ * direction (a centroid's members' weighted mean) is pulled over by the
+ * noise peaks that join a strong echo's cluster. The fit has the image's
+ * shape (a tilted beam's cross term included) without its grid; where it
+ * has no maximum, or the patch crosses +-90 degrees, the search's
+ * direction is reported. @curvature receives the fit's second
+ * derivatives of ln (amplitude) per degree^2 (azimuth^2, azimuth x
+ * elevation, elevation^2), the shape the direction's sigma is read from
+ * (sonar-uncertainty.h); NaN without a fit (and off a 2-D grid's
+ * azimuth). */
 static void
 refine_direction (SonarVelocityEstimator * est,
     const SonarSplitSpectra * spectra, double range, double *azimuth,
-    double *elevation, double *coherence, double *strength_out)
+    double *elevation, double *coherence, double *strength_out,
+    double *echo_azimuth, double *echo_elevation, double curvature[3])
 {
   const SonarImageGrid *g = &est->grid;
   const double da = g->azimuth_step / (2 * DIRECTION_SUBSTEPS);
@@ -865,20 +931,28 @@ refine_direction (SonarVelocityEstimator * est,
       DIRECTION_SUBSTEPS : 0;
   const int qe = g->elevation_step > FINE_GRID_STEP + 1e-9 ?
       DIRECTION_SUBSTEPS : 0;
-  double best_strength, best_az = *azimuth, best_el = *elevation;
+  const double az_c = *azimuth, el_c = *elevation;
+  /* The strengths evaluated, at quarter steps from the given direction
+   * ([(j + 2) * SEARCH_SIDE + i + 2]; 0: not evaluated). */
+  double searched[SEARCH_SIDE * SEARCH_SIDE] = { 0 };
+  double best_strength, best_az = az_c, best_el = el_c, patch[9];
+  int best_i = 0, best_j = 0;
   guint which, first, n_near;
 
   *coherence = coherence_over (est, spectra, range, best_az, best_el,
       est->hypotheses, est->n_hypotheses, &best_strength, &which, NULL,
       &est->interference);
+  searched[DIRECTION_SUBSTEPS * SEARCH_SIDE + DIRECTION_SUBSTEPS] =
+      best_strength;
   first = which > 0 ? which - 1 : 0;
   n_near = MIN (which + 2, est->n_hypotheses) - first;
   for (int axis = 0; axis < 2; axis++) {
     const int q = axis == 0 ? qa : qe;
-    const double az0 = best_az, el0 = best_el;
+    const int i0 = best_i;
     for (int i = -q; i <= q; i++) {
-      const double az = axis == 0 ? CLAMP (az0 + i * da, -90.0, 90.0) : az0;
-      const double el = axis == 1 ? CLAMP (el0 + i * de, -90.0, 90.0) : el0;
+      const int oi = axis == 0 ? i : i0, oj = axis == 1 ? i : 0;
+      const double az = CLAMP (az_c + oi * da, -90.0, 90.0);
+      const double el = CLAMP (el_c + oj * de, -90.0, 90.0);
       double strength, cf, interference;
       /* The centre of either line is already evaluated. */
       if (i == 0)
@@ -886,10 +960,14 @@ refine_direction (SonarVelocityEstimator * est,
       cf = coherence_over (est, spectra, range, az, el,
           est->hypotheses + first, n_near, &strength, NULL, NULL,
           &interference);
+      searched[(oj + DIRECTION_SUBSTEPS) * SEARCH_SIDE + oi +
+          DIRECTION_SUBSTEPS] = strength;
       if (strength > best_strength) {
         best_strength = strength;
         best_az = az;
         best_el = el;
+        best_i = oi;
+        best_j = oj;
         *coherence = cf;
         est->interference = interference;
       }
@@ -898,6 +976,42 @@ refine_direction (SonarVelocityEstimator * est,
   *azimuth = best_az;
   *elevation = best_el;
   *strength_out = best_strength;
+  *echo_azimuth = best_az;
+  *echo_elevation = best_el;
+  curvature[0] = curvature[1] = curvature[2] = NAN;
+  if (qa == 0 || fabs (best_az) + qa * da > 90.0 || fabs (best_el) + qe * de
+      > 90.0)
+    return;
+  /* The patch, about the search's best: its evaluations where it has
+   * them. */
+  for (int pj = -1; pj <= 1; pj++) {
+    for (int pi = -1; pi <= 1; pi++) {
+      const int oi = best_i + pi * qa, oj = best_j + pj * qe;
+      double *value = &patch[(pj + 1) * 3 + pi + 1];
+      *value = 0.0;
+      if (qe == 0 && pj != 0)
+        continue;
+      if (ABS (oi) <= DIRECTION_SUBSTEPS && ABS (oj) <= DIRECTION_SUBSTEPS)
+        *value = searched[(oj + DIRECTION_SUBSTEPS) * SEARCH_SIDE + oi +
+            DIRECTION_SUBSTEPS];
+      if (*value == 0.0)
+        coherence_over (est, spectra, range, az_c + oi * da, el_c + oj * de,
+            est->hypotheses + first, n_near, value, NULL, NULL, NULL);
+    }
+  }
+  {
+    /* Patch units to degrees; the strength is a power, the curvature
+     * the sigmas take that of ln (amplitude), half its own. */
+    const double ha = qa * da, he = qe * de;
+    double x, y, h[3];
+    if (quadratic_vertex (patch, qe > 0, &x, &y, h)) {
+      *echo_azimuth = best_az + x * ha;
+      *echo_elevation = best_el + y * he;
+      curvature[0] = 0.5 * h[0] / (ha * ha);
+      curvature[1] = qe > 0 ? 0.5 * h[1] / (ha * he) : NAN;
+      curvature[2] = qe > 0 ? 0.5 * h[2] / (he * he) : NAN;
+    }
+  }
 }
 
 /* The most the interference at the chosen pixel (the power the emitters'
@@ -1403,7 +1517,8 @@ estimate_at (SonarVelocityEstimator * est,
    * degrees wide: the prescreen also takes the strongest direction within
    * half a grid step, where the bank is then evaluated. */
   refine_direction (est, mic_spectra, range, &azimuth, &elevation,
-      &out[0].coherence, &strength);
+      &out[0].coherence, &strength, &out[0].echo_azimuth,
+      &out[0].echo_elevation, out[0].direction_curvature);
   out[0].azimuth = azimuth;
   out[0].elevation = elevation;
   if (est->interference > 0.0)

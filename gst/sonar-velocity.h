@@ -161,6 +161,18 @@ typedef struct
    * whole range steps. Elsewhere (a blend's other echo, a split half)
    * where it was evaluated. */
   double echo_range;
+  /* The echo's direction (degrees), which its detection reports: on a
+   * grid coarser than FINE_GRID_STEP (sonar-velocity.c), the peak of a
+   * quadratic fitted to the coherent strength over the 3 x 3 directions
+   * (3 on a 2-D grid) half a grid step apart about the search's best, finer than the search's quarter steps and not pulled over
+   * by the noise peaks a strong echo's cluster gathers; else where it
+   * was evaluated. */
+  double echo_azimuth, echo_elevation;
+  /* Second derivatives of ln (the emitters' coherent sum's amplitude) at
+   * the echo's direction, per degree^2, from that fit: along azimuth,
+   * across (azimuth x elevation), along elevation; NaN where no fit was
+   * made (the cross and elevation terms on a 2-D grid). */
+  double direction_curvature[3];
   double radial_velocity;       /* m/s, + = moving away */
   guint bank_index;             /* bank velocity nearest the estimate */
   double peak_db;               /* product peak above the curve's median, dB per emitter */

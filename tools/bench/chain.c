@@ -573,8 +573,8 @@ chain_velocity (Chain * ch, guint n_centroids)
       if (!e[i].valid)
         continue;
       ch->positions[ch->n_detections] = sonar_vec3_scale
-          (sonar_vec3_from_direction (e[i].azimuth, e[i].elevation),
-          e[i].echo_range);
+          (sonar_vec3_from_direction (e[i].echo_azimuth,
+              e[i].echo_elevation), e[i].echo_range);
       ch->velocities[ch->n_detections++] = e[i].radial_velocity;
     }
   }

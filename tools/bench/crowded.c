@@ -222,7 +222,7 @@ cancel_bound (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
       for (guint i = 0; i < counts[c]; i++) {
         const SonarVelocityEstimate *e = &results[2 * c + i];
         const SonarVec3 at = sonar_vec3_scale (sonar_vec3_from_direction
-            (e->azimuth, e->elevation), e->echo_range);
+            (e->echo_azimuth, e->echo_elevation), e->echo_range);
         int near = -1;
         if (!e->valid)
           continue;

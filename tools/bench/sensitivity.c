@@ -817,13 +817,13 @@ uncertainty_pings_at (Chain * ch, SonarSimulator * sim,
           SonarUncertainty s;
           if (!e->valid
               || fabs (e->echo_range - truth.range) > MATCH_DISTANCE
-              || fabs (e->azimuth - truth.azimuth) > 3.0)
+              || fabs (e->echo_azimuth - truth.azimuth) > 3.0)
             continue;
           sonar_uncertainty_measure (ch->image, ch->grid,
               sonar_noise_meter_power (noise, ch->image),
               &ch->centroids[k], e, ch->n_emitters, &s);
           values[3 * n] = e->echo_range;
-          values[3 * n + 1] = e->azimuth;
+          values[3 * n + 1] = e->echo_azimuth;
           values[3 * n + 2] = e->radial_velocity;
           sigmas[3 * n] = s.range_sigma;
           sigmas[3 * n + 1] = s.azimuth_sigma;

@@ -53,8 +53,13 @@
  * of that noise (sonar_uncertainty_parabola_sigma ()); on the detection
  * image the maximum over the hypotheses changes the samples' noise,
  * which K_eff, calibrated with this bound on the 2-D scatter, absorbs.
- * Not in these sigmas: velocityest's direction search, which moves a
- * detection by whole quarter steps. */
+ * Where velocityest fitted the direction (on grids coarser than a
+ * degree: the 3 x 3 of its coherent sums half a grid step apart, see
+ * SonarVelocityEstimate), the detection's direction is that fit's vertex,
+ * and its sigmas the marginals of the covariance (2 g SNR (-K))^-1 of the
+ * fit's Hessian K of ln (amplitude) per degree^2 (the tilted beam's cross
+ * term widens them by 1 / (1 - rho^2)), with the fit's SNR gain g
+ * (SONAR_UNCERTAINTY_FIT_SNR_GAIN). */
 #ifndef SONAR_UNCERTAINTY_H
 #define SONAR_UNCERTAINTY_H
 
@@ -94,6 +99,17 @@ typedef struct
  * channel, while range and azimuth were within 8-24 % (sonar-bench
  * --sweep uncertainty): 1.54^2. */
 #define SONAR_UNCERTAINTY_EMITTER_SNR_GAIN 2.4
+
+/* The SNR velocityest's direction fit sees, over the image's (its
+ * sigmas: sonar_uncertainty_measure ()). The fit reads the emitters'
+ * coherent sum at the detection's own hypotheses, where the noise is one
+ * hypothesis' and the meter's E|n|^2, K_eff's (above), is set for the
+ * image's maximum over all of them (K_eff 14 where 41 count at the
+ * quartile's tail: 1.44 of the power). Measured (tools/uncertainty-3d.py,
+ * seed 1's 12 points, 24 pings): with a gain of 1 the fit's sigmas read
+ * 1.3-1.6 times their scatter at 31 and 23 dB of image SNR, 1.16 and
+ * 1.44 at 21 dB. */
+#define SONAR_UNCERTAINTY_FIT_SNR_GAIN 2.0
 
 /* The image's noise (above): its scratch is sized once for a grid, so
  * that a ping allocates nothing. */

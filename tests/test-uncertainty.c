@@ -136,6 +136,58 @@ test_sigmas_of_a_known_peak (void)
   g_assert_true (isnan (u.radial_velocity_sigma));
 }
 
+/* Where velocityest fitted the direction (SonarVelocityEstimate's
+ * direction_curvature), its sigmas are that fit's: the marginals of
+ * (2 g SNR (-K))^-1, wider than each axis' own curvature says where the
+ * beam lies tilted (K's cross term); along azimuth alone on a 2-D grid.
+ * The image's curvature is not read then (an image that says otherwise). */
+static void
+test_sigmas_of_the_direction_fit (void)
+{
+  const SonarImageGrid grid = {.n_azimuth = 41,.n_elevation = 1,
+    .n_range = 200,.azimuth_first = -20,.azimuth_step = 1,
+    .range_first = 1.0,.range_step = 0.002
+  };
+  const double amplitude = 50.0, noise_power = 0.25;
+  const double snr = amplitude * amplitude / noise_power *
+      SONAR_UNCERTAINTY_FIT_SNR_GAIN;
+  const double kaa = -0.9, kae = 0.3, kee = -0.5;
+  const double det = kaa * kee - kae * kae;
+  g_autofree float *image = g_new (float, 41 * 200);
+  SonarCentroid c = {.range = 1.2,.peak_azimuth_index = 20,
+    .peak_range_index = 100
+  };
+  SonarVelocityEstimate e = {.range = 1.2,.velocity_curvature = NAN,
+    .direction_curvature = {kaa, NAN, NAN}
+  };
+  SonarUncertainty u;
+
+  for (guint a = 0; a < 41; a++)
+    for (guint i = 0; i < 200; i++) {
+      const double x = (i - 100.0) * grid.range_step, y = a - 20.0;
+      image[a * 200 + i] = (float) (amplitude * exp (-x * x / (2 * 0.003 *
+                  0.003) - y * y / (2 * 4.0 * 4.0)));
+    }
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
+  g_assert_cmpfloat_with_epsilon (u.azimuth_sigma, 1.0 / sqrt (2 * snr *
+          -kaa), 1e-12);
+  g_assert_true (isnan (u.elevation_sigma));
+
+  e.direction_curvature[1] = kae;
+  e.direction_curvature[2] = kee;
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
+  g_assert_cmpfloat_with_epsilon (u.azimuth_sigma, sqrt (-kee / det /
+          (2 * snr)), 1e-12);
+  g_assert_cmpfloat_with_epsilon (u.elevation_sigma, sqrt (-kaa / det /
+          (2 * snr)), 1e-12);
+  g_assert_cmpfloat (u.azimuth_sigma, >, 1.0 / sqrt (2 * snr * -kaa));
+
+  /* No maximum (not negative definite): no direction sigma. */
+  e.direction_curvature[1] = 1.0;
+  sonar_uncertainty_measure (image, &grid, noise_power, &c, &e, 8, &u);
+  g_assert_true (isnan (u.azimuth_sigma) && isnan (u.elevation_sigma));
+}
+
 /* The bound itself: a matched filter's output, A rho (x - x0) plus noise
  * correlated as rho (white noise through the same filter), sampled
  * finely; the peak read off a parabola through the log envelope's three
@@ -277,6 +329,8 @@ main (int argc, char **argv)
   g_test_add_func ("/uncertainty/noise-power-short-window",
       test_noise_power_short_window);
   g_test_add_func ("/uncertainty/known-peak", test_sigmas_of_a_known_peak);
+  g_test_add_func ("/uncertainty/direction-fit",
+      test_sigmas_of_the_direction_fit);
   g_test_add_func ("/uncertainty/bound", test_bound_against_scatter);
   g_test_add_func ("/uncertainty/propagation", test_propagation);
   return g_test_run ();

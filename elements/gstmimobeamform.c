@@ -76,6 +76,8 @@ enum
   PROP_COARSE_SPACING,
   PROP_REFINE_DB,
   PROP_REFINE_PFA,
+  PROP_COARSE_BAND,
+  PROP_COARSE_BAND_PFA,
   PROP_MODE,
   PROP_VELOCITY,
   PROP_HYPOTHESIS_SPACING,
@@ -437,6 +439,12 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
     case PROP_REFINE_PFA:
       p->refine_pfa = g_value_get_double (value);
       break;
+    case PROP_COARSE_BAND:
+      p->coarse_band = g_value_get_double (value);
+      break;
+    case PROP_COARSE_BAND_PFA:
+      p->coarse_pfa = g_value_get_double (value);
+      break;
     case PROP_MODE:
       self->mode = g_value_get_enum (value);
       break;
@@ -511,6 +519,12 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
       break;
     case PROP_REFINE_PFA:
       g_value_set_double (value, p->refine_pfa);
+      break;
+    case PROP_COARSE_BAND:
+      g_value_set_double (value, p->coarse_band);
+      break;
+    case PROP_COARSE_BAND_PFA:
+      g_value_set_double (value, p->coarse_pfa);
       break;
     case PROP_MODE:
       g_value_set_enum (value, self->mode);
@@ -630,6 +644,22 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "a coarse step off, rejected by velocityest); more: fewer echoes "
           "missed, more work; 0: off (refine-db alone)", 0.0, 0.999,
           d.refine_pfa, tunable));
+  g_object_class_install_property (gobject_class, PROP_COARSE_BAND,
+      g_param_spec_double ("coarse-band", "Coarse band", "Share of the "
+          "band, from its low edge, that the coarse pass sums (its "
+          "transforms shorter, its Doppler hypotheses thinned by the band's "
+          "top frequency over the sub-band's); what it finds is imaged again "
+          "over the whole band on the coarse directions, the rest keeps its "
+          "image mapped onto the whole band's noise statistics. Less: less "
+          "work, faint echoes (its SNR is the share's, -4.8 dB for a third) "
+          "missed; 1: the whole band", 0.01, 1.0, d.coarse_band, flags));
+  g_object_class_install_property (gobject_class, PROP_COARSE_BAND_PFA,
+      g_param_spec_double ("coarse-band-pfa", "Coarse band false-alarm "
+          "rate", "With coarse-band below 1: a coarse pixel is imaged again "
+          "over the whole band where it stands over its range's noise floor "
+          "by what noise alone exceeds with this probability (or within "
+          "refine-db of the strongest echo); more: fewer faint echoes "
+          "missed, more work", 1e-12, 0.5, d.coarse_pfa, flags));
   g_object_class_install_property (gobject_class, PROP_MODE,
       g_param_spec_enum ("mode", "Mode", "Which Doppler hypotheses to image",
           GST_TYPE_SONAR_IMAGE_MODE, DEFAULT_MODE, flags));

@@ -18,6 +18,8 @@
 #define HYPOTHESIS_BLOCK 16
 /* refine_pfa's default. */
 #define DEFAULT_REFINE_PFA 1e-5
+/* coarse_pfa's default. */
+#define DEFAULT_COARSE_PFA 1e-5
 /* A coarse pixel that noise alone exceeds this rarely (over its range
  * bin's noise floor, as refine_pfa's gate at its default) marks its block
  * of HYPOTHESIS_BLOCK range bins as holding an echo: fixed, so that what
@@ -27,6 +29,15 @@
  * directions: each direction's bins read in one run (one bin at a time
  * reads a cache line per value; sonar-cluster.c gathers so too). */
 #define FLOOR_BLOCK 32
+
+/* The sub-band coarse pass (coarse_band < 1): coarse directions whose
+ * envelope of one hypothesis is also made over the whole band, to measure
+ * the ratio of the two bands' noise levels (their lower quartiles over
+ * the range); the map of sub-band to whole-band noise, tabulated against
+ * (pixel / sigma)^2 up to MAP_SPAN in MAP_SIZE steps. */
+#define CALIBRATION_DIRECTIONS 8
+#define MAP_SIZE 2048
+#define MAP_SPAN 64.0
 
 #define MAX_DIRECTIONS 65536
 #define MAX_FOCUS_ZONES 64
@@ -79,6 +90,15 @@ typedef struct
   /* The noise gate's range floors: [FLOOR_BLOCK x coarse direction]
    * gathered values, and one bin's scratch (2 x coarse directions). */
   float *floor_values, *floor_scratch;
+  /* The sub-band coarse pass: its product and transform (sub_ifft_size),
+   * one hypothesis's envelope and the maximum over them (sub_ifft_size +
+   * 1: the last is the first again, the transform's period). */
+  SonarComplex *sub_baseband, *sub_lags;
+  float *sub_envelope, *sub_max;
+  /* Its confirmation: the whole band's maximum over the confirmed
+   * hypotheses (range bins), and per block of them its strongest. */
+  float *confirm_max, *confirm_value;
+  guint16 *confirm_hypothesis;
 } Scratch;
 
 /* One call's arguments, for the workers. */
@@ -107,6 +127,21 @@ typedef struct
   float *image;
   gsize stride;
   float scale;
+  /* Coarse pass on the sub-band: coarse hypotheses every hyp_step-th
+   * (else 1); and which units of the call (cal_units[k], k < n_cal) keep
+   * their envelope of hypothesis cal_hypothesis for the calibration. */
+  gboolean sub;
+  guint hyp_step;
+  guint n_cal;
+  guint cal_units[CALIBRATION_DIRECTIONS];
+  guint cal_hypothesis;
+  /* The hypotheses the noise floors' statistics assume (the coarse
+   * image's, before and after the map). */
+  guint floor_hypotheses;
+  /* Coarse pass on the whole band after the sub-band's: per (unit of the
+   * call x hypothesis), whether to image it (confirm_sub_image ()); the
+   * image holds the mapped sub-band image, which it raises. */
+  const guint8 *confirm;
 } ImageJob;
 
 struct _SonarImager
@@ -125,6 +160,8 @@ struct _SonarImager
   guint coarse_azimuth, coarse_elevation;      /* grid steps per coarse step */
   float refine_ratio;           /* 10^(-refine_db / 20) */
   double refine_pfa;            /* the noise gate's pfa; 0: off */
+  double coarse_pfa;            /* the sub-band's gate (coarse_band < 1) */
+  double cluster_pfa;           /* wardcluster's default threshold's pfa */
   float sidelobe_ratio;         /* wardcluster's default sidelobe level */
   guint n_coarse;               /* coarse directions */
   float *range_floor;           /* [range bin] the noise gate over them */
@@ -150,6 +187,29 @@ struct _SonarImager
   guint ifft_size;              /* M */
   guint first_lag;              /* IFFT sample of range bin 0 */
   fftwf_plan inverse;           /* made on scratch[0], run on every worker's */
+  /* The sub-band coarse pass (coarse_band < 1 and a coarse grid): bins
+   * [0, sub_bins) of the band, transforms of sub_ifft_size = M /
+   * sub_ratio points (at least 1.5 times the bins: an envelope sampled
+   * finely enough to interpolate), so that its lag l is lag sub_ratio l of the
+   * whole band's; coarse hypotheses every sub_step-th. */
+  gboolean sub;
+  guint sub_bins, sub_ratio, sub_ifft_size, sub_step;
+  guint sub_first_lag, sub_end_lag;     /* lags spanning the grid's ranges */
+  fftwf_plan sub_inverse;
+  float *sub_weight;            /* [sub lag] r^2 */
+  /* The calibration: [CALIBRATION_DIRECTIONS x range bin] whole-band and
+   * sub-band envelopes of one hypothesis; their quartiles' ratio. */
+  float *cal_full, *cal_sub;
+  float noise_ratio;
+  /* The map: per range bin, 1 / sigma^2 of the sub-band's noise and the
+   * whole band's sigma; per (x / sigma)^2 step, (y / sigma_full)^2 - (x /
+   * sigma)^2, for the hypotheses map_hypotheses (and map_coarse). */
+  float *map_inverse, *map_sigma;
+  float map_table[MAP_SIZE + 1];
+  float map_tail;
+  guint map_hypotheses, map_coarse;
+  guint8 *confirm;              /* [coarse unit x hypothesis] */
+  gboolean level_echo;          /* the sub-band saw an echo */
   /* The call's data, split: microphones x K, scaled (data_exponent ()). */
   float *mic_re, *mic_im;
   /* [UNIT x hypothesis], as job.zone_peaks and job.wanted, for
@@ -177,6 +237,8 @@ sonar_imager_params_init_default (SonarImagerParams * p)
   p->focus_zones = 4;
   p->refine_db = 20.0;
   p->refine_pfa = DEFAULT_REFINE_PFA;
+  p->coarse_band = 1.0;
+  p->coarse_pfa = DEFAULT_COARSE_PFA;
   p->threads = 0;
 }
 
@@ -250,6 +312,10 @@ validate_params (const SonarImagerParams * p, double range_max,
     problem = "focus zones must be 1 to 64";
   else if (!(p->coarse_spacing >= 0.0 && p->coarse_spacing <= 90.0))
     problem = "the coarse spacing must be 0 to 90 degrees";
+  else if (!(p->coarse_band > 0.0 && p->coarse_band <= 1.0))
+    problem = "the coarse band must be in (0, 1]";
+  else if (!(p->coarse_pfa > 0.0 && p->coarse_pfa < 1.0))
+    problem = "the coarse band's pfa must be in (0, 1)";
   else
     problem = refine_problem (p->refine_db, p->refine_pfa);
   if (problem) {
@@ -319,6 +385,53 @@ init_zones (SonarImager * im, const SonarImagerParams * p, double range_max)
 static void coarse_corners (const SonarImager * im, guint d,
     guint corners[4]);
 
+/* The sub-band coarse pass's sizes (coarse_band < 1 on a coarse grid of
+ * at least 4 directions, which the noise floors need): the band's first
+ * round (coarse_band K) bins; a transform of M / ratio points, ratio the
+ * largest divisor of M leaving at least 1.5 times those bins (an envelope
+ * sampled finely enough to interpolate linearly: 4 for 481 of 3072, 768
+ * points; 2 for 961, 1536 points); the coarse hypotheses every sub_step-th, sub_step
+ * the band's top frequency over the sub-band's (a stretch mismatch turns
+ * the phase of the highest frequencies fastest: 80 / 30 kHz, 3). */
+static void
+init_sub (SonarImager * im, double coarse_band)
+{
+  const SonarBand *band = &im->band;
+  const guint m = im->ifft_size;
+  const guint bins = (guint) CLAMP (round (coarse_band * band->n_bins), 1,
+      band->n_bins);
+  guint ratio = 1;
+
+  im->sub = coarse_band < 1.0 && bins < band->n_bins && im->n_coarse >= 4
+      && im->coarse_azimuth * im->coarse_elevation > 1;
+  if (!im->sub)
+    return;
+  for (guint r = 2 * m / (3 * bins); r > 1; r--)
+    if (m % r == 0) {
+      ratio = r;
+      break;
+    }
+  im->sub_bins = bins;
+  im->sub_ratio = ratio;
+  im->sub_ifft_size = m / ratio;
+  im->sub_step = MAX (1u, (guint) round (sonar_band_frequency (band,
+              band->n_bins - 1) / sonar_band_frequency (band, bins - 1)));
+  im->sub_first_lag = im->first_lag / ratio;
+  im->sub_end_lag = MIN ((im->first_lag + im->grid.n_range - 1) / ratio + 2,
+      im->sub_ifft_size + 1);
+  im->sub_weight = g_new (float, im->sub_ifft_size + 1);
+  for (guint l = 0; l <= im->sub_ifft_size; l++) {
+    const double r = (double) l * ratio * im->grid.range_step;
+    im->sub_weight[l] = (float) (r * r);
+  }
+  im->cal_full = g_new (float, (gsize) CALIBRATION_DIRECTIONS *
+      im->grid.n_range);
+  im->cal_sub = g_new (float, (gsize) CALIBRATION_DIRECTIONS *
+      im->grid.n_range);
+  im->map_inverse = g_new (float, im->grid.n_range);
+  im->map_sigma = g_new (float, im->grid.n_range);
+}
+
 SonarImager *
 sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     const SonarImagerParams * p, GError ** error)
@@ -378,10 +491,12 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   init_zones (im, p, range_max);
   im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
   im->refine_pfa = p->refine_pfa;
+  im->coarse_pfa = p->coarse_pfa;
   {
     SonarClusterParams cluster;
     sonar_cluster_params_init_default (&cluster);
     im->sidelobe_ratio = (float) pow (10.0, cluster.sidelobe_db / 20.0);
+    im->cluster_pfa = cluster.pfa;
   }
   im->n_coarse = 0;
   im->coarse_unit = g_new (guint, im->n_directions);
@@ -427,6 +542,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     sonar_imager_free (im);
     return NULL;
   }
+  init_sub (im, p->coarse_band);
   for (guint w = 0; w < sonar_workers_count (im->workers); w++) {
     im->scratch[w].receive_re = fftwf_alloc_real (band->n_bins);
     im->scratch[w].receive_im = fftwf_alloc_real (band->n_bins);
@@ -442,12 +558,28 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     im->scratch[w].floor_values = g_new (float, (gsize) FLOOR_BLOCK *
         im->n_coarse);
     im->scratch[w].floor_scratch = g_new (float, 2 * (gsize) im->n_coarse);
+    if (im->sub) {
+      im->scratch[w].sub_baseband = fftwf_alloc_complex (im->sub_ifft_size);
+      im->scratch[w].sub_lags = fftwf_alloc_complex (im->sub_ifft_size);
+      memset (im->scratch[w].sub_baseband, 0, sizeof (SonarComplex) *
+          im->sub_ifft_size);
+      im->scratch[w].sub_envelope = g_new (float, im->sub_ifft_size + 1);
+      im->scratch[w].sub_max = g_new (float, im->sub_ifft_size + 1);
+      im->scratch[w].confirm_max = g_new (float, grid->n_range);
+      im->scratch[w].confirm_value = g_new (float, im->n_hypothesis_blocks);
+      im->scratch[w].confirm_hypothesis = g_new (guint16,
+          im->n_hypothesis_blocks);
+    }
   }
   sonar_fftw_lock ();
   /* FFTW's allocator aligns every array alike: the plan runs on each
    * worker's arrays with fftwf_execute_dft. */
   im->inverse = fftwf_plan_dft_1d (im->ifft_size, im->scratch[0].baseband,
       im->scratch[0].lags, FFTW_BACKWARD, SONAR_FFTW_PLANNING);
+  if (im->sub)
+    im->sub_inverse = fftwf_plan_dft_1d (im->sub_ifft_size,
+        im->scratch[0].sub_baseband, im->scratch[0].sub_lags, FFTW_BACKWARD,
+        SONAR_FFTW_PLANNING);
   sonar_fftw_unlock ();
   return im;
 }
@@ -476,11 +608,19 @@ sonar_imager_free (SonarImager * im)
   g_free (im->units);
   g_free (im->hot);
   g_free (im->imaging);
-  if (im->inverse) {
+  if (im->inverse || im->sub_inverse) {
     sonar_fftw_lock ();
-    fftwf_destroy_plan (im->inverse);
+    if (im->inverse)
+      fftwf_destroy_plan (im->inverse);
+    if (im->sub_inverse)
+      fftwf_destroy_plan (im->sub_inverse);
     sonar_fftw_unlock ();
   }
+  g_free (im->sub_weight);
+  g_free (im->cal_full);
+  g_free (im->cal_sub);
+  g_free (im->map_inverse);
+  g_free (im->map_sigma);
   for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
     fftwf_free (im->scratch[w].receive_re);
     fftwf_free (im->scratch[w].receive_im);
@@ -491,12 +631,20 @@ sonar_imager_free (SonarImager * im)
     g_free (im->scratch[w].envelope);
     g_free (im->scratch[w].floor_values);
     g_free (im->scratch[w].floor_scratch);
+    fftwf_free (im->scratch[w].sub_baseband);
+    fftwf_free (im->scratch[w].sub_lags);
+    g_free (im->scratch[w].sub_envelope);
+    g_free (im->scratch[w].sub_max);
+    g_free (im->scratch[w].confirm_max);
+    g_free (im->scratch[w].confirm_value);
+    g_free (im->scratch[w].confirm_hypothesis);
   }
   sonar_workers_free (im->workers);
   g_free (im->mic_re);
   g_free (im->mic_im);
   g_free (im->zone_peaks);
   g_free (im->wanted);
+  g_free (im->confirm);
   sonar_setup_unref (im->setup);
   g_free (im);
 }
@@ -553,6 +701,186 @@ coarse_corners (const SonarImager * im, guint d, guint corners[4])
   corners[3] = e1 * n_az + a1;
 }
 
+/* The coarse hypothesis that stands for hypothesis @h when they are
+ * every @step-th of @n: the middle of its run of @step. */
+static inline guint
+coarse_hypothesis (guint h, guint step, guint n)
+{
+  return MIN (h / step * step + (step - 1) / 2, n - 1);
+}
+
+/* @out[i], i < @n, the grid's range bins from lag @first_lag of the whole
+ * band's transform, linear between the samples of @sub (every @ratio-th
+ * lag of it). */
+static void
+sub_to_grid (float *out, const float *sub, guint first_lag, guint ratio,
+    guint n)
+{
+  const float step = 1.0f / ratio;
+  guint l = first_lag / ratio, t = first_lag % ratio;
+
+  for (guint i = 0; i < n; i++) {
+    out[i] = sub[l] + t * step * (sub[l + 1] - sub[l]);
+    if (++t == ratio) {
+      t = 0;
+      l++;
+    }
+  }
+}
+
+/* Coarse unit @u (direction @d, the coarse zone) on the sub-band: for
+ * every coarse hypothesis its r^2-weighted peak per zone, and per block of
+ * range bins which is strongest, at the sub-band's lags; their maximum
+ * onto the grid's range bins, into the image. */
+static void
+image_sub_unit (SonarImager * im, guint w, guint u, guint d,
+    const FocusZone * zone, guint n_first, guint n_end)
+{
+  const ImageJob *job = &im->job;
+  Scratch *scratch = &im->scratch[w];
+  const SonarGeometry *g = &im->setup->geometry;
+  const SonarSplitSpectra mic_spectra = { im->mic_re, im->mic_im };
+  const guint n_range = im->grid.n_range, n_hyp = job->n_hypotheses;
+  const guint ratio = im->sub_ratio, step = job->hyp_step;
+  const guint l0 = im->sub_first_lag, l1 = im->sub_end_lag;
+  const gsize blocks = (gsize) u * im->n_hypothesis_blocks;
+  guint16 *best = job->best_hypothesis + blocks;
+  float *best_value = job->best_value + blocks;
+  float *env = scratch->sub_envelope;
+  int cal = -1;
+
+  for (guint k = 0; k < job->n_cal; k++)
+    if (job->cal_units[k] == u)
+      cal = (int) k;
+  sonar_steering_receive_sum_part (&im->steering, &mic_spectra,
+      zone->mic_legs + (gsize) d * g->n_microphones, 0, im->sub_bins,
+      scratch->receive_re, scratch->receive_im);
+  for (guint h0 = 0; h0 < n_hyp; h0 += step) {
+    const guint h = coarse_hypothesis (h0, step, n_hyp);
+    const SonarHypothesis *hypothesis = &job->hypotheses[h];
+
+    sonar_steering_transmit_sum_part (&im->steering, &hypothesis->templates,
+        zone->emitter_legs + (gsize) d * g->n_emitters,
+        sonar_steering_stretch (&im->steering, hypothesis->velocity),
+        n_first, n_end, 0, im->sub_bins, scratch->transmit_re,
+        scratch->transmit_im);
+    sonar_kernel_multiply_split (scratch->sub_baseband, scratch->receive_re,
+        scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
+        im->sub_bins);
+    fftwf_execute_dft (im->sub_inverse, scratch->sub_baseband,
+        scratch->sub_lags);
+    sonar_kernel_envelope (env, scratch->sub_lags, im->sub_ifft_size,
+        job->scale, FALSE);
+    env[im->sub_ifft_size] = env[0];
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *part = &im->zones[z];
+      const guint a = (im->first_lag + part->first_range) / ratio;
+      const guint b = MIN ((im->first_lag + part->end_range + ratio - 1) /
+          ratio + 1, l1);
+      job->zone_peaks[UNIT (im, d, z) * n_hyp + h] = b > a ?
+          sonar_kernel_peak (env + a, im->sub_weight + a, b - a) : 0.0f;
+    }
+    if (h0 == 0)
+      memcpy (scratch->sub_max + l0, env + l0, (l1 - l0) * sizeof (float));
+    else
+      sonar_kernel_max (scratch->sub_max + l0, env + l0, l1 - l0);
+    for (guint i0 = 0, b = 0; i0 < n_range; i0 += HYPOTHESIS_BLOCK, b++) {
+      const guint a = (im->first_lag + i0) / ratio;
+      const guint e = MIN ((im->first_lag + MIN (i0 + HYPOTHESIS_BLOCK,
+                  n_range) - 1) / ratio + 2, l1);
+      const float top = sonar_kernel_peak (env + a, NULL, e - a);
+      if (h0 == 0 || top > best_value[b]) {
+        best_value[b] = top;
+        best[b] = (guint16) h;
+      }
+    }
+    if (cal >= 0 && h == job->cal_hypothesis)
+      sub_to_grid (im->cal_sub + (gsize) cal * n_range, env, im->first_lag,
+          ratio, n_range);
+    scratch->passes++;
+  }
+  sub_to_grid (job->image + (gsize) d * n_range, scratch->sub_max,
+      im->first_lag, ratio, n_range);
+}
+
+/* Coarse unit @u (direction @d, the coarse zone) again over the whole
+ * band, its confirmed hypotheses alone (confirm_sub_image ()), over the
+ * mapped sub-band image: their zone peaks; their maximum, and which is
+ * strongest per block of range bins, where they beat the mapped image's
+ * block (the sub-band's stay elsewhere); the image the maximum of the two
+ * where the sub-band saw noise alone, else the whole band's alone where it
+ * sees the echo at least as strong (the sub-band's echo is wider in range
+ * and direction), else their maximum. */
+static void
+image_confirm_unit (SonarImager * im, guint w, guint u, guint d,
+    const FocusZone * zone, guint n_first, guint n_end)
+{
+  const ImageJob *job = &im->job;
+  Scratch *scratch = &im->scratch[w];
+  const SonarGeometry *g = &im->setup->geometry;
+  const SonarSplitSpectra mic_spectra = { im->mic_re, im->mic_im };
+  const guint n_range = im->grid.n_range, n_hyp = job->n_hypotheses;
+  const guint n_blocks = im->n_hypothesis_blocks;
+  const guint8 *confirm = job->confirm + (gsize) u * n_hyp;
+  const guint8 *noise = im->noise_block + (gsize) u * n_blocks;
+  guint16 *best = job->best_hypothesis + (gsize) u * n_blocks;
+  float *row = job->image + (gsize) d * n_range;
+  float *top = scratch->confirm_value;
+  guint16 *which = scratch->confirm_hypothesis;
+  gboolean first = TRUE;
+
+  if (!memchr (confirm, 1, n_hyp))
+    return;
+  sonar_steering_receive_sum (&im->steering, &mic_spectra,
+      zone->mic_legs + (gsize) d * g->n_microphones, scratch->receive_re,
+      scratch->receive_im);
+  for (guint h = 0; h < n_hyp; h++) {
+    const SonarHypothesis *hypothesis = &job->hypotheses[h];
+    float *envelope = first ? scratch->confirm_max : scratch->envelope;
+
+    if (!confirm[h])
+      continue;
+    sonar_steering_transmit_sum (&im->steering, &hypothesis->templates,
+        zone->emitter_legs + (gsize) d * g->n_emitters,
+        sonar_steering_stretch (&im->steering, hypothesis->velocity),
+        n_first, n_end, scratch->transmit_re, scratch->transmit_im);
+    sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
+        scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
+        im->band.n_bins);
+    fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
+    sonar_kernel_envelope (envelope, scratch->lags + im->first_lag, n_range,
+        job->scale, FALSE);
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *part = &im->zones[z];
+      job->zone_peaks[UNIT (im, d, z) * n_hyp + h] = sonar_kernel_peak
+          (envelope + part->first_range, im->range_weight +
+          part->first_range, part->end_range - part->first_range);
+    }
+    if (!first)
+      sonar_kernel_max (scratch->confirm_max, envelope, n_range);
+    for (guint i0 = 0, b = 0; i0 < n_range; i0 += HYPOTHESIS_BLOCK, b++) {
+      const float t = sonar_kernel_peak (envelope + i0, NULL,
+          MIN (HYPOTHESIS_BLOCK, n_range - i0));
+      if (first || t > top[b]) {
+        top[b] = t;
+        which[b] = (guint16) h;
+      }
+    }
+    first = FALSE;
+    scratch->passes++;
+  }
+  for (guint i0 = 0, b = 0; i0 < n_range; i0 += HYPOTHESIS_BLOCK, b++) {
+    const guint len = MIN (HYPOTHESIS_BLOCK, n_range - i0);
+    const float mapped = sonar_kernel_peak (row + i0, NULL, len);
+    if (top[b] >= mapped)
+      best[b] = which[b];
+    if (!noise[b] && top[b] >= mapped)
+      memcpy (row + i0, scratch->confirm_max + i0, len * sizeof (float));
+    else
+      sonar_kernel_max (row + i0, scratch->confirm_max + i0, len);
+  }
+}
+
 /* Worker @w's share of a call: units w, w + n, ... */
 static void
 image_units (gpointer data, guint w, guint n_workers)
@@ -586,6 +914,14 @@ image_units (gpointer data, guint w, guint n_workers)
 
     if (count == 0)
       continue;
+    if (job->sub) {
+      image_sub_unit (im, w, u, d, zone, n_first, n_end);
+      continue;
+    }
+    if (job->confirm) {
+      image_confirm_unit (im, w, u, d, zone, n_first, n_end);
+      continue;
+    }
     if (job->wanted)
       coarse_corners (im, d, corners);
     /* Receive side: once per direction for every hypothesis. */
@@ -679,14 +1015,16 @@ run_units (SonarImager * im, guint n)
 static void
 mark_hot (SonarImager * im, guint n_coarse)
 {
-  const guint n_hyp = im->job.n_hypotheses;
+  const guint n_hyp = im->job.n_hypotheses, step = im->job.hyp_step;
   float top = 0.0f, level;
 
+  /* On the sub-band the coarse hypotheses' peaks stand for their runs. */
   for (guint u = 0; u < n_coarse; u++) {
     const guint d = UNIT_DIRECTION (im, im->units[u]);
     for (guint z = 0; z < im->n_zones; z++)
-      for (guint h = 0; h < n_hyp; h++)
-        top = MAX (top, im->zone_peaks[UNIT (im, d, z) * n_hyp + h]);
+      for (guint h = 0; h < n_hyp; h += step)
+        top = MAX (top, im->zone_peaks[UNIT (im, d, z) * n_hyp +
+                coarse_hypothesis (h, step, n_hyp)]);
   }
   level = top * im->refine_ratio;
   memset (im->hot, 0, (gsize) im->n_directions * (im->n_zones + 1));
@@ -695,8 +1033,8 @@ mark_hot (SonarImager * im, guint n_coarse)
     for (guint z = 0; z < im->n_zones; z++) {
       const gsize unit = UNIT (im, d, z);
       for (guint h = 0; h < n_hyp; h++) {
-        im->wanted[unit * n_hyp + h] = im->zone_peaks[unit * n_hyp + h] >=
-            level;
+        im->wanted[unit * n_hyp + h] = im->zone_peaks[unit * n_hyp +
+            coarse_hypothesis (h, step, n_hyp)] >= level;
         im->hot[unit] |= im->wanted[unit * n_hyp + h] ? HOT_LEVEL : 0;
       }
     }
@@ -739,16 +1077,16 @@ column_gate (SonarImager * im, const float *image, guint u, guint d,
   return (float) SONAR_CLUSTER_COLUMN_MARGIN * gain * q;
 }
 
-/* Whether coarse direction @d's pixel at range bin @i is at least its
- * coarse neighbours' along azimuth and elevation: a peak of the coarse
- * image (a flank's unit has a stronger neighbour, refined if it passes). */
-static gboolean
-coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
+/* Coarse direction @d's coarse neighbours along azimuth and elevation,
+ * into @neighbours: how many. Whether coarse direction @d's pixel at range
+ * bin @i is at least theirs: a peak of the coarse image (a flank's unit
+ * has a stronger neighbour, refined if it passes). */
+static guint
+coarse_neighbours (const SonarImager * im, guint d, guint neighbours[4])
 {
   const guint n_az = im->grid.n_azimuth, n_el = im->grid.n_elevation;
-  const guint n_range = im->grid.n_range, a = d % n_az, e = d / n_az;
-  const float v = image[(gsize) d * n_range + i];
-  guint lo, hi, neighbours[4], n = 0;
+  const guint a = d % n_az, e = d / n_az;
+  guint lo, hi, n = 0;
 
   /* The nearest coarse index either side along each axis. */
   if (a > 0) {
@@ -767,6 +1105,16 @@ coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
     coarse_bracket (e + 1, n_el, im->coarse_elevation, &lo, &hi);
     neighbours[n++] = hi * n_az + a;
   }
+  return n;
+}
+
+static gboolean
+coarse_peak (const SonarImager * im, const float *image, guint d, guint i)
+{
+  const guint n_range = im->grid.n_range;
+  const float v = image[(gsize) d * n_range + i];
+  guint neighbours[4], n = coarse_neighbours (im, d, neighbours);
+
   for (guint k = 0; k < n; k++)
     if (image[(gsize) neighbours[k] * n_range + i] > v)
       return FALSE;
@@ -788,7 +1136,7 @@ range_floors_share (gpointer data, guint w, guint n_workers)
   const guint n_range = im->grid.n_range, n_coarse = im->job.n_coarse;
   const guint n_blocks = (n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
   const double k_eff = sonar_cluster_effective_hypotheses
-      (im->job.n_hypotheses);
+      (im->job.floor_hypotheses);
   const float censor = (float) sonar_cluster_floor_gain
       (SONAR_CLUSTER_CENSOR_SHARE, k_eff);
   const float echo = (float) sonar_cluster_floor_gain (ECHO_PFA, k_eff);
@@ -831,6 +1179,308 @@ range_floors_share (gpointer data, guint w, guint n_workers)
   }
 }
 
+/* Worker @w's share of the calibration of a sub-band coarse pass: the
+ * whole band's envelope of hypothesis job.cal_hypothesis along the
+ * calibration's coarse directions (the coarse zone's focus), into
+ * cal_full. */
+static void
+calibrate_share (gpointer data, guint w, guint n_workers)
+{
+  SonarImager *im = data;
+  const ImageJob *job = &im->job;
+  Scratch *scratch = &im->scratch[w];
+  const SonarGeometry *g = &im->setup->geometry;
+  const SonarSplitSpectra mic_spectra = { im->mic_re, im->mic_im };
+  const FocusZone *zone = &im->zones[im->n_zones];
+  const SonarHypothesis *hypothesis = &job->hypotheses[job->cal_hypothesis];
+  const guint n_range = im->grid.n_range;
+  const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
+  const guint n_end = job->emitter < 0 ? g->n_emitters :
+      (guint) job->emitter + 1;
+
+  for (guint k = w; k < job->n_cal; k += n_workers) {
+    const guint d = UNIT_DIRECTION (im, job->units[job->cal_units[k]]);
+    sonar_steering_receive_sum (&im->steering, &mic_spectra,
+        zone->mic_legs + (gsize) d * g->n_microphones, scratch->receive_re,
+        scratch->receive_im);
+    sonar_steering_transmit_sum (&im->steering, &hypothesis->templates,
+        zone->emitter_legs + (gsize) d * g->n_emitters,
+        sonar_steering_stretch (&im->steering, hypothesis->velocity),
+        n_first, n_end, scratch->transmit_re, scratch->transmit_im);
+    sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
+        scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
+        im->band.n_bins);
+    fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
+    sonar_kernel_envelope (im->cal_full + (gsize) k * n_range,
+        scratch->lags + im->first_lag, n_range, job->scale, FALSE);
+    scratch->passes++;
+  }
+}
+
+/* sqrt (-ln (1 - 4^(-1/K))): the lower quartile of the maximum of K
+ * independent Rayleigh envelopes of sigma 1 (E |x|^2 = sigma^2). */
+static double
+rayleigh_max_quartile (double k)
+{
+  return sqrt (-log (-expm1 (log (0.25) / k)));
+}
+
+/* The map of a sub-band coarse image onto the whole band's noise: a noise
+ * pixel x of the sub-band image is the maximum of K_s Rayleigh envelopes
+ * of sigma_s, P (x < t) = (1 - exp (-t^2 / sigma_s^2))^K_s; the whole
+ * band's, of K Rayleigh envelopes of sigma_f. y of the same probability,
+ *
+ *   y^2 / sigma_f^2 = -ln (1 - (1 - exp (-x^2 / sigma_s^2))^(K_s / K)),
+ *
+ * is a whole-band noise pixel: the noise floors, the noise gate and
+ * wardcluster's tests meet the same quartile and tail everywhere, the
+ * whole band's where the fine pass images and the map's elsewhere. An echo
+ * far over the noise keeps its ratio to it (y^2 / sigma_f^2 = x^2 /
+ * sigma_s^2 + ln (K / K_s)). sigma_s per range bin is its floor (the
+ * censored lower quartile over the coarse directions) over the quartile of
+ * the maximum; sigma_f / sigma_s, the two bands' noise ratio, is measured
+ * on one hypothesis's envelopes along a few coarse directions (their lower
+ * quartiles over the range: noise, whatever the band's noise spectrum and
+ * the templates' weights). Tabulated: (y / sigma_f)^2 - (x / sigma_s)^2
+ * against (x / sigma_s)^2, which tends to ln (K / K_s). */
+static void
+map_table (SonarImager * im, guint n_hyp, guint n_coarse_hyp)
+{
+  const double a = sonar_cluster_effective_hypotheses (n_coarse_hyp) /
+      sonar_cluster_effective_hypotheses (n_hyp);
+
+  if (im->map_hypotheses == n_hyp && im->map_coarse == n_coarse_hyp)
+    return;
+  for (guint k = 0; k <= MAP_SIZE; k++) {
+    const double s = k * MAP_SPAN / MAP_SIZE;
+    const double g = -log (-expm1 (a * log1p (-exp (-s))));
+    im->map_table[k] = (float) (g - s);
+  }
+  im->map_tail = (float) -log (a);
+  im->map_hypotheses = n_hyp;
+  im->map_coarse = n_coarse_hyp;
+}
+
+/* Worker @w's share of the map: coarse directions w, w + n, ... of the
+ * call's units, in place. */
+static void
+map_share (gpointer data, guint w, guint n_workers)
+{
+  SonarImager *im = data;
+  const guint n_range = im->grid.n_range;
+  const float to_index = (float) (MAP_SIZE / MAP_SPAN);
+
+  for (guint u = w; u < im->job.n_coarse; u += n_workers) {
+    float *row = im->job.image + (gsize) UNIT_DIRECTION (im,
+        im->units[u]) * n_range;
+    for (guint i = 0; i < n_range; i++) {
+      const float inv = im->map_inverse[i];
+      float s, extra;
+      if (inv < 0.0f) {
+        row[i] *= im->map_sigma[i];
+        continue;
+      }
+      s = row[i] * row[i] * inv;
+      if (s < (float) MAP_SPAN) {
+        const float x = s * to_index;
+        const guint k = (guint) x;
+        extra = im->map_table[k] + (x - k) * (im->map_table[k + 1] -
+            im->map_table[k]);
+      } else {
+        extra = im->map_tail;
+      }
+      row[i] = im->map_sigma[i] * sqrtf (MAX (s + extra, 0.0f));
+    }
+  }
+}
+
+/* The sub-band coarse image (im->units' first @n_coarse, the job's
+ * image) mapped onto the whole band's noise (map_table ()): the
+ * calibration, the floors of the sub-band image, the map. */
+static void
+map_sub_image (SonarImager * im, guint n_coarse)
+{
+  const guint n_range = im->grid.n_range, n_hyp = im->job.n_hypotheses;
+  const guint n_coarse_hyp = (n_hyp + im->job.hyp_step - 1) /
+      im->job.hyp_step;
+  const gsize n_cal = (gsize) im->job.n_cal * n_range;
+  const double quartile = rayleigh_max_quartile
+      (sonar_cluster_effective_hypotheses (n_coarse_hyp));
+  float full, sub;
+
+  sonar_workers_run (im->workers, calibrate_share, im);
+  full = sonar_select_kth (im->cal_full, n_cal, n_cal / 4);
+  sub = sonar_select_kth (im->cal_sub, n_cal, n_cal / 4);
+  /* White noise, should the envelopes be silent: the bins' ratio. */
+  im->noise_ratio = full > 0.0f && sub > 0.0f && isfinite (full / sub) ?
+      full / sub : (float) sqrt ((double) im->band.n_bins / im->sub_bins);
+  im->job.floor_hypotheses = n_coarse_hyp;
+  sonar_workers_run (im->workers, range_floors_share, im);
+  map_table (im, n_hyp, n_coarse_hyp);
+  for (guint i = 0; i < n_range; i++) {
+    const double sigma = im->range_floor[i] / quartile;
+    if (sigma > 0.0 && isfinite (1.0 / (sigma * sigma))) {
+      im->map_inverse[i] = (float) (1.0 / (sigma * sigma));
+      im->map_sigma[i] = (float) (im->noise_ratio * sigma);
+    } else {
+      im->map_inverse[i] = -1.0f;
+      im->map_sigma[i] = im->noise_ratio;
+    }
+  }
+  sonar_workers_run (im->workers, map_share, im);
+  im->job.floor_hypotheses = n_hyp;
+}
+
+static void mark_hot (SonarImager * im, guint n_coarse);
+
+/* On the mapped sub-band image (its floors in range_floor): a pixel
+ * within refine_db of the strongest (both weighted by r^2, as mark_hot ()
+ * weighs the zone peaks) confirms its block's strongest run of
+ * hypotheses and the next either side where it also stands over its
+ * range bin's floor by what noise exceeds with probability coarse_pfa:
+ * the echoes, their sidelobes and their cross-talk within the level,
+ * which a whole-band coarse pass refines for the level (and a pixel within
+ * 10 dB of the maximum comes out as the dense image's), not the noise
+ * that the r^2 weight lifts to it far out. */
+static void
+mark_level_over_noise (SonarImager * im, guint n_coarse)
+{
+  const guint n_range = im->grid.n_range, n_hyp = im->job.n_hypotheses;
+  const guint step = im->job.hyp_step;
+  /* A pixel near the strongest echo has its best hypothesis (over the
+   * whole band) within a run either side of the sub-band's best, or the
+   * next beyond: the sub-band's Doppler response is as wide as a run, and
+   * near a strong echo its sidelobes' best hypothesis is not the whole
+   * band's (tests/test-imaging.c, coarse-band). */
+  const guint reach = step + 1;
+  const double k_eff = sonar_cluster_effective_hypotheses (n_hyp);
+  const float gain = (float) sonar_cluster_floor_gain (im->coarse_pfa,
+      k_eff);
+  const float echo = (float) sonar_cluster_floor_gain (im->cluster_pfa,
+      k_eff);
+  const float *image = im->job.image;
+  float top = 0.0f, level;
+
+  /* The strongest echo: over wardcluster's threshold (its range bin's
+   * floor, its direction's along the range) and a peak among its coarse
+   * neighbours. None: the level would be the noise's, and refine the noise
+   * within it. */
+  for (gsize k = 0; k < (gsize) n_coarse * im->n_column_blocks; k++)
+    im->column_quartile[k] = NAN;
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    const float *row = image + (gsize) d * n_range;
+    for (guint i = 0; i < n_range; i++)
+      if (row[i] > echo * im->range_floor[i]
+          && row[i] * im->range_weight[i] > top && coarse_peak (im, image,
+              d, i) && row[i] > column_gate (im, image, u, d, i, echo)) {
+        top = row[i] * im->range_weight[i];
+      }
+  }
+  im->level_echo = top > 0.0f;
+  if (top == 0.0f)
+    return;
+  level = top * im->refine_ratio;
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    const float *row = image + (gsize) d * n_range;
+    const guint16 *best = im->best_hypothesis + (gsize) u *
+        im->n_hypothesis_blocks;
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *zone = &im->zones[z];
+      guint8 *wanted = im->wanted + UNIT (im, d, z) * n_hyp;
+      for (guint i = zone->first_range; i < zone->end_range; i++) {
+        guint r0;
+        if (!(row[i] * im->range_weight[i] >= level
+                && row[i] > gain * im->range_floor[i]))
+          continue;
+        r0 = best[i / HYPOTHESIS_BLOCK] / step * step;
+        for (guint h = r0 >= reach ? r0 - reach : 0; h < MIN (r0 + step +
+                reach, n_hyp); h++)
+          wanted[h] = TRUE;
+      }
+    }
+  }
+}
+static void mark_hot_over_noise (SonarImager * im, guint n_coarse,
+    double pfa, gboolean neighbours);
+
+/* After the sub-band coarse pass (coarse_band < 1): its image mapped onto
+ * the whole band's noise (map_sub_image ()) and its floors; then what it
+ * sees is confirmed, imaged again over the whole band on the coarse
+ * directions, the hypotheses it found alone: pixels within refine_db of
+ * the strongest echo and over the noise (mark_level_over_noise ()), and
+ * pixels over the noise gate at coarse_pfa with their coarse neighbours
+ * that stand over it too (mark_hot_over_noise ()); each confirms its
+ * block's strongest run of hypotheses and the next either side (a run
+ * either side for the level's), and the strongest coarse pixel its own.
+ * The coarse image is then the maximum of the two where the sub-band saw
+ * noise alone, the whole band's where it sees the echo (its main lobe is
+ * narrower, its range sidelobes lower: image_confirm_unit ()), and the
+ * mapped image where nothing was confirmed. The zone peaks are the whole
+ * band's (0 for the hypotheses not imaged again), so that the refinement
+ * that follows (its level, its hypotheses, its gate) is a whole-band
+ * coarse pass's where the sub-band saw something. Where it saw no echo
+ * (none over wardcluster's threshold), the level refines nothing: a level
+ * under the noise's maximum refines the noise (image_coarse_to_fine ()). */
+static void
+confirm_sub_image (SonarImager * im, guint n_coarse)
+{
+  const guint n_hyp = im->job.n_hypotheses, step = im->job.hyp_step;
+  guint top_unit = G_MAXUINT, top_hypothesis = 0;
+  float top = 0.0f;
+
+  map_sub_image (im, n_coarse);
+  im->job.sub = FALSE;
+  sonar_workers_run (im->workers, range_floors_share, im);
+  memset (im->wanted, 0, (gsize) im->n_directions * (im->n_zones + 1) *
+      n_hyp);
+  mark_level_over_noise (im, n_coarse);
+  mark_hot_over_noise (im, n_coarse, im->coarse_pfa, TRUE);
+  /* The strongest zone peak (r^2 weighted), wherever it stands: what the
+   * refine level is relative to. */
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    for (guint z = 0; z < im->n_zones; z++)
+      for (guint h = 0; h < n_hyp; h += step) {
+        const guint c = coarse_hypothesis (h, step, n_hyp);
+        const float v = im->zone_peaks[UNIT (im, d, z) * n_hyp + c];
+        if (v > top) {
+          top = v;
+          top_unit = u;
+          top_hypothesis = c;
+        }
+      }
+  }
+  for (guint u = 0; u < n_coarse; u++) {
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    guint8 *confirm = im->confirm + (gsize) u * n_hyp;
+    memset (confirm, 0, n_hyp);
+    if (u == top_unit) {
+      /* Its run and the next either side, as the gate's. */
+      const guint r0 = top_hypothesis / step * step;
+      for (guint h = r0 > 0 ? r0 - 1 : 0; h <= MIN (r0 + step, n_hyp - 1);
+          h++)
+        confirm[h] = 1;
+    }
+    for (guint z = 0; z < im->n_zones; z++) {
+      const guint8 *wanted = im->wanted + UNIT (im, d, z) * n_hyp;
+      float *peaks = im->zone_peaks + UNIT (im, d, z) * n_hyp;
+      for (guint h = 0; h < n_hyp; h++)
+        confirm[h] |= wanted[h];
+      memset (peaks, 0, n_hyp * sizeof (float));
+    }
+  }
+  im->job.hyp_step = 1;
+  im->job.confirm = im->confirm;
+  run_units (im, n_coarse);
+  im->job.confirm = NULL;
+  /* The units imaged again: those with a hypothesis confirmed. */
+  for (guint u = 0; u < n_coarse; u++)
+    if (!memchr (im->confirm + (gsize) u * n_hyp, 1, n_hyp))
+      im->n_imaged--;
+}
+
 /* From the coarse image (the maximum over the hypotheses): a (coarse
  * direction, zone) is hot when one of its pixels could pass wardcluster's
  * tests once imaged in full: it exceeds its range bin's noise floor over
@@ -856,13 +1506,14 @@ range_floors_share (gpointer data, guint w, guint n_workers)
  * keep the interpolation wherever it is higher (UNIT_GATE_HYPOTHESES);
  * the echo's own peak, over its coarse corners, is the fine image's. */
 static void
-mark_hot_over_noise (SonarImager * im, guint n_coarse)
+mark_hot_over_noise (SonarImager * im, guint n_coarse, double pfa,
+    gboolean neighbours)
 {
   const SonarImageGrid *grid = &im->grid;
   const guint n_range = grid->n_range, n_hyp = im->job.n_hypotheses;
+  const guint step = im->job.hyp_step;
   const double k_eff = sonar_cluster_effective_hypotheses (n_hyp);
-  const float gain = (float) sonar_cluster_floor_gain (im->refine_pfa,
-      k_eff);
+  const float gain = (float) sonar_cluster_floor_gain (pfa, k_eff);
   const int reach = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
       grid->range_step);
   const float *image = im->job.image;
@@ -895,10 +1546,27 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse)
                 && row[i] > column_gate (im, image, u, d, i, gain)))
           continue;
         im->hot[unit] |= HOT_GATE;
-        top = best[i / HYPOTHESIS_BLOCK];
-        for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + 1u,
+        /* The strongest (on the sub-band, its run of step hypotheses)
+         * and the next either side. */
+        top = best[i / HYPOTHESIS_BLOCK] / step * step;
+        for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + step,
                 n_hyp - 1); h++)
           im->wanted[unit * n_hyp + h] = TRUE;
+        if (neighbours) {
+          /* The flanks that see the echo over the gate too: the whole
+           * band's coarse pass would have put them within the refine
+           * level. */
+          guint around[4], n = coarse_neighbours (im, d, around);
+          for (guint k = 0; k < n; k++) {
+            const gsize other = UNIT (im, around[k], z);
+            if (!(image[(gsize) around[k] * n_range + i] >
+                    im->range_floor[i]))
+              continue;
+            for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + step,
+                    n_hyp - 1); h++)
+              im->wanted[other * n_hyp + h] = TRUE;
+          }
+        }
       }
     }
   }
@@ -1025,11 +1693,33 @@ image_coarse_to_fine (SonarImager * im, float *image)
   im->job.zone_peaks = im->zone_peaks;
   im->job.best_hypothesis = im->best_hypothesis;
   im->job.best_value = im->best_value;
+  im->job.n_coarse = n_coarse;
+  im->job.floor_hypotheses = im->job.n_hypotheses;
+  /* The sub-band: its coarse hypotheses, and a few coarse directions
+   * (spread over them) to calibrate the map on, with the hypothesis
+   * nearest the middle of the bank. */
+  im->job.sub = im->sub && n_coarse >= 4;
+  im->job.hyp_step = im->job.sub ? MIN (im->sub_step,
+      im->job.n_hypotheses) : 1;
+  im->job.n_cal = im->job.sub ? MIN (CALIBRATION_DIRECTIONS, n_coarse) : 0;
+  for (guint k = 0; k < im->job.n_cal; k++)
+    im->job.cal_units[k] = (guint) (((2 * k + 1) * (guint64) n_coarse) /
+        (2 * im->job.n_cal));
+  im->job.cal_hypothesis = coarse_hypothesis (im->job.n_hypotheses / 2,
+      im->job.hyp_step, im->job.n_hypotheses);
   run_units (im, n_coarse);
+  if (im->job.sub)
+    confirm_sub_image (im, n_coarse);
   im->job.zone_peaks = NULL;
   im->job.best_hypothesis = NULL;
   im->job.best_value = NULL;
-  mark_hot (im, n_coarse);
+  /* On the sub-band, where it saw no echo, the noise gate alone. */
+  if (im->sub && n_coarse >= 4 && !im->level_echo) {
+    memset (im->hot, 0, (gsize) im->n_directions * (im->n_zones + 1));
+    memset (im->wanted, 0, (gsize) im->n_directions * (im->n_zones + 1) *
+        im->job.n_hypotheses);
+  } else
+    mark_hot (im, n_coarse);
   /* The noise floors over the coarse directions, for the gate and for
    * the units imaged over some hypotheses (none with one hypothesis):
    * which blocks hold noise alone. Too few coarse directions for a
@@ -1037,14 +1727,13 @@ image_coarse_to_fine (SonarImager * im, float *image)
   floors = n_coarse >= 4 && (im->refine_pfa > 0.0 ||
       im->job.n_hypotheses > 1);
   if (floors) {
-    im->job.n_coarse = n_coarse;
     sonar_workers_run (im->workers, range_floors_share, im);
   } else {
     memset (im->noise_block, 0, (gsize) im->n_coarse *
         im->n_hypothesis_blocks);
   }
   if (floors && im->refine_pfa > 0.0)
-    mark_hot_over_noise (im, n_coarse);
+    mark_hot_over_noise (im, n_coarse, im->refine_pfa, FALSE);
 
   n = 0;
   memset (im->imaging, UNIT_INTERPOLATED, (gsize) im->n_directions *
@@ -1108,8 +1797,10 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   if (n_hypotheses > im->hypothesis_capacity) {
     g_free (im->zone_peaks);
     g_free (im->wanted);
+    g_free (im->confirm);
     im->zone_peaks = g_new (float, n_units * n_hypotheses);
     im->wanted = g_new (guint8, n_units * n_hypotheses);
+    im->confirm = g_new (guint8, (gsize) im->n_coarse * n_hypotheses);
     im->hypothesis_capacity = n_hypotheses;
   }
   im->job.n_hypotheses = n_hypotheses;
@@ -1118,6 +1809,8 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   im->job.image = image;
   im->job.stride = stride;
   im->job.scale = scale;
+  im->job.hyp_step = 1;
+  im->job.floor_hypotheses = n_hypotheses;
   im->n_imaged = 0;
   im->n_passes = 0;
   if (stride == 0 && im->coarse_azimuth * im->coarse_elevation > 1) {

@@ -76,6 +76,46 @@ sonar_steering_transmit_sum (const SonarSteering * s,
       TRUE);
 }
 
+void
+sonar_steering_receive_sum_part (const SonarSteering * s,
+    const SonarSplitSpectra * mic_spectra, const double *mic_legs,
+    guint first, guint n, float *receive_re, float *receive_im)
+{
+  const guint n_mics = s->geometry->n_microphones;
+  const double k_first = s->k0 + first * s->dk;
+  double phase0[SONAR_MAX_MICROPHONES], dphase[SONAR_MAX_MICROPHONES];
+
+  g_return_if_fail (first + n <= s->n_bins);
+  for (guint j = 0; j < n_mics; j++) {
+    phase0[j] = k_first * mic_legs[j];
+    dphase[j] = s->dk * mic_legs[j];
+  }
+  sonar_kernel_steer_sum_split (receive_re, receive_im, mic_spectra->re +
+      first, mic_spectra->im + first, s->n_bins, n_mics, n, phase0, dphase,
+      FALSE);
+}
+
+void
+sonar_steering_transmit_sum_part (const SonarSteering * s,
+    const SonarSplitSpectra * templates, const double *emitter_legs,
+    double stretch, guint first_emitter, guint end_emitter, guint first,
+    guint n, float *transmit_re, float *transmit_im)
+{
+  const gsize at = (gsize) first_emitter * s->n_bins + first;
+  const double k_first = s->k0 + first * s->dk;
+  double phase0[SONAR_MAX_EMITTERS], dphase[SONAR_MAX_EMITTERS];
+
+  g_return_if_fail (first + n <= s->n_bins);
+  for (guint e = first_emitter; e < end_emitter; e++) {
+    const double path = emitter_legs[e] * stretch;
+    phase0[e - first_emitter] = k_first * path;
+    dphase[e - first_emitter] = s->dk * path;
+  }
+  sonar_kernel_steer_sum_split (transmit_re, transmit_im, templates->re + at,
+      templates->im + at, s->n_bins, end_emitter - first_emitter, n, phase0,
+      dphase, TRUE);
+}
+
 /* The path of an emitter's output at the lag of @range: the two-way
  * range plus the stretched emitter leg (the receive sum already holds the
  * microphone legs). */

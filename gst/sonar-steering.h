@@ -84,6 +84,17 @@ void sonar_steering_transmit_sum (const SonarSteering * steering,
     double stretch, guint first, guint end, float *transmit_re,
     float *transmit_im);
 
+/* The same two sums on part of the band, bins @first to @first + @n - 1
+ * (a sub-band: the imager's coarse pass), into @n values each: bit for
+ * bit what the whole band's sums hold there, but for the phase ramps'
+ * rounding (tests/test-steering.c). */
+void sonar_steering_receive_sum_part (const SonarSteering * steering,
+    const SonarSplitSpectra * mic_spectra, const double *mic_legs,
+    guint first, guint n, float *receive_re, float *receive_im);
+void sonar_steering_transmit_sum_part (const SonarSteering * steering,
+    const SonarSplitSpectra * templates, const double *emitter_legs,
+    double stretch, guint first_emitter, guint end_emitter, guint first,
+    guint n, float *transmit_re, float *transmit_im);
 /* Emitter @emitter's output, for the receive sum @receive_re, _im and
  * @templates stretched by @stretch, at the lag of range @range, as partial
  * sums over blocks of @block bins (sonar_kernel_steer_block_sums_conj ())

@@ -108,8 +108,10 @@ static const char *scene_json =
     "{\"position\": [0.5, 0, 2.3], \"velocity\": [0, 0, 0]},"
     "{\"position\": [0.9, 0, 3.1], \"velocity\": [0, 0, 1.6]}]}";
 
+/* The chain at its defaults, the imager's coarse pass on @coarse_band of
+ * the band. */
 static void
-test_ping_allocates_nothing (void)
+check_ping_allocates_nothing (double coarse_band)
 {
   SonarTestChain chain;
   SonarImagerParams ip;
@@ -135,6 +137,7 @@ test_ping_allocates_nothing (void)
   sonar_test_chain_init_with_bank (&chain, -3.0, 3.0, 0.05);
   sonar_imager_params_init_default (&ip);
   ip.threads = 2;
+  ip.coarse_band = coarse_band;
   imager = sonar_imager_new (chain.setup, &chain.band, &ip, &error);
   g_assert_no_error (error);
   nv = sonar_doppler_bank_n_velocities (chain.bank);
@@ -194,6 +197,20 @@ test_ping_allocates_nothing (void)
   sonar_test_chain_clear (&chain);
 }
 
+static void
+test_ping_allocates_nothing (void)
+{
+  check_ping_allocates_nothing (1.0);
+}
+
+/* The coarse pass on a sub-band (its transforms, calibration, map and
+ * confirmation): nothing either. */
+static void
+test_ping_allocates_nothing_sub_band (void)
+{
+  check_ping_allocates_nothing (0.5);
+}
+
 /* The counter counts: a GLib allocation made while counting is seen. */
 static void
 test_counter_sees_allocations (void)
@@ -220,5 +237,7 @@ main (int argc, char **argv)
       test_counter_sees_allocations);
   g_test_add_func ("/steady-state/ping-allocates-nothing",
       test_ping_allocates_nothing);
+  g_test_add_func ("/steady-state/ping-allocates-nothing-sub-band",
+      test_ping_allocates_nothing_sub_band);
   return g_test_run ();
 }

@@ -16,12 +16,17 @@
  * paper's Fig. 11 measured on the Doppler-ACF curves at the true
  * reflectors), coarse-spacing and refine-db (the imager's coarse to fine
  * pass: coarse grid 0-6 degrees, refinement level 10-30 dB), refine-pfa
- * (its noise gate on fig9: off, 1e-7, 1e-5, 1e-3) and
+ * (its noise gate on fig9: off, 1e-7, 1e-5, 1e-3), coarse-band (fig9:
+ * the coarse pass on the whole band, a half, third, sixth, twelfth of it),
+ * coarse-band-pfa (fig9 at half the band: its gate 1e-7, 1e-5, 1e-3),
+ * coarse-band-scenes (noise alone and one object, whole band and half)
+ * and
  * hemisphere (issue 5's 3-D goal: 91 x 91 directions at 2 degrees, one
  * fig10 ping, coarse grids of 4, 6 and 8 degrees and the dense image);
  * hemisphere-fig9 (minutes, not in --all: issue 13's 3-D goal with the
  * default bank, the same grid at the imager's 3-D defaults on the fig9
- * world).
+ * world); hemisphere-fig9-band (minutes, not in --all: the same with
+ * the coarse pass on the whole band and on half of it).
  * The "work" column is the share of the dense image's direction x zone x
  * hypothesis passes the imager made. The sensitivity sweeps (noise,
  * detection, split) are sensitivity.c's.
@@ -58,7 +63,7 @@ config_key (const Config * c)
   const SonarVelocityParams *v = &c->velocity;
 
   return g_strdup_printf ("%s %u %d %d | %.17g %.17g %.17g %d %.17g | "
-      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g %.17g | %d "
+      "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g %.17g %.17g %.17g | %d "
       "%.17g %.17g "
       "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u",
       c->scene->name, c->n_pings, c->method, c->measure_curves, c->v_min,
@@ -66,7 +71,7 @@ config_key (const Config * c)
       i->azimuth_min, i->azimuth_max, i->n_azimuth, i->elevation_min,
       i->elevation_max, i->n_elevation, i->range_min, i->range_max,
       i->range_resolution, i->focus_zones, i->coarse_spacing, i->refine_db,
-      i->refine_pfa, k->range_compensation,
+      i->refine_pfa, i->coarse_band, i->coarse_pfa, k->range_compensation,
       k->threshold_db, k->absolute_threshold, k->linkage, k->stop,
       k->inconsistency, k->depth, k->distance, k->max_peaks,
       v->window_directions, v->window_ranges, v->refine, v->min_variance,
@@ -148,6 +153,55 @@ FIELD_SWEEP (apply_refine_db, imager.refine_db, double, "%g",
 
 FIELD_SWEEP (apply_refine_pfa, imager.refine_pfa, double, "%g",
     0.0, 1e-7, 1e-5, 1e-3)
+
+/* The coarse pass's sub-band on fig9 (the default bank, where the coarse
+ * pass costs most): the whole band, a half, a third, a sixth (20-30 kHz
+ * of the default sensor's 20-80), a twelfth. */
+static void
+apply_coarse_band (Config * c, guint i, char *label, gsize size)
+{
+  static const guint parts[] = { 1, 2, 3, 6, 12 };
+
+  c->imager.coarse_band = 1.0 / parts[i];
+  if (parts[i] == 1)
+    g_strlcpy (label, "1", size);
+  else
+    g_snprintf (label, size, "1/%u", parts[i]);
+}
+
+/* Its noise gate (coarse_pfa) on fig9 at half the band: 1e-7, 1e-5 (the
+ * default), 1e-3 per coarse pixel. */
+static void
+apply_coarse_band_pfa (Config * c, guint i, char *label, gsize size)
+{
+  static const double pfas[] = { 1e-7, 1e-5, 1e-3 };
+
+  c->imager.coarse_band = 0.5;
+  c->imager.coarse_pfa = pfas[i];
+  g_snprintf (label, size, "%g", pfas[i]);
+}
+
+/* The sub-band against the whole band where the coarse pass is most of the
+ * work: noise alone and one object (the reflectors sweep's first two
+ * scenes), whole band and half. */
+static void
+apply_coarse_band_scenes (Config * c, guint i, char *label, gsize size)
+{
+  config_init (c, &scenes[SCENE_RANDOM_FIRST + i / 2]);
+  c->imager.coarse_band = i % 2 ? 0.5 : 1.0;
+  g_snprintf (label, size, "%u:%s", c->scene->n_random, i % 2 ? "1/2" :
+      "1");
+}
+
+/* Issue 13's fourth goal (hemisphere-fig9) with the coarse pass on the
+ * whole band and on half of it. */
+static void
+apply_hemisphere_fig9_band (Config * c, guint i, char *label, gsize size)
+{
+  sonar_imager_params_set_view (&c->imager, SONAR_FIELD_OF_VIEW_HEMISPHERE);
+  c->imager.coarse_band = i ? 0.5 : 1.0;
+  g_strlcpy (label, i ? "1/2" : "1", size);
+}
 
 /* Issue 5's 3-D goal: the frontal hemisphere at 2 degrees (91 x 91
  * directions), the Fig. 10 bank, one ping; coarse spacings of 4 to 8
@@ -255,8 +309,13 @@ const Sweep sweeps[] = {
   {"coarse-spacing", SCENE_FIG10, 5, apply_coarse_spacing},
   {"refine-db", SCENE_FIG10, 4, apply_refine_db},
   {"refine-pfa", SCENE_FIG9, 4, apply_refine_pfa},
+  {"coarse-band", SCENE_FIG9, 5, apply_coarse_band},
+  {"coarse-band-pfa", SCENE_FIG9, 3, apply_coarse_band_pfa},
+  {"coarse-band-scenes", SCENE_FIG10, 4, apply_coarse_band_scenes},
   {"hemisphere", SCENE_FIG10, 4, apply_hemisphere},
   {"hemisphere-fig9", SCENE_FIG9, 1, apply_hemisphere_fig9, NULL, TRUE},
+  {"hemisphere-fig9-band", SCENE_FIG9, 2, apply_hemisphere_fig9_band, NULL,
+      TRUE},
   {"noise", SCENE_FIG9, 0, NULL, run_noise},
   {"detection", SCENE_FIG9, 0, NULL, run_detection},
   {"split", SCENE_FIG9, 0, NULL, run_split},

@@ -1079,7 +1079,8 @@ sidelobe_thresholds (SonarClusterer * c)
   }
 }
 
-/* Whether any of the CHUNK @pixels reaches its @passing level. */
+/* Whether any of the CHUNK @pixels reaches its @passing level (vector
+ * code: one OR of comparisons). */
 static inline gboolean
 any_passing (const float *pixels, const float *passing)
 {
@@ -1090,8 +1091,75 @@ any_passing (const float *pixels, const float *passing)
   return any;
 }
 
+/* The index of @mask's lowest set bit (@mask not 0). */
+static inline guint
+lowest_bit (guint mask)
+{
+#if defined(__GNUC__)
+  return (guint) __builtin_ctz (mask);
+#else
+  return (guint) g_bit_nth_lsf (mask, -1);
+#endif
+}
+
+/* Which of the CHUNK @pixels reach their @passing level: bit j for
+ * pixel j. */
+static inline guint
+passing_mask (const float *pixels, const float *passing)
+{
+  guint mask = 0;
+
+  for (guint j = 0; j < CHUNK; j++)
+    mask |= (guint) (pixels[j] >= passing[j]) << j;
+  return mask;
+}
+
+/* Whether pixel @q, value @u, beats pixel @p, value @v, as a local
+ * maximum: finite, and higher, or equal and earlier in the image (a
+ * deterministic order). */
+static inline gboolean
+beats (float u, gsize q, float v, gsize p)
+{
+  return isfinite (u) && (u > v || (u == v && q < p));
+}
+
+/* Whether pixel @p (@e, @a, @i) of @image, value @v, is a local maximum:
+ * no neighbour beats it. Its range neighbours first (contiguous; a
+ * pixel on an echo's flank loses to one of them), then the other
+ * directions'. */
+static inline gboolean
+local_maximum (const SonarImageGrid * g, const float *image, gsize p,
+    guint e, guint a, guint i, float v)
+{
+  const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
+  const int di_first = i == 0 ? 0 : -1;
+  const int di_last = i + 1 == g->n_range ? 0 : 1;
+
+  if ((i > 0 && beats (image[p - 1], p - 1, v, p))
+      || (i + 1 < g->n_range && beats (image[p + 1], p + 1, v, p)))
+    return FALSE;
+  for (int de = e == 0 ? 0 : -1; de <= (e + 1 == g->n_elevation ? 0 : 1);
+      de++)
+    for (int da = a == 0 ? 0 : -1; da <= (a + 1 == g->n_azimuth ? 0 : 1);
+        da++) {
+      const gsize centre = p + de * (gssize) stride_e + da *
+          (gssize) g->n_range;
+      if (de == 0 && da == 0)
+        continue;
+      for (int di = di_first; di <= di_last; di++)
+        if (beats (image[centre + di], centre + di, v, p))
+          return FALSE;
+    }
+  return TRUE;
+}
+
 /* Worker @w's share of find_peaks (): the peaks of its run of
- * directions into its own heap. */
+ * directions into its own heap. A pixel is a peak when it passes every
+ * test; they are made cheapest first: one level per range bin over 16
+ * pixels at a time (nearly every chunk holds no pixel that reaches it),
+ * then per pixel the range bin's own tests, the local maximum, and last
+ * the column floor (its quartiles are computed on demand: only at the
+ * local maxima, a tenth of the pixels over the other levels). */
 static void
 find_peaks_share (gpointer data, guint w, guint n_workers)
 {
@@ -1102,7 +1170,6 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   const float threshold = c->threshold;
   const guint capacity = c->params.max_peaks;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-  const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
 
   ws->peaks.n = ws->peaks.n_found = 0;
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
@@ -1111,47 +1178,29 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
     const float *column = image + d * g->n_range;
     for (guint i0 = 0; i0 < g->n_range; i0 += CHUNK) {
       const guint i1 = MIN (i0 + CHUNK, g->n_range);
+      guint mask;
+
       /* Nearly every chunk holds no pixel that reaches its level. */
-      if (i1 - i0 == CHUNK && !any_passing (column + i0,
-              c->passing + i0))
+      if (i1 - i0 == CHUNK && !any_passing (column + i0, c->passing + i0))
         continue;
-      for (guint i = i0; i < i1; i++) {
+      mask = i1 - i0 == CHUNK ? passing_mask (column + i0, c->passing + i0)
+          : (1u << (i1 - i0)) - 1;
+
+      while (mask) {
+        const guint i = i0 + lowest_bit (mask);
         const gsize p = d * g->n_range + i;
         const float v = image[p];
         const float r = c->range[i];
-        gboolean peak = TRUE;
+        mask &= mask - 1;
         if (!(v >= c->passing[i]))
           continue;
         if (!(v >= threshold) || !(v >= c->floor[i])
             || !(v >= c->sidelobe[i]) || !isfinite (v)
+            || !local_maximum (g, image, p, e, a, i, v)
             || !(v >= column_floor (c, ws, d, i) *
                 (c->compensated ? r * r : 1.0f)))
           continue;
-        for (int de = -1; de <= 1 && peak; de++) {
-          if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
-            continue;
-          for (int da = -1; da <= 1 && peak; da++) {
-            if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
-              continue;
-            for (int di = -1; di <= 1; di++) {
-              gsize q;
-              float u;
-              if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
-                  || (de == 0 && da == 0 && di == 0))
-                continue;
-              q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
-              u = image[q];
-              /* Equal values: the earlier pixel wins, a deterministic
-               * order. Non-finite neighbours do not count. */
-              if (isfinite (u) && (u > v || (u == v && q < p))) {
-                peak = FALSE;
-                break;
-              }
-            }
-          }
-        }
-        if (peak)
-          keep_peak (&ws->peaks, capacity, v, p);
+        keep_peak (&ws->peaks, capacity, v, p);
       }
     }
   }

@@ -2,6 +2,7 @@
  * sonar-linkage.c's. */
 #include "sonar-cluster.h"
 #include "sonar-error.h"
+#include "sonar-kernels.h"
 #include "sonar-workers.h"
 
 #include <gio/gio.h>
@@ -43,8 +44,8 @@ typedef struct
  * noise_floors (), find_peaks ()): each writes only its own. */
 typedef struct
 {
-  float *columns;               /* FLOOR_BLOCK range bins' values over the
-                                 * directions, one column per bin */
+  float *columns;               /* one range bin's values over the
+                                 * directions (column_censored_quartile ()) */
   float *bracketed;             /* censored_quartile ()'s: 2 per direction,
                                  * at least column_bins */
   float *row_max;               /* per range bin: its directions' strongest */
@@ -206,7 +207,7 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   for (guint w = 0; w < sonar_workers_count (c->workers); w++) {
     const gsize n_dirs = (gsize) grid->n_azimuth * grid->n_elevation;
     WorkerScratch *ws = &c->scratch[w];
-    ws->columns = g_new (float, (gsize) FLOOR_BLOCK * n_dirs);
+    ws->columns = g_new (float, n_dirs);
     ws->bracketed = g_new (float, MAX (2 * n_dirs, c->column_bins));
     ws->row_max = g_new (float, grid->n_range);
     ws->column_values = g_new (float, c->column_bins);
@@ -654,6 +655,231 @@ censored_quartile (float *values, gsize n, float gain, float guess,
   return q;
 }
 
+/* Passes over a block's rows that sonar_cluster_censored_quartiles ()
+ * makes at most before it leaves the lanes still searching to
+ * censored_quartile (). */
+#define LANE_PASSES 48
+/* Share of a lane's values per unit of relative value about its
+ * quartile, before one is measured: a Fig. 10 image's (a Rayleigh
+ * amplitude's is 0.43; the image's maximum over hypotheses is steeper). */
+#define LANE_DENSITY 0.9
+
+/* Where a lane of sonar_cluster_censored_quartiles () stands. */
+enum
+{
+  LANE_SEARCH,                  /* for the element of rank target */
+  LANE_COUNT,                   /* for how many lie below level */
+  LANE_DONE,
+};
+
+typedef struct
+{
+  int stage;
+  gboolean first;               /* searching for the first quartile */
+  guint target, rank, kept, round;
+  /* The search's bracket: the element of rank target lies in [lo, hi];
+   * c_lo values lie below lo, c_hi at or below hi (about: interpolation
+   * reads them); each end known or not; one-sided steps taken. */
+  float lo, hi;
+  guint c_lo, c_hi;
+  gboolean has_lo, has_hi;
+  guint steps;
+  double density;               /* see LANE_DENSITY; measured once known */
+  float q;
+} Lane;
+
+/* The next level a searching lane @l of @n values counts below: between
+ * its bracket's ends, where the ranks interpolate (strictly above lo, at
+ * most hi, so that each pass narrows it); with one end known, a step
+ * from it to where the lane's density puts the target, and after three
+ * such steps the infinite end (every value on one side). */
+static float
+lane_level (const Lane * l, guint n)
+{
+  const double t = l->target + 0.5;
+
+  if (l->has_lo && l->has_hi) {
+    float m = l->lo + (l->hi - l->lo) * (float) ((t - l->c_lo) /
+        ((double) l->c_hi - l->c_lo));
+    if (!(m > l->lo && m <= l->hi))
+      m = l->lo + 0.5f * (l->hi - l->lo);
+    if (!(m > l->lo && m <= l->hi))
+      m = l->hi;
+    return m;
+  }
+  if (l->has_hi)
+    return l->steps >= 3 || !(l->hi > 0.0f) ? -INFINITY :
+        l->hi * (float) (1.0 - MIN (0.5, (l->c_hi - t) / n / l->density *
+            (1.0 + 0.5 * l->steps)));
+  return l->steps >= 3 || !(l->lo > 0.0f) ? INFINITY :
+      l->lo * (float) (1.0 + MIN (1.0, (t - l->c_lo) / n / l->density *
+          (1.0 + 0.5 * l->steps)));
+}
+
+/* The top of censored_quartile ()'s rounds for lane @l, its quartile q
+ * known: done, or counting below the next level. */
+static void
+lane_round (Lane * l, float gain, float *level)
+{
+  const float next_level = gain * l->q;
+
+  if (l->round >= CENSOR_ROUNDS || !(next_level > l->q)) {
+    l->stage = LANE_DONE;
+    return;
+  }
+  l->stage = LANE_COUNT;
+  *level = next_level;
+}
+
+/* Whether a pass that counted @count of lane @l's values below its level
+ * found its target: the elements of ranks count - 2 to count + 1 are the
+ * two values either side of the level (sonar_kernel_rank_pass ()). */
+static gboolean
+lane_found (Lane * l, guint count, const float *under, const float *over)
+{
+  const guint t = l->target;
+
+  if (t + 1 == count)
+    l->q = under[0];
+  else if (t + 2 == count)
+    l->q = under[SONAR_RANK_LANES];
+  else if (t == count)
+    l->q = over[0];
+  else if (t == count + 1)
+    l->q = over[SONAR_RANK_LANES];
+  else
+    return FALSE;
+  return TRUE;
+}
+
+/* Lane @l's bracket after a pass that counted @count below its level,
+ * none of the four ranks about it the target: the end on the target's
+ * side moves to the nearest value read. TRUE when the bracket closed on
+ * one value (the target's). */
+static gboolean
+lane_narrow (Lane * l, guint count, const float *under, const float *over)
+{
+  if (count > l->target + 2) {
+    l->hi = under[SONAR_RANK_LANES];
+    l->c_hi = count - 1;
+    l->has_hi = TRUE;
+  } else {
+    l->lo = over[SONAR_RANK_LANES];
+    l->c_lo = count + 1;
+    l->has_lo = TRUE;
+  }
+  if (l->has_lo && l->has_hi && l->lo == l->hi) {
+    l->q = l->lo;
+    return TRUE;
+  }
+  return FALSE;
+}
+
+/* sonar_cluster_censored_quartile () of SONAR_RANK_LANES columns at once
+ * (sonar-cluster.h): the same quartiles, being order statistics, found by
+ * passes of sonar_kernel_rank_pass () over the rows instead of copies of
+ * the columns and selections among them. Each pass counts, in every
+ * lane, the values below a level of the lane's own and reads the two
+ * values either side of it, the elements of four ranks; the levels close
+ * in on the target rank, from a guess, by Newton steps on the lane's
+ * density and interpolation between the ranks read (three or four passes
+ * a quartile; one more a censoring round, whose next quartile is most
+ * often within two ranks of the last), over values that stay in the
+ * cache. */
+gboolean
+sonar_cluster_censored_quartiles (const float *x, gsize stride, guint n,
+    float gain, float guess, float *q, guint8 * ok)
+{
+  const guint L = SONAR_RANK_LANES;
+  Lane lanes[SONAR_RANK_LANES];
+  float level[SONAR_RANK_LANES], under[2 * SONAR_RANK_LANES],
+      over[2 * SONAR_RANK_LANES];
+  guint32 below[SONAR_RANK_LANES], finite[SONAR_RANK_LANES];
+  guint pass;
+
+  if (!isfinite (guess) || n == 0)
+    return FALSE;
+  for (guint j = 0; j < L; j++) {
+    Lane *l = &lanes[j];
+    memset (l, 0, sizeof *l);
+    l->stage = LANE_SEARCH;
+    l->first = TRUE;
+    l->target = n / 4;
+    l->kept = n;
+    l->density = LANE_DENSITY;
+    level[j] = guess;
+  }
+  for (pass = 0; pass < LANE_PASSES; pass++) {
+    gboolean searching = FALSE;
+
+    sonar_kernel_rank_pass (x, stride, n, level, below, under, over,
+        pass == 0 ? finite : NULL);
+    for (guint j = 0; j < L && pass == 0; j++)
+      if (finite[j] != n)
+        return FALSE;
+    for (guint j = 0; j < L; j++) {
+      Lane *l = &lanes[j];
+      const guint count = below[j];
+
+      if (l->stage == LANE_SEARCH) {
+        float *const ul = under + j, *const ol = over + j;
+        if (lane_found (l, count, ul, ol) || lane_narrow (l, count, ul,
+                ol)) {
+          /* The density the bracket measured, for the next search. */
+          if (l->has_lo && l->has_hi && l->lo > 0.0f && l->hi > l->lo)
+            l->density = CLAMP (((double) l->c_hi - l->c_lo) / n /
+                ((l->hi - l->lo) / l->lo), 0.05, 20.0);
+          if (!l->first)
+            l->round++;
+          l->first = FALSE;
+          l->rank = l->target;
+          lane_round (l, gain, &level[j]);
+        } else {
+          level[j] = lane_level (l, n);
+          if (!(l->has_lo && l->has_hi))
+            l->steps++;
+        }
+      } else if (l->stage == LANE_COUNT) {
+        guint next;
+        /* censored_quartile ()'s round: those kept are those below the
+         * lowest level so far. */
+        if (count >= l->kept || count < 4) {
+          l->stage = LANE_DONE;
+          continue;
+        }
+        l->kept = count;
+        next = MIN (l->kept - 1, (guint) (0.25 * l->kept /
+                (1.0 - CENSOR_SHARE)));
+        if (next == l->rank) {
+          /* The same quartile, so the same level and count: done. */
+          l->stage = LANE_DONE;
+          continue;
+        }
+        /* The next quartile lies on q's side that its rank says: a
+         * Newton step from q, whose rank is known. */
+        l->stage = LANE_SEARCH;
+        l->target = next;
+        l->steps = 0;
+        l->has_lo = next > l->rank;
+        l->has_hi = next < l->rank;
+        l->lo = l->hi = l->q;
+        l->c_lo = l->rank;
+        l->c_hi = l->rank + 1;
+        level[j] = lane_level (l, n);
+        l->steps++;
+      }
+      searching |= l->stage != LANE_DONE;
+    }
+    if (!searching)
+      break;
+  }
+  for (guint j = 0; j < L; j++) {
+    q[j] = lanes[j].q;
+    ok[j] = lanes[j].stage == LANE_DONE;
+  }
+  return TRUE;
+}
+
 float
 sonar_cluster_censored_quartile (float *values, gsize n, float gain,
     float guess, float *scratch)
@@ -679,26 +905,49 @@ sonar_cluster_floor_gain (double pfa, double k)
   return sqrt (log (below_threshold) / log (below_quartile));
 }
 
+/* censored_quartile () of range bin @i's column (its finite values over
+ * every stride-th direction), gathered into worker @w's columns. */
+static float
+column_censored_quartile (SonarClusterer * c, guint w, guint i, float censor,
+    float guess)
+{
+  const SonarImageGrid *g = &c->grid;
+  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
+  const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
+  float *column = c->scratch[w].columns;
+  gsize n = 0;
+
+  for (gsize d = 0; d < n_dirs; d += stride) {
+    const float v = c->image[d * g->n_range + i];
+    if (isfinite (v))
+      column[n++] = v;
+  }
+  return censored_quartile (column, n, censor, guess,
+      c->scratch[w].bracketed);
+}
+
 /* Per range bin: the floor gain times the lower quartile over the
  * directions.
  * Not the median: a reflector near +-90 degrees smears over most of the
- * fan and would lift it. The columns are gathered FLOOR_BLOCK range bins
- * at a time, each direction's bins read in one run: gathering one bin at
- * a time reads a cache line per value (300 ms for a 3-D image of 14
- * million pixels). A 3-D image's quartile is taken over every k-th
- * direction, at most FLOOR_DIRECTIONS of them: from a thousand samples a
- * quartile is steady to a few per cent. */
+ * fan and would lift it. SONAR_RANK_LANES range bins at a time, by passes
+ * over their directions' runs of bins (sonar_cluster_censored_quartiles
+ * ()): reading one bin's column at a time reads a cache line per value
+ * (300 ms for a 3-D image of 14 million pixels), and copying the columns
+ * out cost as much as the selections. A 3-D image's quartile is taken
+ * over every k-th direction, at most FLOOR_DIRECTIONS of them: from a
+ * thousand samples a quartile is steady to a few per cent. */
 /* Worker @w's share of the noise floors: a contiguous run of the range
- * bins, its blocks of FLOOR_BLOCK gathered into its own columns. The
- * floors do not depend on the share (an order statistic is exact
- * whatever the guess that speeds it up). */
+ * bins in blocks of FLOOR_BLOCK; a block's bins SONAR_RANK_LANES at a
+ * time, those left (the run's first, before there is a guess; a block
+ * with a value not finite; the few the passes leave; the last bins) one
+ * at a time. The floors do not depend on the share (an order statistic
+ * is exact whatever the guess that speeds it up). */
 static void
 noise_floors_share (gpointer data, guint w, guint n_workers)
 {
   SonarClusterer *c = data;
   const SonarImageGrid *g = &c->grid;
   const float *image = c->image;
-  float *columns = c->scratch[w].columns;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
   const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
   const guint n_blocks = (g->n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
@@ -708,41 +957,37 @@ noise_floors_share (gpointer data, guint w, guint n_workers)
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
   const float censor = (float) sonar_cluster_floor_gain (CENSOR_SHARE,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
-  gsize counts[FLOOR_BLOCK];
   float guess = NAN;
 
   for (guint i0 = first * FLOOR_BLOCK; i0 < MIN (end * FLOOR_BLOCK,
           g->n_range); i0 += FLOOR_BLOCK) {
     const guint block = MIN (FLOOR_BLOCK, g->n_range - i0);
-    gsize n = 0;
-    gboolean finite = TRUE;
-    /* Copied as they are, then again without the non-finite ones if the
-     * block has any (rare: the copy needs no count per bin). */
-    for (gsize d = 0; d < n_dirs; d += stride, n++) {
-      const float *pixels = image + d * g->n_range + i0;
-      for (guint b = 0; b < block; b++) {
-        columns[b * n_dirs + n] = pixels[b];
-        finite &= isfinite (pixels[b]);
+    const gsize n = (n_dirs + stride - 1) / stride;
+    guint b = 0;
+
+    /* Whole lane blocks, once there is a guess: all at once. */
+    for (; b + SONAR_RANK_LANES <= block && isfinite (guess) && guess > 0.0f;
+        b += SONAR_RANK_LANES) {
+      float q[SONAR_RANK_LANES];
+      guint8 ok[SONAR_RANK_LANES];
+
+      if (!sonar_cluster_censored_quartiles (image + i0 + b, stride * g->n_range, n,
+              censor, guess, q, ok))
+        break;
+      for (guint j = 0; j < SONAR_RANK_LANES; j++) {
+        if (!ok[j])
+          q[j] = column_censored_quartile (c, w, i0 + b + j, censor, guess);
+        guess = guess + 0.125f * (q[j] - guess);
+        c->floor[i0 + b + j] = gain * q[j];
       }
     }
-    for (guint b = 0; b < block; b++)
-      counts[b] = n;
-    if (!finite) {
-      memset (counts, 0, sizeof counts);
-      for (gsize d = 0; d < n_dirs; d += stride) {
-        const float *pixels = image + d * g->n_range + i0;
-        for (guint b = 0; b < block; b++)
-          if (isfinite (pixels[b]))
-            columns[b * n_dirs + counts[b]++] = pixels[b];
-      }
-    }
-    for (guint b = 0; b < block; b++) {
+    /* The rest one at a time. */
+    for (; b < block; b++) {
       /* The guess: the running mean of the last bins' quartiles (the
        * level they share; one bin's own is a sample of it, off by a few
        * per cent: neighbouring bins are nearly independent at the
        * band's range resolution). */
-      const float q = censored_quartile (columns + b * n_dirs, counts[b],
-          censor, guess, c->scratch[w].bracketed);
+      const float q = column_censored_quartile (c, w, i0 + b, censor, guess);
       guess = isfinite (guess) ? guess + 0.125f * (q - guess) : q;
       c->floor[i0 + b] = gain * q;
     }
@@ -834,7 +1079,8 @@ sidelobe_thresholds (SonarClusterer * c)
   }
 }
 
-/* Whether any of the CHUNK @pixels reaches its @passing level. */
+/* Whether any of the CHUNK @pixels reaches its @passing level (vector
+ * code: one OR of comparisons). */
 static inline gboolean
 any_passing (const float *pixels, const float *passing)
 {
@@ -845,8 +1091,75 @@ any_passing (const float *pixels, const float *passing)
   return any;
 }
 
+/* The index of @mask's lowest set bit (@mask not 0). */
+static inline guint
+lowest_bit (guint mask)
+{
+#if defined(__GNUC__)
+  return (guint) __builtin_ctz (mask);
+#else
+  return (guint) g_bit_nth_lsf (mask, -1);
+#endif
+}
+
+/* Which of the CHUNK @pixels reach their @passing level: bit j for
+ * pixel j. */
+static inline guint
+passing_mask (const float *pixels, const float *passing)
+{
+  guint mask = 0;
+
+  for (guint j = 0; j < CHUNK; j++)
+    mask |= (guint) (pixels[j] >= passing[j]) << j;
+  return mask;
+}
+
+/* Whether pixel @q, value @u, beats pixel @p, value @v, as a local
+ * maximum: finite, and higher, or equal and earlier in the image (a
+ * deterministic order). */
+static inline gboolean
+beats (float u, gsize q, float v, gsize p)
+{
+  return isfinite (u) && (u > v || (u == v && q < p));
+}
+
+/* Whether pixel @p (@e, @a, @i) of @image, value @v, is a local maximum:
+ * no neighbour beats it. Its range neighbours first (contiguous; a
+ * pixel on an echo's flank loses to one of them), then the other
+ * directions'. */
+static inline gboolean
+local_maximum (const SonarImageGrid * g, const float *image, gsize p,
+    guint e, guint a, guint i, float v)
+{
+  const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
+  const int di_first = i == 0 ? 0 : -1;
+  const int di_last = i + 1 == g->n_range ? 0 : 1;
+
+  if ((i > 0 && beats (image[p - 1], p - 1, v, p))
+      || (i + 1 < g->n_range && beats (image[p + 1], p + 1, v, p)))
+    return FALSE;
+  for (int de = e == 0 ? 0 : -1; de <= (e + 1 == g->n_elevation ? 0 : 1);
+      de++)
+    for (int da = a == 0 ? 0 : -1; da <= (a + 1 == g->n_azimuth ? 0 : 1);
+        da++) {
+      const gsize centre = p + de * (gssize) stride_e + da *
+          (gssize) g->n_range;
+      if (de == 0 && da == 0)
+        continue;
+      for (int di = di_first; di <= di_last; di++)
+        if (beats (image[centre + di], centre + di, v, p))
+          return FALSE;
+    }
+  return TRUE;
+}
+
 /* Worker @w's share of find_peaks (): the peaks of its run of
- * directions into its own heap. */
+ * directions into its own heap. A pixel is a peak when it passes every
+ * test; they are made cheapest first: one level per range bin over 16
+ * pixels at a time (nearly every chunk holds no pixel that reaches it),
+ * then per pixel the range bin's own tests, the local maximum, and last
+ * the column floor (its quartiles are computed on demand: only at the
+ * local maxima, a tenth of the pixels over the other levels). */
 static void
 find_peaks_share (gpointer data, guint w, guint n_workers)
 {
@@ -857,7 +1170,6 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   const float threshold = c->threshold;
   const guint capacity = c->params.max_peaks;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-  const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
 
   ws->peaks.n = ws->peaks.n_found = 0;
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
@@ -866,47 +1178,29 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
     const float *column = image + d * g->n_range;
     for (guint i0 = 0; i0 < g->n_range; i0 += CHUNK) {
       const guint i1 = MIN (i0 + CHUNK, g->n_range);
+      guint mask;
+
       /* Nearly every chunk holds no pixel that reaches its level. */
-      if (i1 - i0 == CHUNK && !any_passing (column + i0,
-              c->passing + i0))
+      if (i1 - i0 == CHUNK && !any_passing (column + i0, c->passing + i0))
         continue;
-      for (guint i = i0; i < i1; i++) {
+      mask = i1 - i0 == CHUNK ? passing_mask (column + i0, c->passing + i0)
+          : (1u << (i1 - i0)) - 1;
+
+      while (mask) {
+        const guint i = i0 + lowest_bit (mask);
         const gsize p = d * g->n_range + i;
         const float v = image[p];
         const float r = c->range[i];
-        gboolean peak = TRUE;
+        mask &= mask - 1;
         if (!(v >= c->passing[i]))
           continue;
         if (!(v >= threshold) || !(v >= c->floor[i])
             || !(v >= c->sidelobe[i]) || !isfinite (v)
+            || !local_maximum (g, image, p, e, a, i, v)
             || !(v >= column_floor (c, ws, d, i) *
                 (c->compensated ? r * r : 1.0f)))
           continue;
-        for (int de = -1; de <= 1 && peak; de++) {
-          if ((de < 0 && e == 0) || (de > 0 && e + 1 == g->n_elevation))
-            continue;
-          for (int da = -1; da <= 1 && peak; da++) {
-            if ((da < 0 && a == 0) || (da > 0 && a + 1 == g->n_azimuth))
-              continue;
-            for (int di = -1; di <= 1; di++) {
-              gsize q;
-              float u;
-              if ((di < 0 && i == 0) || (di > 0 && i + 1 == g->n_range)
-                  || (de == 0 && da == 0 && di == 0))
-                continue;
-              q = p + de * (gssize) stride_e + da * (gssize) g->n_range + di;
-              u = image[q];
-              /* Equal values: the earlier pixel wins, a deterministic
-               * order. Non-finite neighbours do not count. */
-              if (isfinite (u) && (u > v || (u == v && q < p))) {
-                peak = FALSE;
-                break;
-              }
-            }
-          }
-        }
-        if (peak)
-          keep_peak (&ws->peaks, capacity, v, p);
+        keep_peak (&ws->peaks, capacity, v, p);
       }
     }
   }

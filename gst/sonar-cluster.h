@@ -236,6 +236,18 @@ float sonar_select_kth (float *v, gsize n, gsize k);
 float sonar_cluster_censored_quartile (float *values, gsize n, float gain,
     float guess, float *scratch);
 
+/* sonar_cluster_censored_quartile () of 16 (SONAR_RANK_LANES) columns at
+ * once, lane j's @n values at x[r * stride + j], r < n, by passes over
+ * them (no copies): the same values bit for bit, in q; ok[j] = 0 where a
+ * lane's quartile was not found within a bounded number of passes (the
+ * caller takes it from sonar_cluster_censored_quartile ()). FALSE, and
+ * nothing found, when a value is not finite, @n is 0 or @guess (the
+ * first level tried; near the quartiles for speed) is not finite.
+ * wardcluster's noise floors (tests/test-cluster.c,
+ * censored-quartiles). */
+gboolean sonar_cluster_censored_quartiles (const float *x, gsize stride,
+    guint n, float gain, float guess, float *q, guint8 * ok);
+
 /* The column floor's factor over the noise floor's (amplitude, -2 dB): an
  * object sits in its own ridge, and seen between the directions of a
  * coarse grid it loses more than the ridge does (the ridge adds up only

@@ -169,6 +169,29 @@ typedef void (*SonarMaxFn) (float *out, const float *x, guint n);
 typedef SONAR_KERNEL_IMPL (SonarMaxFn) SonarMaxImpl;
 extern const SonarMaxImpl sonar_kernel_max_impls[];
 
+/* Lanes of sonar_kernel_rank_pass (): a block of range bins. */
+#define SONAR_RANK_LANES 16
+
+/* Per lane j < SONAR_RANK_LANES, over the rows r < n_rows (lane j of row
+ * r at x[r * stride + j]): below[j] = how many are below level[j];
+ * under[j] and under[SONAR_RANK_LANES + j] the largest and second largest
+ * of those (-inf for none), over[j] and over[SONAR_RANK_LANES + j] the
+ * smallest and second smallest of the others, at or above it (+inf for
+ * none); a NaN counts in neither. When @finite is not NULL, finite[j] =
+ * how many are finite. One pass of wardcluster's order statistics over a
+ * block of range bins (a lane each; the directions are its rows): with
+ * the count below a level, the two values either side of it are the
+ * elements of four ranks, and a few levels find the element of any rank
+ * (sonar-cluster.c), with no copy of the columns. */
+void sonar_kernel_rank_pass (const float *x, gsize stride, guint n_rows,
+    const float *level, guint32 * below, float *under, float *over,
+    guint32 * finite);
+typedef void (*SonarRankPassFn) (const float *x, gsize stride,
+    guint n_rows, const float *level, guint32 * below, float *under,
+    float *over, guint32 * finite);
+typedef SONAR_KERNEL_IMPL (SonarRankPassFn) SonarRankPassImpl;
+extern const SonarRankPassImpl sonar_kernel_rank_pass_impls[];
+
 G_END_DECLS
 
 #endif

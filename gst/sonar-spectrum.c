@@ -124,10 +124,56 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
     *n_bad += bad;
 }
 
+/* Channels a worker deinterleaves together (sonar_channel_spectra_process
+ * ()): all of a worker's on two processors and 32 microphones (16 x 86
+ * KB of input held per worker; 8 made it 5 % slower). */
+#define SPECTRA_GROUP 16
+
+/* sonar_spectrum_process () of @count <= SPECTRA_GROUP channels of the
+ * interleaved @samples (@stride a frame), channels @first on, into
+ * @out (n_bins each, one after another): each frame's samples of the
+ * group are read together into the group's @inputs (FFTW-aligned, as
+ * @s's own), then @s's plan runs on each (the same plan on arrays of the
+ * same alignment: the same spectra bit for bit). Reading one channel at
+ * a time read a cache line (a frame) per sample, 32 times over; it was
+ * half of the stage's time. */
+static void
+spectrum_process_group (SonarSpectrum * s, float *const *inputs,
+    guint count, const float *samples, gsize length, gsize stride,
+    guint first, SonarComplex * out, guint * n_bad)
+{
+  const guint n = s->band.fft_size;
+  const gsize used = MIN (length, (gsize) n);
+  guint bad = 0;
+
+  for (gsize i = 0; i < used; i++) {
+    const float *frame = samples + i * stride + first;
+    for (guint k = 0; k < count; k++) {
+      const float x = frame[k];
+      /* One NaN would spread over every bin of the spectrum. */
+      if (G_LIKELY (isfinite (x)))
+        inputs[k][i] = x;
+      else {
+        inputs[k][i] = 0.0f;
+        bad++;
+      }
+    }
+  }
+  for (guint k = 0; k < count; k++) {
+    memset (inputs[k] + used, 0, sizeof (float) * (n - used));
+    fftwf_execute_dft_r2c (s->plan, inputs[k], s->output);
+    memcpy (out + (gsize) k * s->band.n_bins, s->output + s->band.first_bin,
+        sizeof (SonarComplex) * s->band.n_bins);
+  }
+  if (n_bad)
+    *n_bad += bad;
+}
+
 struct _SonarChannelSpectra
 {
   SonarWorkers *workers;
   SonarSpectrum *per_worker[SONAR_MAX_WORKERS];
+  float *inputs[SONAR_MAX_WORKERS][SPECTRA_GROUP];
   guint n_bad[SONAR_MAX_WORKERS];
   guint n_channels;
   guint n_bins;
@@ -151,8 +197,14 @@ sonar_channel_spectra_new (const SonarBand * band, guint n_channels,
           SONAR_MAX_WORKERS), error);
   if (!s->workers)
     return NULL;
-  for (guint w = 0; w < sonar_workers_count (s->workers); w++)
+  for (guint w = 0; w < sonar_workers_count (s->workers); w++) {
+    const guint n = sonar_workers_count (s->workers);
+    /* The most channels a worker's run holds, at most a group. */
+    const guint group = MIN (SPECTRA_GROUP, (n_channels + n - 1) / n);
     s->per_worker[w] = sonar_spectrum_new (band);
+    for (guint k = 0; k < group; k++)
+      s->inputs[w][k] = fftwf_alloc_real (band->fft_size);
+  }
   return g_steal_pointer (&s);
 }
 
@@ -162,22 +214,28 @@ sonar_channel_spectra_free (SonarChannelSpectra * s)
   if (!s)
     return;
   sonar_workers_free (s->workers);
-  for (guint w = 0; w < SONAR_MAX_WORKERS; w++)
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
     sonar_spectrum_free (s->per_worker[w]);
+    for (guint k = 0; k < SPECTRA_GROUP; k++)
+      fftwf_free (s->inputs[w][k]);
+  }
   g_free (s);
 }
 
-/* Worker @w's share: a contiguous run of the channels. */
+/* Worker @w's share: a contiguous run of the channels, SPECTRA_GROUP at
+ * a time. */
 static void
 channel_spectra_share (gpointer data, guint w, guint n_workers)
 {
   SonarChannelSpectra *s = data;
+  const guint end = s->n_channels * (w + 1) / n_workers;
 
   s->n_bad[w] = 0;
-  for (guint j = s->n_channels * w / n_workers;
-      j < s->n_channels * (w + 1) / n_workers; j++)
-    sonar_spectrum_process (s->per_worker[w], s->samples + j, s->length,
-        s->n_channels, s->out + (gsize) j * s->n_bins, &s->n_bad[w]);
+  for (guint j = s->n_channels * w / n_workers; j < end;
+      j += SPECTRA_GROUP)
+    spectrum_process_group (s->per_worker[w], s->inputs[w],
+        MIN (SPECTRA_GROUP, end - j), s->samples, s->length, s->n_channels,
+        j, s->out + (gsize) j * s->n_bins, &s->n_bad[w]);
 }
 
 guint

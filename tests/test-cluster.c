@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "sonar-cluster.h"
+#include "sonar-kernels.h"
 #include "sonar-setup.h"
 #include "sonar-rng.h"
 #include "sonar-test-util.h"
@@ -1343,6 +1344,78 @@ test_censored_quartile (void)
   }
 }
 
+/* The noise floors' 16 columns at once (sonar_cluster_censored_quartiles
+ * ()): bit for bit the definition's, on the rows of
+ * test_censored_quartile () laid out as the image lays out range bins
+ * (lane j of direction r at r * stride + j), each block's lanes of one
+ * kind, whatever the guess; nearly all found by the passes (the rest
+ * are the caller's). A value not finite refuses the block. */
+static void
+test_censored_quartiles (void)
+{
+  const float offsets[] = { 1.0f, 1.02f, 0.97f, 1.1f, 0.8f, 1.5f, 0.3f,
+    0.0f, -1.0f, 30.0f
+  };
+  const gsize stride = SONAR_RANK_LANES + 3;
+  g_autofree float *x = g_new (float, 1100 * stride);
+  float column[1100], q[SONAR_RANK_LANES];
+  guint8 ok[SONAR_RANK_LANES];
+  SonarRng rng;
+  guint lanes = 0, found = 0;
+
+  sonar_rng_init (&rng, 17, 0);
+  for (int block = 0; block < 1500; block++) {
+    const gsize n = block % 5 == 0 ? 1 + (gsize) (sonar_rng_uniform (&rng) *
+        1024) : 181;
+    const int kind = block % 5;
+    const float gain = 1.0f + 3.0f * (float) sonar_rng_uniform (&rng);
+    float want[SONAR_RANK_LANES];
+
+    for (guint j = 0; j < SONAR_RANK_LANES; j++) {
+      for (gsize i = 0; i < n; i++) {
+        const double a = sonar_rng_gaussian (&rng), b =
+            sonar_rng_gaussian (&rng);
+        float v = (float) hypot (a, b);
+        if (kind == 1 && sonar_rng_uniform (&rng) < 0.1)
+          v *= 30.0f;
+        else if (kind == 2)
+          v = floorf (3.0f * v);
+        else if (kind == 3 && sonar_rng_uniform (&rng) < 0.3)
+          v = 0.0f;
+        else if (kind == 4)
+          v = sonar_rng_uniform (&rng) < 0.4 ? 1.0f : 1.0f + v;
+        x[i * stride + j] = column[i] = v;
+      }
+      want[j] = censored_quartile_reference (column, n, gain);
+    }
+    for (guint g = 0; g < G_N_ELEMENTS (offsets); g++) {
+      g_assert_true (sonar_cluster_censored_quartiles (x, stride, n, gain,
+              want[0] * offsets[g], q, ok));
+      for (guint j = 0; j < SONAR_RANK_LANES; j++) {
+        lanes++;
+        if (!ok[j])
+          continue;
+        found++;
+        if (memcmp (&q[j], &want[j], sizeof (float)) != 0)
+          g_error ("block %d (n %" G_GSIZE_FORMAT ", kind %d), lane %u, "
+              "guess x %g: %.9g, want %.9g", block, n, kind, j, offsets[g],
+              q[j], want[j]);
+      }
+    }
+  }
+  g_test_message ("%u of %u lanes found by the passes", found, lanes);
+  g_assert_cmpuint (found, >=, lanes - lanes / 100);
+  x[5 * stride + 3] = NAN;
+  g_assert_false (sonar_cluster_censored_quartiles (x, stride, 181, 2.0f,
+          1.0f, q, ok));
+  x[5 * stride + 3] = INFINITY;
+  g_assert_false (sonar_cluster_censored_quartiles (x, stride, 181, 2.0f,
+          1.0f, q, ok));
+  x[5 * stride + 3] = 1.0f;
+  g_assert_false (sonar_cluster_censored_quartiles (x, stride, 181, 2.0f,
+          NAN, q, ok));
+}
+
 int
 main (int argc, char **argv)
 {
@@ -1365,6 +1438,7 @@ main (int argc, char **argv)
   g_test_add_func ("/cluster/retune", test_retune);
   g_test_add_func ("/cluster/floor-gain", test_floor_gain);
   g_test_add_func ("/cluster/censored-quartile", test_censored_quartile);
+  g_test_add_func ("/cluster/censored-quartiles", test_censored_quartiles);
   g_test_add_func ("/cluster/speed", test_speed);
   return g_test_run ();
 }

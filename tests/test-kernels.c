@@ -584,6 +584,79 @@ test_max (gconstpointer data)
   }
 }
 
+/* One pass of the order statistics over a block of lanes, against the
+ * definition counted lane by lane: the count below each lane's level,
+ * the two largest values below it and the two smallest at or above it
+ * (a tie is two values), the finite count; with ties at the level, NaNs and infinities among the rows, a
+ * stride wider than the lanes, levels of +-inf and no rows at all. */
+static void
+test_rank_pass (gconstpointer data)
+{
+  const SonarRankPassImpl *impl = data;
+  const guint rows_tried[] = { 0, 1, 3, 181, 921 };
+  const gsize stride = SONAR_RANK_LANES + 5;
+  SonarRng rng;
+  g_autofree float *x = g_new (float, 921 * stride);
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 31, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (rows_tried); t++) {
+    const guint n = rows_tried[t];
+    for (int with_specials = 0; with_specials < 2; with_specials++) {
+      float level[SONAR_RANK_LANES], under[2 * SONAR_RANK_LANES],
+          over[2 * SONAR_RANK_LANES];
+      guint32 below[SONAR_RANK_LANES], finite[SONAR_RANK_LANES];
+
+      for (gsize k = 0; k < n * stride; k++) {
+        /* Coarse values: many ties, some at the levels. */
+        x[k] = (float) floor (16.0 * sonar_rng_uniform (&rng)) * 0.25f;
+        if (with_specials && sonar_rng_uniform (&rng) < 0.05)
+          x[k] = sonar_rng_uniform (&rng) < 0.5 ? NAN :
+              (sonar_rng_uniform (&rng) < 0.5 ? INFINITY : -INFINITY);
+      }
+      for (guint j = 0; j < SONAR_RANK_LANES; j++)
+        level[j] = j == 0 ? -INFINITY : j == 1 ? INFINITY :
+            (float) floor (16.0 * sonar_rng_uniform (&rng)) * 0.25f;
+      for (int with_finite = 0; with_finite < 2; with_finite++) {
+        impl->fn (x, stride, n, level, below, under, over,
+            with_finite ? finite : NULL);
+        for (guint j = 0; j < SONAR_RANK_LANES; j++) {
+          guint32 want_below = 0, want_finite = 0;
+          float want_under[2] = { -INFINITY, -INFINITY };
+          float want_over[2] = { INFINITY, INFINITY };
+          for (guint r = 0; r < n; r++) {
+            const float v = x[r * stride + j];
+            if (v < level[j]) {
+              want_below++;
+              if (v > want_under[0]) {
+                want_under[1] = want_under[0];
+                want_under[0] = v;
+              } else
+                want_under[1] = MAX (want_under[1], v);
+            } else if (v >= level[j]) {
+              if (v < want_over[0]) {
+                want_over[1] = want_over[0];
+                want_over[0] = v;
+              } else
+                want_over[1] = MIN (want_over[1], v);
+            }
+            want_finite += isfinite (v);
+          }
+          g_assert_cmpuint (below[j], ==, want_below);
+          for (guint k = 0; k < 2; k++) {
+            g_assert_cmpfloat (under[k * SONAR_RANK_LANES + j], ==,
+                want_under[k]);
+            g_assert_cmpfloat (over[k * SONAR_RANK_LANES + j], ==,
+                want_over[k]);
+          }
+          if (with_finite)
+            g_assert_cmpuint (finite[j], ==, want_finite);
+        }
+      }
+    }
+  }
+}
+
 /* One test case per implementation: /kernels/<kernel>/<implementation>. */
 #define ADD_IMPL_TESTS(path, impls, func) G_STMT_START {                \
   for (guint i_ = 0; (impls)[i_].name; i_++) {                          \
@@ -618,6 +691,8 @@ main (int argc, char **argv)
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);
   ADD_IMPL_TESTS ("peak", sonar_kernel_peak_impls, test_peak);
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
+  ADD_IMPL_TESTS ("rank-pass", sonar_kernel_rank_pass_impls,
+      test_rank_pass);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
   g_test_add_func ("/kernels/entry-points-choose-best",

@@ -137,6 +137,7 @@ typedef struct
    * the wall-clock times, not this. */
   double cpu_ms_total;
   double cpu_ms_velocity;       /* the velocity stage's, all its threads */
+  double cpu_ms_spectra, cpu_ms_clustering;     /* the same, theirs */
   double bank_mb, mb[N_STAGES]; /* heap held */
   double peak_rss_mb;
   guint bank_velocities;

@@ -753,8 +753,8 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   reset_peak_rss ();
   ok = chain_init (ch, b, c, r, error);
   /* Per ping: the stages, the total, its CPU time, the velocity stage's
-   * CPU time (all its threads). */
-  times = g_new (double, (N_STAGES + 3) * n_timed);
+   * CPU time (all its threads), the spectra's and the clustering's. */
+  times = g_new (double, (N_STAGES + 5) * n_timed);
   /* Ping -1 is a warm-up on the first ping, neither timed nor scored: it
    * takes the page faults of fresh buffers and ORC's first compilations,
    * and its heap growth is the stages' working memory. */
@@ -766,10 +766,12 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     StageClock clock = { q < 0 };
     double t[N_STAGES], total = 0.0;
     guint n_centroids, units, dense_units, passes, dense_passes;
-    double velocity_cpu;
+    double velocity_cpu, spectra_cpu, clustering_cpu;
 
     stage_start (&clock);
+    spectra_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
     chain_spectra (ch, samples, length);
+    spectra_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID) - spectra_cpu;
     t[STAGE_SPECTRA] = stage_stop (&clock, r, STAGE_SPECTRA);
     stage_start (&clock);
     chain_imaging (ch);
@@ -777,8 +779,10 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
         &dense_passes);
     stage_start (&clock);
+    clustering_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
     n_centroids = sonar_clusterer_process (ch->clusterer, ch->image,
         ch->centroids, MAX_CENTROIDS);
+    clustering_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID) - clustering_cpu;
     t[STAGE_CLUSTERING] = stage_stop (&clock, r, STAGE_CLUSTERING);
     stage_start (&clock);
     velocity_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
@@ -805,6 +809,8 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     times[(N_STAGES + 1) * n_timed + q] =
         clock_ms (CLOCK_PROCESS_CPUTIME_ID) - cpu_start;
     times[(N_STAGES + 2) * n_timed + q] = velocity_cpu;
+    times[(N_STAGES + 3) * n_timed + q] = spectra_cpu;
+    times[(N_STAGES + 4) * n_timed + q] = clustering_cpu;
     for (guint k = 0; k < N_STAGES; k++) {
       times[k * n_timed + q] = t[k];
       total += t[k];
@@ -836,5 +842,8 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   r->ms_total_high = percentile (times + N_STAGES * n_timed, n_timed, 0.9);
   r->cpu_ms_total = median (times + (N_STAGES + 1) * n_timed, n_timed);
   r->cpu_ms_velocity = median (times + (N_STAGES + 2) * n_timed, n_timed);
+  r->cpu_ms_spectra = median (times + (N_STAGES + 3) * n_timed, n_timed);
+  r->cpu_ms_clustering = median (times + (N_STAGES + 4) * n_timed,
+      n_timed);
   return TRUE;
 }

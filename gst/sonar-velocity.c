@@ -173,7 +173,30 @@ struct _SonarVelocityEstimator
   guint8 *lag_kinds;
   float *lag_re, *lag_im;
   guint lag_stride, n_lag_tables;
+
+  /* The gated reads of the window's lags, planned once per window
+   * (gate_plan ()): outputs_at ()'s runs of reads between centrings,
+   * each read's lag from its blocks' centre and phasor table (lag_table
+   * (), -1: none), so that an evaluation neither hashes its offsets nor
+   * walks outputs_at ()'s tests. plan_runs[r] is the first window lag
+   * (from lag_first) of run r, plan_runs[n_plan_runs] the end. */
+  gboolean planned;
+  int plan_first, plan_last;
+  guint n_plan_runs;
+  guint *plan_runs;             /* [n_plan_runs + 1] */
+  double *plan_run_centres;     /* [run]: the blocks' new centre (m), NAN
+                                 * for none */
+  gint *plan_slots;             /* [lag - lag_first] */
+  double *plan_lags;            /* [lag - lag_first], m from the centre */
+  float gate_scale;             /* outputs_at ()'s factor on gated reads */
+  /* window_peak ()'s fine reads on gated blocks centred at the best
+   * window lag dr: the phasor table of quarter step q (0-8) from it,
+   * [(dr + MAX_WINDOW_RANGES) * 9 + q], FINE_UNKNOWN until first read. */
+  gint *fine_slots;
 };
+
+/* fine_slots' value for a table not looked up yet. */
+#define FINE_UNKNOWN (-2)
 
 /* The blocks a lag is read from: of the whole ping's bins, of the gate's. */
 enum
@@ -437,6 +460,15 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->lag_kinds = g_new0 (guint8, LAG_TABLES);
   est->lag_re = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
   est->lag_im = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
+  est->plan_runs = g_new (guint, 2 * MAX_WINDOW_RANGES + 2);
+  est->plan_run_centres = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->plan_slots = g_new (gint, 2 * MAX_WINDOW_RANGES + 1);
+  est->plan_lags = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->fine_slots = g_new (gint, (2 * MAX_WINDOW_RANGES + 1) * 9);
+  for (guint i = 0; i < (2 * MAX_WINDOW_RANGES + 1) * 9; i++)
+    est->fine_slots[i] = FINE_UNKNOWN;
+  if (est->gate_size)
+    est->gate_scale = 2.0f / ((float) est->band.fft_size * est->gate_size);
   return est;
 }
 
@@ -479,6 +511,11 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->lag_kinds);
   g_free (est->lag_re);
   g_free (est->lag_im);
+  g_free (est->plan_runs);
+  g_free (est->plan_run_centres);
+  g_free (est->plan_slots);
+  g_free (est->plan_lags);
+  g_free (est->fine_slots);
   if (est->gate_templates && g_atomic_int_dec_and_test
       (&est->gate_templates->ref)) {
     g_free (est->gate_templates->re);
@@ -746,6 +783,91 @@ outputs_at (SonarVelocityEstimator * est, const double *offsets, guint n,
   }
 }
 
+/* Plans the gated reads of the window's lags (est->planned), as
+ * outputs_at () makes them on the blocks emitter_blocks () centres: the
+ * same centrings, lags and phasor tables, for every emitter and velocity
+ * of the window. */
+static void
+gate_plan (SonarVelocityEstimator * est)
+{
+  const double step = est->grid.range_step;
+  const guint n = est->lag_last - est->lag_first + 1;
+  double centre = MIN (est->lag_first + 1, est->lag_last) * step;
+
+  est->n_plan_runs = 0;
+  for (guint i = 0, end; i < n; i = end) {
+    const double at = (est->lag_first + (int) i) * step;
+    const gboolean recentre = fabs (at - centre) > 1.001 * step;
+    if (recentre)
+      centre = at + (at > centre ? step : -step);
+    for (end = i + 1; end < n && end - i < LAG_BATCH
+        && !(fabs ((est->lag_first + (int) end) * step - centre) >
+            1.001 * step); end++);
+    est->plan_runs[est->n_plan_runs] = i;
+    est->plan_run_centres[est->n_plan_runs++] = recentre ? centre : NAN;
+    for (guint j = i; j < end; j++) {
+      est->plan_lags[j] = (est->lag_first + (int) j) * step - centre;
+      est->plan_slots[j] = lag_table (est, &est->gate_steering, GATE_BLOCK,
+          LAG_GATED, est->plan_lags[j]);
+    }
+  }
+  est->plan_runs[est->n_plan_runs] = n;
+  est->plan_first = est->lag_first;
+  est->plan_last = est->lag_last;
+  est->planned = TRUE;
+}
+
+/* The gated blocks' sums at @n lags from their centre (@slots their
+ * phasor tables, -1 for none) into @out, scaled as outputs_at () scales
+ * them: lag_reads () without its look-ups. */
+static void
+gated_reads (SonarVelocityEstimator * est, const gint * slots,
+    const double *lags, guint n, SonarComplex * out)
+{
+  const float *re[LAG_BATCH], *im[LAG_BATCH];
+  SonarComplex sums[LAG_BATCH];
+  guint which[LAG_BATCH], n_tables = 0;
+
+  for (guint i = 0; i < n; i++) {
+    if (slots[i] < 0) {
+      out[i] = sonar_steering_blocks_at (&est->gate_steering, est->blocks,
+          GATE_BLOCK, lags[i]);
+      continue;
+    }
+    re[n_tables] = est->lag_re + (gsize) slots[i] * est->lag_stride;
+    im[n_tables] = est->lag_im + (gsize) slots[i] * est->lag_stride;
+    which[n_tables++] = i;
+  }
+  if (n_tables)
+    sonar_steering_blocks_sums (&est->gate_steering, est->blocks, GATE_BLOCK,
+        re, im, n_tables, sums);
+  for (guint t = 0; t < n_tables; t++)
+    out[which[t]] = sums[t];
+  for (guint i = 0; i < n; i++)
+    out[i] = out[i] * est->gate_scale;
+}
+
+/* outputs_at () of the window's lags on the gated blocks emitter_blocks
+ * () made, bit for bit, on the plan (gate_plan ()): the outputs into
+ * est->read_outputs, and the blocks' centre each was read at into
+ * @centres (may be NULL). */
+static void
+gated_window_reads (SonarVelocityEstimator * est, double *centres)
+{
+  if (!est->planned || est->plan_first != est->lag_first
+      || est->plan_last != est->lag_last)
+    gate_plan (est);
+  for (guint r = 0; r < est->n_plan_runs; r++) {
+    const guint i = est->plan_runs[r], end = est->plan_runs[r + 1];
+    if (!isnan (est->plan_run_centres[r]))
+      gated_blocks (est, est->plan_run_centres[r]);
+    gated_reads (est, est->plan_slots + i, est->plan_lags + i, end - i,
+        est->read_outputs + i);
+    for (guint j = i; centres && j < end; j++)
+      centres[j] = est->blocks_centre;
+  }
+}
+
 static double parabola_offset (double a, double b, double c);
 
 static double
@@ -794,10 +916,14 @@ coherence_over (SonarVelocityEstimator * est,
         }
         for (guint n = 0; n < est->n_emitters; n++) {
           emitter_blocks (est, n, vs[i], range);
-          for (int dr = first; dr <= last; dr++)
-            est->read_offsets[dr - first] = dr * grid->range_step;
-          outputs_at (est, est->read_offsets, last - first + 1,
-              est->read_outputs, NULL);
+          if (est->gated) {
+            gated_window_reads (est, NULL);
+          } else {
+            for (int dr = first; dr <= last; dr++)
+              est->read_offsets[dr - first] = dr * grid->range_step;
+            outputs_at (est, est->read_offsets, last - first + 1,
+                est->read_outputs, NULL);
+          }
           for (int dr = first; dr <= last; dr++) {
             const double complex y = est->read_outputs[dr - first];
             sums[dr] += y;
@@ -972,16 +1098,20 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   double *values = est->peak_values - est->lag_first;
   double *centres = est->peak_centres - est->lag_first;
   double fine[9], best_value = -1.0, best_lag = 0.0;
-  double fine_offsets[8];
+  double fine_offsets[8], fine_lags[8] = { 0 };
   SonarComplex fine_outputs[8];
-  int best = 4, best_dr = 0, fine_q[8];
+  int best = 4, best_dr = 0, fine_q[8], fine_slots[8] = { 0 };
   guint n_fine = 0;
 
   emitter_blocks (est, n, v, range);
-  for (int dr = est->lag_first; dr <= est->lag_last; dr++)
-    est->read_offsets[dr - est->lag_first] = dr * step;
-  outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
-      est->read_outputs, est->peak_centres);
+  if (est->gated) {
+    gated_window_reads (est, est->peak_centres);
+  } else {
+    for (int dr = est->lag_first; dr <= est->lag_last; dr++)
+      est->read_offsets[dr - est->lag_first] = dr * step;
+    outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
+        est->read_outputs, est->peak_centres);
+  }
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
     const double y = magnitude (est->read_outputs[dr - est->lag_first]);
     values[dr] = y;
@@ -1011,7 +1141,22 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
       fine_offsets[n_fine++] = offset;
     }
   }
-  outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
+  if (est->gated) {
+    /* outputs_at () on the blocks centred at the best lag, whose lags
+     * from it depend on best_dr and q alone: their tables are looked up
+     * once. */
+    gint *slots = est->fine_slots + (best_dr + MAX_WINDOW_RANGES) * 9;
+    for (guint i = 0; i < n_fine; i++) {
+      fine_lags[i] = fine_offsets[i] - est->blocks_centre;
+      if (slots[fine_q[i]] == FINE_UNKNOWN)
+        slots[fine_q[i]] = lag_table (est, &est->gate_steering, GATE_BLOCK,
+            LAG_GATED, fine_lags[i]);
+      fine_slots[i] = slots[fine_q[i]];
+    }
+    gated_reads (est, fine_slots, fine_lags, n_fine, fine_outputs);
+  } else {
+    outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
+  }
   for (guint i = 0; i < n_fine; i++)
     fine[fine_q[i]] = magnitude (fine_outputs[i]);
   for (int q = 1; q < 8; q++)

@@ -193,7 +193,27 @@ struct _SonarVelocityEstimator
    * window lag dr: the phasor table of quarter step q (0-8) from it,
    * [(dr + MAX_WINDOW_RANGES) * 9 + q], FINE_UNKNOWN until first read. */
   gint *fine_slots;
+
+  /* The prescreen's gated blocks, kept for the bank's evaluations of the
+   * same emitter and velocity on the same focus (window_peak ()): at the
+   * detection hypotheses (est->hypotheses), which the coarse pass
+   * evaluates again where they fall on its stride. Per hypothesis and
+   * emitter: the focus they were made on (est->focus_generation; 0:
+   * none), the blocks after the window's reads, their centre, and the
+   * window's outputs and the centre each was read at. */
+  guint focus_generation;
+  gint *hyp_index;              /* [velocity]: its hypothesis, or -1 */
+  guint *hyp_generation;        /* [hypothesis][emitter] */
+  SonarComplex *hyp_blocks;     /* [hypothesis][emitter][n_gate_blocks] */
+  double *hyp_blocks_centre;    /* [hypothesis][emitter] */
+  SonarComplex *hyp_outputs;    /* [hypothesis][emitter][HYP_LAGS] */
+  double *hyp_centres;          /* [hypothesis][emitter][HYP_LAGS] */
+  guint n_gate_blocks;          /* gate_padded / GATE_BLOCK */
 };
+
+/* Window lags the kept prescreen blocks hold, at most (the default
+ * window reads 3). */
+#define HYP_LAGS 8
 
 /* fine_slots' value for a table not looked up yet. */
 #define FINE_UNKNOWN (-2)
@@ -467,8 +487,21 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->fine_slots = g_new (gint, (2 * MAX_WINDOW_RANGES + 1) * 9);
   for (guint i = 0; i < (2 * MAX_WINDOW_RANGES + 1) * 9; i++)
     est->fine_slots[i] = FINE_UNKNOWN;
-  if (est->gate_size)
+  if (est->gate_size) {
+    const gsize entries = (gsize) est->n_hypotheses * est->n_emitters;
     est->gate_scale = 2.0f / ((float) est->band.fft_size * est->gate_size);
+    est->n_gate_blocks = est->gate_padded / GATE_BLOCK;
+    est->hyp_index = g_new (gint, est->n_velocities);
+    for (guint v = 0; v < est->n_velocities; v++)
+      est->hyp_index[v] = -1;
+    for (guint i = 0; i < est->n_hypotheses; i++)
+      est->hyp_index[est->hypotheses[i]] = i;
+    est->hyp_generation = g_new0 (guint, entries);
+    est->hyp_blocks = g_new (SonarComplex, entries * est->n_gate_blocks);
+    est->hyp_blocks_centre = g_new (double, entries);
+    est->hyp_outputs = g_new (SonarComplex, entries * HYP_LAGS);
+    est->hyp_centres = g_new (double, entries * HYP_LAGS);
+  }
   return est;
 }
 
@@ -516,6 +549,12 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->plan_slots);
   g_free (est->plan_lags);
   g_free (est->fine_slots);
+  g_free (est->hyp_index);
+  g_free (est->hyp_generation);
+  g_free (est->hyp_blocks);
+  g_free (est->hyp_blocks_centre);
+  g_free (est->hyp_outputs);
+  g_free (est->hyp_centres);
   if (est->gate_templates && g_atomic_int_dec_and_test
       (&est->gate_templates->ref)) {
     g_free (est->gate_templates->re);
@@ -617,6 +656,13 @@ focus (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
   sonar_steering_receive_sum (&est->steering, spectra, est->mic_legs,
       est->receive_re, est->receive_im);
   gate_focus (est, range);
+  /* The prescreen's kept blocks were made on another focus. */
+  if (++est->focus_generation == 0) {
+    est->focus_generation = 1;
+    if (est->hyp_generation)
+      memset (est->hyp_generation, 0, sizeof (guint) * est->n_hypotheses *
+          est->n_emitters);
+  }
   est->focused = TRUE;
   est->focus_direction = direction;
   est->focus_range = range;
@@ -868,6 +914,64 @@ gated_window_reads (SonarVelocityEstimator * est, double *centres)
   }
 }
 
+/* The kept prescreen entry of emitter @n at velocity index @v, or -1:
+ * none for it (not a hypothesis, no gate, a window too wide). */
+static gint
+hyp_entry (const SonarVelocityEstimator * est, guint n, guint v)
+{
+  if (!est->hyp_index || est->hyp_index[v] < 0
+      || est->lag_last - est->lag_first + 1 > HYP_LAGS)
+    return -1;
+  return est->hyp_index[v] * (gint) est->n_emitters + (gint) n;
+}
+
+/* Keeps the gated blocks and window outputs just made (emitter_blocks (),
+ * gated_window_reads (), the window's centres in @centres) for
+ * emitter @n at velocity index @v on the current focus. */
+static void
+hyp_keep (SonarVelocityEstimator * est, guint n, guint v,
+    const double *centres)
+{
+  const gint e = hyp_entry (est, n, v);
+  const guint lags = est->lag_last - est->lag_first + 1;
+
+  if (e < 0)
+    return;
+  memcpy (est->hyp_blocks + (gsize) e * est->n_gate_blocks, est->blocks,
+      sizeof (SonarComplex) * est->n_gate_blocks);
+  memcpy (est->hyp_outputs + (gsize) e * HYP_LAGS, est->read_outputs,
+      sizeof (SonarComplex) * lags);
+  memcpy (est->hyp_centres + (gsize) e * HYP_LAGS, centres,
+      sizeof (double) * lags);
+  est->hyp_blocks_centre[e] = est->blocks_centre;
+  est->hyp_generation[e] = est->focus_generation;
+}
+
+/* emitter_blocks () and gated_window_reads () of emitter @n at velocity
+ * index @v and @range on the current gated focus from what hyp_keep ()
+ * kept, the same numbers: FALSE when nothing is kept for them. */
+static gboolean
+hyp_take (SonarVelocityEstimator * est, guint n, guint v, double range,
+    double *centres)
+{
+  const gint e = hyp_entry (est, n, v);
+  const guint lags = est->lag_last - est->lag_first + 1;
+
+  if (e < 0 || est->hyp_generation[e] != est->focus_generation)
+    return FALSE;
+  memcpy (est->blocks, est->hyp_blocks + (gsize) e * est->n_gate_blocks,
+      sizeof (SonarComplex) * est->n_gate_blocks);
+  memcpy (est->read_outputs, est->hyp_outputs + (gsize) e * HYP_LAGS,
+      sizeof (SonarComplex) * lags);
+  memcpy (centres, est->hyp_centres + (gsize) e * HYP_LAGS,
+      sizeof (double) * lags);
+  est->blocks_emitter = n;
+  est->blocks_velocity = v;
+  est->blocks_range = range;
+  est->blocks_centre = est->hyp_blocks_centre[e];
+  return TRUE;
+}
+
 static double parabola_offset (double a, double b, double c);
 
 static double
@@ -917,7 +1021,8 @@ coherence_over (SonarVelocityEstimator * est,
         for (guint n = 0; n < est->n_emitters; n++) {
           emitter_blocks (est, n, vs[i], range);
           if (est->gated) {
-            gated_window_reads (est, NULL);
+            gated_window_reads (est, est->peak_centres);
+            hyp_keep (est, n, vs[i], est->peak_centres);
           } else {
             for (int dr = first; dr <= last; dr++)
               est->read_offsets[dr - first] = dr * grid->range_step;
@@ -1103,8 +1208,9 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   int best = 4, best_dr = 0, fine_q[8], fine_slots[8] = { 0 };
   guint n_fine = 0;
 
-  emitter_blocks (est, n, v, range);
-  if (est->gated) {
+  if (est->gated && hyp_take (est, n, v, range, est->peak_centres)) {
+    /* The prescreen made these blocks and reads. */
+  } else if ((emitter_blocks (est, n, v, range), est->gated)) {
     gated_window_reads (est, est->peak_centres);
   } else {
     for (int dr = est->lag_first; dr <= est->lag_last; dr++)

@@ -744,9 +744,13 @@ steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
             whole);
         break;
     }
+    /* Without a tail ramp_finish_avx2 () is the lanes' sum alone, whose
+     * additions nothing can fuse: inline, the same numbers without a call
+     * per table (the velocity stage's gated blocks fill whole vectors). */
     for (guint g = 0; g < group; g++)
-      out[t + g] = ramp_finish_avx2 (sum_re[g], sum_im[g], x + whole,
-          re[t + g] + whole, im[t + g] + whole, n - whole);
+      out[t + g] = whole == n ? LANES_SUM (sum_re[g], sum_im[g]) :
+          ramp_finish_avx2 (sum_re[g], sum_im[g], x + whole, re[t + g] +
+          whole, im[t + g] + whole, n - whole);
   }
 }
 

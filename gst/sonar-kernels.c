@@ -675,6 +675,12 @@ ramp_finish_avx2 (Vec sum_re, Vec sum_im, const SonarComplex * x,
 
   for (guint k = 0; k < count; k++)
     sum += x[k] * (re[k] + I * im[k]);
+  /* Taking its lanes in 256-bit registers, it returned with their upper
+   * halves set (gcc inserts no vzeroupper here, nor in its callers after
+   * it): every SSE instruction of the callers' callers (the velocity
+   * stage's scalar code, libm's log and exp) then waited on those halves,
+   * and the velocity stage took 2.2-2.6 times its CPU time. */
+  _mm256_zeroupper ();
   return sum;
 }
 
@@ -785,9 +791,13 @@ steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
             whole);
         break;
     }
+    /* Without a tail ramp_finish_avx2 () is the lanes' sum alone, whose
+     * additions nothing can fuse: inline, the same numbers without a call
+     * per table (the velocity stage's gated blocks fill whole vectors). */
     for (guint g = 0; g < group; g++)
-      out[t + g] = ramp_finish_avx2 (sum_re[g], sum_im[g], x + whole,
-          re[t + g] + whole, im[t + g] + whole, n - whole);
+      out[t + g] = whole == n ? LANES_SUM (sum_re[g], sum_im[g]) :
+          ramp_finish_avx2 (sum_re[g], sum_im[g], x + whole, re[t + g] +
+          whole, im[t + g] + whole, n - whole);
   }
 }
 

@@ -173,7 +173,50 @@ struct _SonarVelocityEstimator
   guint8 *lag_kinds;
   float *lag_re, *lag_im;
   guint lag_stride, n_lag_tables;
+
+  /* The gated reads of the window's lags, planned once per window
+   * (gate_plan ()): outputs_at ()'s runs of reads between centrings,
+   * each read's lag from its blocks' centre and phasor table (lag_table
+   * (), -1: none), so that an evaluation neither hashes its offsets nor
+   * walks outputs_at ()'s tests. plan_runs[r] is the first window lag
+   * (from lag_first) of run r, plan_runs[n_plan_runs] the end. */
+  gboolean planned;
+  int plan_first, plan_last;
+  guint n_plan_runs;
+  guint *plan_runs;             /* [n_plan_runs + 1] */
+  double *plan_run_centres;     /* [run]: the blocks' new centre (m), NAN
+                                 * for none */
+  gint *plan_slots;             /* [lag - lag_first] */
+  double *plan_lags;            /* [lag - lag_first], m from the centre */
+  float gate_scale;             /* outputs_at ()'s factor on gated reads */
+  /* window_peak ()'s fine reads on gated blocks centred at the best
+   * window lag dr: the phasor table of quarter step q (0-8) from it,
+   * [(dr + MAX_WINDOW_RANGES) * 9 + q], FINE_UNKNOWN until first read. */
+  gint *fine_slots;
+
+  /* The prescreen's gated blocks, kept for the bank's evaluations of the
+   * same emitter and velocity on the same focus (window_peak ()): at the
+   * detection hypotheses (est->hypotheses), which the coarse pass
+   * evaluates again where they fall on its stride. Per hypothesis and
+   * emitter: the focus they were made on (est->focus_generation; 0:
+   * none), the blocks after the window's reads, their centre, and the
+   * window's outputs and the centre each was read at. */
+  guint focus_generation;
+  gint *hyp_index;              /* [velocity]: its hypothesis, or -1 */
+  guint *hyp_generation;        /* [hypothesis][emitter] */
+  SonarComplex *hyp_blocks;     /* [hypothesis][emitter][n_gate_blocks] */
+  double *hyp_blocks_centre;    /* [hypothesis][emitter] */
+  SonarComplex *hyp_outputs;    /* [hypothesis][emitter][HYP_LAGS] */
+  double *hyp_centres;          /* [hypothesis][emitter][HYP_LAGS] */
+  guint n_gate_blocks;          /* gate_padded / GATE_BLOCK */
 };
+
+/* Window lags the kept prescreen blocks hold, at most (the default
+ * window reads 3). */
+#define HYP_LAGS 8
+
+/* fine_slots' value for a table not looked up yet. */
+#define FINE_UNKNOWN (-2)
 
 /* The blocks a lag is read from: of the whole ping's bins, of the gate's. */
 enum
@@ -437,6 +480,28 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->lag_kinds = g_new0 (guint8, LAG_TABLES);
   est->lag_re = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
   est->lag_im = g_new (float, (gsize) LAG_TABLES * est->lag_stride);
+  est->plan_runs = g_new (guint, 2 * MAX_WINDOW_RANGES + 2);
+  est->plan_run_centres = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->plan_slots = g_new (gint, 2 * MAX_WINDOW_RANGES + 1);
+  est->plan_lags = g_new (double, 2 * MAX_WINDOW_RANGES + 1);
+  est->fine_slots = g_new (gint, (2 * MAX_WINDOW_RANGES + 1) * 9);
+  for (guint i = 0; i < (2 * MAX_WINDOW_RANGES + 1) * 9; i++)
+    est->fine_slots[i] = FINE_UNKNOWN;
+  if (est->gate_size) {
+    const gsize entries = (gsize) est->n_hypotheses * est->n_emitters;
+    est->gate_scale = 2.0f / ((float) est->band.fft_size * est->gate_size);
+    est->n_gate_blocks = est->gate_padded / GATE_BLOCK;
+    est->hyp_index = g_new (gint, est->n_velocities);
+    for (guint v = 0; v < est->n_velocities; v++)
+      est->hyp_index[v] = -1;
+    for (guint i = 0; i < est->n_hypotheses; i++)
+      est->hyp_index[est->hypotheses[i]] = i;
+    est->hyp_generation = g_new0 (guint, entries);
+    est->hyp_blocks = g_new (SonarComplex, entries * est->n_gate_blocks);
+    est->hyp_blocks_centre = g_new (double, entries);
+    est->hyp_outputs = g_new (SonarComplex, entries * HYP_LAGS);
+    est->hyp_centres = g_new (double, entries * HYP_LAGS);
+  }
   return est;
 }
 
@@ -479,6 +544,17 @@ sonar_velocity_estimator_free (SonarVelocityEstimator * est)
   g_free (est->lag_kinds);
   g_free (est->lag_re);
   g_free (est->lag_im);
+  g_free (est->plan_runs);
+  g_free (est->plan_run_centres);
+  g_free (est->plan_slots);
+  g_free (est->plan_lags);
+  g_free (est->fine_slots);
+  g_free (est->hyp_index);
+  g_free (est->hyp_generation);
+  g_free (est->hyp_blocks);
+  g_free (est->hyp_blocks_centre);
+  g_free (est->hyp_outputs);
+  g_free (est->hyp_centres);
   if (est->gate_templates && g_atomic_int_dec_and_test
       (&est->gate_templates->ref)) {
     g_free (est->gate_templates->re);
@@ -580,6 +656,13 @@ focus (SonarVelocityEstimator * est, const SonarSplitSpectra * spectra,
   sonar_steering_receive_sum (&est->steering, spectra, est->mic_legs,
       est->receive_re, est->receive_im);
   gate_focus (est, range);
+  /* The prescreen's kept blocks were made on another focus. */
+  if (++est->focus_generation == 0) {
+    est->focus_generation = 1;
+    if (est->hyp_generation)
+      memset (est->hyp_generation, 0, sizeof (guint) * est->n_hypotheses *
+          est->n_emitters);
+  }
   est->focused = TRUE;
   est->focus_direction = direction;
   est->focus_range = range;
@@ -746,6 +829,149 @@ outputs_at (SonarVelocityEstimator * est, const double *offsets, guint n,
   }
 }
 
+/* Plans the gated reads of the window's lags (est->planned), as
+ * outputs_at () makes them on the blocks emitter_blocks () centres: the
+ * same centrings, lags and phasor tables, for every emitter and velocity
+ * of the window. */
+static void
+gate_plan (SonarVelocityEstimator * est)
+{
+  const double step = est->grid.range_step;
+  const guint n = est->lag_last - est->lag_first + 1;
+  double centre = MIN (est->lag_first + 1, est->lag_last) * step;
+
+  est->n_plan_runs = 0;
+  for (guint i = 0, end; i < n; i = end) {
+    const double at = (est->lag_first + (int) i) * step;
+    const gboolean recentre = fabs (at - centre) > 1.001 * step;
+    if (recentre)
+      centre = at + (at > centre ? step : -step);
+    for (end = i + 1; end < n && end - i < LAG_BATCH
+        && !(fabs ((est->lag_first + (int) end) * step - centre) >
+            1.001 * step); end++);
+    est->plan_runs[est->n_plan_runs] = i;
+    est->plan_run_centres[est->n_plan_runs++] = recentre ? centre : NAN;
+    for (guint j = i; j < end; j++) {
+      est->plan_lags[j] = (est->lag_first + (int) j) * step - centre;
+      est->plan_slots[j] = lag_table (est, &est->gate_steering, GATE_BLOCK,
+          LAG_GATED, est->plan_lags[j]);
+    }
+  }
+  est->plan_runs[est->n_plan_runs] = n;
+  est->plan_first = est->lag_first;
+  est->plan_last = est->lag_last;
+  est->planned = TRUE;
+}
+
+/* The gated blocks' sums at @n lags from their centre (@slots their
+ * phasor tables, -1 for none) into @out, scaled as outputs_at () scales
+ * them: lag_reads () without its look-ups. */
+static void
+gated_reads (SonarVelocityEstimator * est, const gint * slots,
+    const double *lags, guint n, SonarComplex * out)
+{
+  const float *re[LAG_BATCH], *im[LAG_BATCH];
+  SonarComplex sums[LAG_BATCH];
+  guint which[LAG_BATCH], n_tables = 0;
+
+  for (guint i = 0; i < n; i++) {
+    if (slots[i] < 0) {
+      out[i] = sonar_steering_blocks_at (&est->gate_steering, est->blocks,
+          GATE_BLOCK, lags[i]);
+      continue;
+    }
+    re[n_tables] = est->lag_re + (gsize) slots[i] * est->lag_stride;
+    im[n_tables] = est->lag_im + (gsize) slots[i] * est->lag_stride;
+    which[n_tables++] = i;
+  }
+  if (n_tables)
+    sonar_steering_blocks_sums (&est->gate_steering, est->blocks, GATE_BLOCK,
+        re, im, n_tables, sums);
+  for (guint t = 0; t < n_tables; t++)
+    out[which[t]] = sums[t];
+  for (guint i = 0; i < n; i++)
+    out[i] = out[i] * est->gate_scale;
+}
+
+/* outputs_at () of the window's lags on the gated blocks emitter_blocks
+ * () made, bit for bit, on the plan (gate_plan ()): the outputs into
+ * est->read_outputs, and the blocks' centre each was read at into
+ * @centres (may be NULL). */
+static void
+gated_window_reads (SonarVelocityEstimator * est, double *centres)
+{
+  if (!est->planned || est->plan_first != est->lag_first
+      || est->plan_last != est->lag_last)
+    gate_plan (est);
+  for (guint r = 0; r < est->n_plan_runs; r++) {
+    const guint i = est->plan_runs[r], end = est->plan_runs[r + 1];
+    if (!isnan (est->plan_run_centres[r]))
+      gated_blocks (est, est->plan_run_centres[r]);
+    gated_reads (est, est->plan_slots + i, est->plan_lags + i, end - i,
+        est->read_outputs + i);
+    for (guint j = i; centres && j < end; j++)
+      centres[j] = est->blocks_centre;
+  }
+}
+
+/* The kept prescreen entry of emitter @n at velocity index @v, or -1:
+ * none for it (not a hypothesis, no gate, a window too wide). */
+static gint
+hyp_entry (const SonarVelocityEstimator * est, guint n, guint v)
+{
+  if (!est->hyp_index || est->hyp_index[v] < 0
+      || est->lag_last - est->lag_first + 1 > HYP_LAGS)
+    return -1;
+  return est->hyp_index[v] * (gint) est->n_emitters + (gint) n;
+}
+
+/* Keeps the gated blocks and window outputs just made (emitter_blocks (),
+ * gated_window_reads (), the window's centres in @centres) for
+ * emitter @n at velocity index @v on the current focus. */
+static void
+hyp_keep (SonarVelocityEstimator * est, guint n, guint v,
+    const double *centres)
+{
+  const gint e = hyp_entry (est, n, v);
+  const guint lags = est->lag_last - est->lag_first + 1;
+
+  if (e < 0)
+    return;
+  memcpy (est->hyp_blocks + (gsize) e * est->n_gate_blocks, est->blocks,
+      sizeof (SonarComplex) * est->n_gate_blocks);
+  memcpy (est->hyp_outputs + (gsize) e * HYP_LAGS, est->read_outputs,
+      sizeof (SonarComplex) * lags);
+  memcpy (est->hyp_centres + (gsize) e * HYP_LAGS, centres,
+      sizeof (double) * lags);
+  est->hyp_blocks_centre[e] = est->blocks_centre;
+  est->hyp_generation[e] = est->focus_generation;
+}
+
+/* emitter_blocks () and gated_window_reads () of emitter @n at velocity
+ * index @v and @range on the current gated focus from what hyp_keep ()
+ * kept, the same numbers: FALSE when nothing is kept for them. */
+static gboolean
+hyp_take (SonarVelocityEstimator * est, guint n, guint v, double range,
+    double *centres)
+{
+  const gint e = hyp_entry (est, n, v);
+  const guint lags = est->lag_last - est->lag_first + 1;
+
+  if (e < 0 || est->hyp_generation[e] != est->focus_generation)
+    return FALSE;
+  memcpy (est->blocks, est->hyp_blocks + (gsize) e * est->n_gate_blocks,
+      sizeof (SonarComplex) * est->n_gate_blocks);
+  memcpy (est->read_outputs, est->hyp_outputs + (gsize) e * HYP_LAGS,
+      sizeof (SonarComplex) * lags);
+  memcpy (centres, est->hyp_centres + (gsize) e * HYP_LAGS,
+      sizeof (double) * lags);
+  est->blocks_emitter = n;
+  est->blocks_velocity = v;
+  est->blocks_range = range;
+  est->blocks_centre = est->hyp_blocks_centre[e];
+  return TRUE;
+}
+
 static double parabola_offset (double a, double b, double c);
 
 static double
@@ -794,10 +1020,15 @@ coherence_over (SonarVelocityEstimator * est,
         }
         for (guint n = 0; n < est->n_emitters; n++) {
           emitter_blocks (est, n, vs[i], range);
-          for (int dr = first; dr <= last; dr++)
-            est->read_offsets[dr - first] = dr * grid->range_step;
-          outputs_at (est, est->read_offsets, last - first + 1,
-              est->read_outputs, NULL);
+          if (est->gated) {
+            gated_window_reads (est, est->peak_centres);
+            hyp_keep (est, n, vs[i], est->peak_centres);
+          } else {
+            for (int dr = first; dr <= last; dr++)
+              est->read_offsets[dr - first] = dr * grid->range_step;
+            outputs_at (est, est->read_offsets, last - first + 1,
+                est->read_outputs, NULL);
+          }
           for (int dr = first; dr <= last; dr++) {
             const double complex y = est->read_outputs[dr - first];
             sums[dr] += y;
@@ -1086,16 +1317,21 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   double *values = est->peak_values - est->lag_first;
   double *centres = est->peak_centres - est->lag_first;
   double fine[9], best_value = -1.0, best_lag = 0.0;
-  double fine_offsets[8];
+  double fine_offsets[8], fine_lags[8] = { 0 };
   SonarComplex fine_outputs[8];
-  int best = 4, best_dr = 0, fine_q[8];
+  int best = 4, best_dr = 0, fine_q[8], fine_slots[8] = { 0 };
   guint n_fine = 0;
 
-  emitter_blocks (est, n, v, range);
-  for (int dr = est->lag_first; dr <= est->lag_last; dr++)
-    est->read_offsets[dr - est->lag_first] = dr * step;
-  outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
-      est->read_outputs, est->peak_centres);
+  if (est->gated && hyp_take (est, n, v, range, est->peak_centres)) {
+    /* The prescreen made these blocks and reads. */
+  } else if ((emitter_blocks (est, n, v, range), est->gated)) {
+    gated_window_reads (est, est->peak_centres);
+  } else {
+    for (int dr = est->lag_first; dr <= est->lag_last; dr++)
+      est->read_offsets[dr - est->lag_first] = dr * step;
+    outputs_at (est, est->read_offsets, est->lag_last - est->lag_first + 1,
+        est->read_outputs, est->peak_centres);
+  }
   for (int dr = est->lag_first; dr <= est->lag_last; dr++) {
     const double y = magnitude (est->read_outputs[dr - est->lag_first]);
     values[dr] = y;
@@ -1125,7 +1361,22 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
       fine_offsets[n_fine++] = offset;
     }
   }
-  outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
+  if (est->gated) {
+    /* outputs_at () on the blocks centred at the best lag, whose lags
+     * from it depend on best_dr and q alone: their tables are looked up
+     * once. */
+    gint *slots = est->fine_slots + (best_dr + MAX_WINDOW_RANGES) * 9;
+    for (guint i = 0; i < n_fine; i++) {
+      fine_lags[i] = fine_offsets[i] - est->blocks_centre;
+      if (slots[fine_q[i]] == FINE_UNKNOWN)
+        slots[fine_q[i]] = lag_table (est, &est->gate_steering, GATE_BLOCK,
+            LAG_GATED, fine_lags[i]);
+      fine_slots[i] = slots[fine_q[i]];
+    }
+    gated_reads (est, fine_slots, fine_lags, n_fine, fine_outputs);
+  } else {
+    outputs_at (est, fine_offsets, n_fine, fine_outputs, NULL);
+  }
   for (guint i = 0; i < n_fine; i++)
     fine[fine_q[i]] = magnitude (fine_outputs[i]);
   for (int q = 1; q < 8; q++)

@@ -350,6 +350,29 @@ small_3d_grid (SonarImagerParams * p)
   p->elevation_max = 22;
 }
 
+/* The strongest pixel of @image within 2 directions and 20 range bins of
+ * the faint echo at (-21, 9) degrees, 2.5 m. */
+static guint
+faint_echo_peak (const float *image, const SonarImageGrid * grid)
+{
+  const guint a0 = (guint) lround ((-21 - grid->azimuth_first) /
+      grid->azimuth_step);
+  const guint e0 = (guint) lround ((9 - grid->elevation_first) /
+      grid->elevation_step);
+  const guint i0 = (guint) lround ((2.5 - grid->range_first) /
+      grid->range_step);
+  guint best = 0;
+
+  for (guint e = e0 - 2; e <= e0 + 2; e++)
+    for (guint a = a0 - 2; a <= a0 + 2; a++)
+      for (guint i = i0 - 20; i <= i0 + 20; i++) {
+        const guint px = (e * grid->n_azimuth + a) * grid->n_range + i;
+        if (best == 0 || image[px] > image[best])
+          best = px;
+      }
+  return best;
+}
+
 /* The noise gate of the coarse to fine pass (refine_pfa): an echo 30 dB
  * below a near one in the range-compensated image (far below refine_db),
  * between the coarse directions of a 3-D grid (2 degrees, coarse 6), is
@@ -375,7 +398,7 @@ check_coarse_to_fine_faint (double speed, double bank_max)
       "{\"range\": 2.5, \"azimuth\": -21, \"elevation\": 9, "
       "\"radial-velocity\": %g}]}", speed);
   const double spacing[3] = { 0.0, 6.0, 6.0 }, pfa[3] = { 1e-5, 1e-5, 0.0 };
-  guint indices[64], n_hyp, a0, e0, i0, best = 0;
+  guint indices[64], n_hyp, best;
   guint units, dense_units, passes[3], dense_passes;
 
   sonar_test_chain_init (&c, 4200);
@@ -394,16 +417,7 @@ check_coarse_to_fine_faint (double speed, double bank_max)
         &dense_passes);
   }
   /* The dense image's peak within 4 degrees and 5 cm of the faint echo. */
-  a0 = (guint) lround ((-21 - grid->azimuth_first) / grid->azimuth_step);
-  e0 = (guint) lround ((9 - grid->elevation_first) / grid->elevation_step);
-  i0 = (guint) lround ((2.5 - grid->range_first) / grid->range_step);
-  for (guint e = e0 - 2; e <= e0 + 2; e++)
-    for (guint a = a0 - 2; a <= a0 + 2; a++)
-      for (guint i = i0 - 20; i <= i0 + 20; i++) {
-        const guint px = (e * grid->n_azimuth + a) * grid->n_range + i;
-        if (best == 0 || images[0][px] > images[0][best])
-          best = px;
-      }
+  best = faint_echo_peak (images[0], grid);
   g_test_message ("%+.1f m/s, %u hypotheses: faint echo's peak %.3g at az "
       "%g el %g r %g: gated %.3g, ungated %.3g; passes %u, %u ungated, "
       "dense %u", speed, n_hyp, images[0][best], grid->azimuth_first +
@@ -472,7 +486,7 @@ test_coarse_band (void)
   const char *faint = "{\"reflectors\": [{\"range\": 0.6, \"azimuth\": 0, "
       "\"elevation\": 0, \"strength\": 30}, {\"range\": 2.5, \"azimuth\": "
       "-21, \"elevation\": 9, \"radial-velocity\": 0.9}]}";
-  guint hypotheses[64], n_hypotheses, zero, a0, e0, i0, best = 0;
+  guint hypotheses[64], n_hypotheses, zero, best;
   guint units[2], dense_units, passes[2], dense_passes;
 
   sonar_test_chain_init (&c, 4200);
@@ -510,16 +524,7 @@ test_coarse_band (void)
     sonar_imager_last_work (imagers[k], &units[k], &dense_units, &passes[k],
         &dense_passes);
   }
-  a0 = (guint) lround ((-21 - grid->azimuth_first) / grid->azimuth_step);
-  e0 = (guint) lround ((9 - grid->elevation_first) / grid->elevation_step);
-  i0 = (guint) lround ((2.5 - grid->range_first) / grid->range_step);
-  for (guint e = e0 - 2; e <= e0 + 2; e++)
-    for (guint a = a0 - 2; a <= a0 + 2; a++)
-      for (guint i = i0 - 20; i <= i0 + 20; i++) {
-        const guint px = (e * grid->n_azimuth + a) * grid->n_range + i;
-        if (best == 0 || images[0][px] > images[0][best])
-          best = px;
-      }
+  best = faint_echo_peak (images[0], grid);
   g_test_message ("faint mover: peak %.3g dense, %.3g on the sub-band; "
       "passes %u of %u", images[0][best], images[1][best], passes[1],
       passes[0]);

@@ -243,28 +243,25 @@ sonar_uncertainty_measure (const float *image, const SonarImageGrid * grid,
   out->snr_db = 10.0 * log10 (snr);
   out->range_sigma = grid->range_step * sigma (snr, log_curvature (image,
           p, 1, i, grid->n_range));
+  out->azimuth_sigma = fabs (grid->azimuth_step) * sigma (snr,
+      log_curvature (image, p, grid->n_range, a, grid->n_azimuth));
+  out->elevation_sigma = grid->n_elevation > 1 ?
+      fabs (grid->elevation_step) * sigma (snr, log_curvature (image, p,
+          stride_e, el, grid->n_elevation)) :
+      NAN;
   if (e->direction_curvature[0] < 0.0) {
     /* velocityest's fit, which the direction is: in 3-D the covariance
-     * (2 g SNR (-K))^-1 of its Hessian K (sonar-uncertainty.h). */
+     * (2 g SNR (-K))^-1 of its Hessian K (sonar-uncertainty.h); along
+     * azimuth alone where it fitted azimuth alone. */
     const double *k = e->direction_curvature;
     const double det = k[0] * k[2] - k[1] * k[1];
     const double fit_snr = snr * SONAR_UNCERTAINTY_FIT_SNR_GAIN;
     if (isfinite (k[2])) {
-      out->azimuth_sigma = k[0] < 0.0 && det > 0.0 ? sigma (fit_snr,
-          det / k[2]) : NAN;
-      out->elevation_sigma = k[2] < 0.0 && det > 0.0 ? sigma (fit_snr,
-          det / k[0]) : NAN;
+      out->azimuth_sigma = det > 0.0 ? sigma (fit_snr, det / k[2]) : NAN;
+      out->elevation_sigma = det > 0.0 ? sigma (fit_snr, det / k[0]) : NAN;
     } else {
       out->azimuth_sigma = sigma (fit_snr, k[0]);
-      out->elevation_sigma = NAN;
     }
-  } else {
-    out->azimuth_sigma = fabs (grid->azimuth_step) * sigma (snr,
-        log_curvature (image, p, grid->n_range, a, grid->n_azimuth));
-    out->elevation_sigma = grid->n_elevation > 1 ?
-        fabs (grid->elevation_step) * sigma (snr, log_curvature (image, p,
-            stride_e, el, grid->n_elevation)) :
-        NAN;
   }
   if (print_samples ()) {
     const guint index[3] = { i, a, el };

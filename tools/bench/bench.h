@@ -138,6 +138,7 @@ typedef struct
   double cpu_ms_total;
   double cpu_ms_velocity;       /* the velocity stage's, all its threads */
   double cpu_ms_spectra, cpu_ms_clustering;     /* the same, theirs */
+  double cpu_ms_imaging;        /* the same, the imager's (all its workers) */
   double bank_mb, mb[N_STAGES]; /* heap held */
   double peak_rss_mb;
   guint bank_velocities;

@@ -753,8 +753,9 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   reset_peak_rss ();
   ok = chain_init (ch, b, c, r, error);
   /* Per ping: the stages, the total, its CPU time, the velocity stage's
-   * CPU time (all its threads), the spectra's and the clustering's. */
-  times = g_new (double, (N_STAGES + 5) * n_timed);
+   * CPU time (all its threads), the spectra's, the clustering's and the
+   * imaging's. */
+  times = g_new (double, (N_STAGES + 6) * n_timed);
   /* Ping -1 is a warm-up on the first ping, neither timed nor scored: it
    * takes the page faults of fresh buffers and ORC's first compilations,
    * and its heap growth is the stages' working memory. */
@@ -766,7 +767,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     StageClock clock = { q < 0 };
     double t[N_STAGES], total = 0.0;
     guint n_centroids, units, dense_units, passes, dense_passes;
-    double velocity_cpu, spectra_cpu, clustering_cpu;
+    double velocity_cpu, spectra_cpu, clustering_cpu, imaging_cpu;
 
     stage_start (&clock);
     spectra_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
@@ -774,7 +775,9 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     spectra_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID) - spectra_cpu;
     t[STAGE_SPECTRA] = stage_stop (&clock, r, STAGE_SPECTRA);
     stage_start (&clock);
+    imaging_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID);
     chain_imaging (ch);
+    imaging_cpu = clock_ms (CLOCK_PROCESS_CPUTIME_ID) - imaging_cpu;
     t[STAGE_IMAGING] = stage_stop (&clock, r, STAGE_IMAGING);
     sonar_imager_last_work (ch->imager, &units, &dense_units, &passes,
         &dense_passes);
@@ -811,6 +814,7 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
     times[(N_STAGES + 2) * n_timed + q] = velocity_cpu;
     times[(N_STAGES + 3) * n_timed + q] = spectra_cpu;
     times[(N_STAGES + 4) * n_timed + q] = clustering_cpu;
+    times[(N_STAGES + 5) * n_timed + q] = imaging_cpu;
     for (guint k = 0; k < N_STAGES; k++) {
       times[k * n_timed + q] = t[k];
       total += t[k];
@@ -845,5 +849,6 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   r->cpu_ms_spectra = median (times + (N_STAGES + 3) * n_timed, n_timed);
   r->cpu_ms_clustering = median (times + (N_STAGES + 4) * n_timed,
       n_timed);
+  r->cpu_ms_imaging = median (times + (N_STAGES + 5) * n_timed, n_timed);
   return TRUE;
 }

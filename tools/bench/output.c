@@ -72,7 +72,8 @@ tracking_share (const Result * r)
   "lobe_width,n_range,range_step,imaging_work,evaluated_velocities," \
   "us_velocity_per_evaluation,timed_pings,ms_total_p10,ms_total_p90," \
   "floor_ms_spectra,floor_ms_imaging,floor_ms_clustering,floor_ms_velocity," \
-  "floor_ms_tracking,cpu_ms_velocity,cpu_ms_spectra,cpu_ms_clustering"
+  "floor_ms_tracking,cpu_ms_velocity,cpu_ms_spectra,cpu_ms_clustering," \
+  "cpu_ms_imaging"
 
 /* A row of a sensitivity sweep (noise, detection, split): the columns up
  * to max_error, the timing and memory ones empty. */
@@ -171,7 +172,8 @@ print_efficiency_header (const Bench * b)
     g_print (" %9s %6s", stage_names[k], "x");
   /* Wall time over-counts a stage other processes slow down: its CPU
    * time, all its threads, beside it. */
-  g_print (" %9s %9s %9s\n", "vel cpu", "spec cpu", "clu cpu");
+  g_print (" %9s %9s %9s %9s\n", "vel cpu", "spec cpu", "clu cpu",
+      "img cpu");
 }
 
 void
@@ -186,6 +188,7 @@ print_efficiency_row (const char *value, const Config * c, const Result * r)
   print_number (r->cpu_ms_velocity, 9, 2);
   print_number (r->cpu_ms_spectra, 9, 2);
   print_number (r->cpu_ms_clustering, 9, 2);
+  print_number (r->cpu_ms_imaging, 9, 2);
   g_print ("\n");
 }
 
@@ -212,8 +215,8 @@ write_csv_row (FILE * csv, const char *sweep, const char *value,
       r->ms_total_high);
   for (guint k = 0; k < N_STAGES; k++)
     fprintf (csv, ",%.6g", r->floor_ms[k]);
-  fprintf (csv, ",%.6g,%.6g,%.6g\n", r->cpu_ms_velocity, r->cpu_ms_spectra,
-      r->cpu_ms_clustering);
+  fprintf (csv, ",%.6g,%.6g,%.6g,%.6g\n", r->cpu_ms_velocity,
+      r->cpu_ms_spectra, r->cpu_ms_clustering, r->cpu_ms_imaging);
   fflush (csv);
 }
 

@@ -666,21 +666,22 @@ ramp_accumulate_avx2 (Vec * sum_re, Vec * sum_im, const SonarComplex * x,
 
 /* The lanes' sum (by halves: lane by lane took a chain of 8 dependent
  * additions per table read), then the @count tail values of @x on their
- * phasors. */
+ * phasors. The lanes come by address: taken by value, in 256-bit
+ * registers, the function returned with their upper halves set (gcc puts
+ * no vzeroupper where 256-bit values may be live across the call or the
+ * return), and every SSE instruction of its callers' callers (the
+ * velocity stage's scalar code, libm's log and exp) then waited on those
+ * halves: the velocity stage took 2.2-2.6 times its CPU time. By address
+ * gcc ends it with its vzeroupper, as every other kernel here
+ * (tests/test-kernels.c's upper-clean cases check them all). */
 static AVX2_TARGET __attribute__ ((noinline)) SonarComplex
-ramp_finish_avx2 (Vec sum_re, Vec sum_im, const SonarComplex * x,
-    const float *re, const float *im, guint count)
+ramp_finish_avx2 (const Vec * sum_re, const Vec * sum_im,
+    const SonarComplex * x, const float *re, const float *im, guint count)
 {
-  SonarComplex sum = LANES_SUM (sum_re, sum_im);
+  SonarComplex sum = LANES_SUM (*sum_re, *sum_im);
 
   for (guint k = 0; k < count; k++)
     sum += x[k] * (re[k] + I * im[k]);
-  /* Taking its lanes in 256-bit registers, it returned with their upper
-   * halves set (gcc inserts no vzeroupper here, nor in its callers after
-   * it): every SSE instruction of the callers' callers (the velocity
-   * stage's scalar code, libm's log and exp) then waited on those halves,
-   * and the velocity stage took 2.2-2.6 times its CPU time. */
-  _mm256_zeroupper ();
   return sum;
 }
 
@@ -700,7 +701,7 @@ steer_sum_avx2 (const SonarComplex * x, guint n, double phase0,
     ramp_accumulate_avx2 (&sum_re, &sum_im, x + k0, re, im, count);
   }
   ramp_tail_avx2 (&p, re, im, whole, n);
-  return ramp_finish_avx2 (sum_re, sum_im, x + whole, re, im, n - whole);
+  return ramp_finish_avx2 (&sum_re, &sum_im, x + whole, re, im, n - whole);
 }
 
 /* steer_sum_avx2 ()'s phasors. */
@@ -727,7 +728,7 @@ steer_sum_phasors_avx2 (const SonarComplex * x, const float *re,
   Vec sum_re = { 0 }, sum_im = { 0 };
 
   ramp_accumulate_avx2 (&sum_re, &sum_im, x, re, im, whole);
-  return ramp_finish_avx2 (sum_re, sum_im, x + whole, re + whole,
+  return ramp_finish_avx2 (&sum_re, &sum_im, x + whole, re + whole,
       im + whole, n - whole);
 }
 
@@ -796,7 +797,7 @@ steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
      * per table (the velocity stage's gated blocks fill whole vectors). */
     for (guint g = 0; g < group; g++)
       out[t + g] = whole == n ? LANES_SUM (sum_re[g], sum_im[g]) :
-          ramp_finish_avx2 (sum_re[g], sum_im[g], x + whole, re[t + g] +
+          ramp_finish_avx2 (&sum_re[g], &sum_im[g], x + whole, re[t + g] +
           whole, im[t + g] + whole, n - whole);
   }
 }

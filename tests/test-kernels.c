@@ -657,12 +657,250 @@ test_rank_pass (gconstpointer data)
   }
 }
 
+/* The upper halves of the vector registers after a kernel ---------------*/
+
+/* An AVX kernel that returns with the upper halves of the ymm (zmm)
+ * registers set leaves every SSE and scalar float instruction after it
+ * (the callers' code, libm's log and exp: they are built for the
+ * baseline) paying the AVX-SSE transition until some other code clears
+ * them: ramp_finish_avx2 () did, and the velocity stage took twice its
+ * CPU time. XGETBV with ECX = 1 reads XINUSE, the state components not
+ * in their initial state: bit 2 is the upper halves of ymm0-15, bit 6
+ * those of zmm0-15, both cleared by VZEROUPPER. (Bit 7, zmm16-31, is
+ * not: SSE code cannot reach them, and no penalty is paid for them.) */
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <cpuid.h>
+#define XINUSE_DIRTY ((1u << 2) | (1u << 6))
+
+/* The helpers spell AVX instructions: clang checks inline assembly
+ * against the function's target. */
+__attribute__ ((target ("avx,xsave"), noinline)) static guint32
+xinuse (void)
+{
+  guint32 lo, hi;
+  __asm__ volatile ("xgetbv" : "=a" (lo), "=d" (hi) : "c" (1));
+  return lo;
+}
+
+__attribute__ ((target ("avx"), noinline)) static void
+upper_clear (void)
+{
+  __asm__ volatile ("vzeroupper" ::: "memory");
+}
+
+/* XINUSE with an upper half set: read in the same statement, since gcc
+ * ends a function whose assembly clobbers a vector register with a
+ * vzeroupper. */
+__attribute__ ((target ("avx,xsave"), noinline)) static guint32
+xinuse_upper_set (void)
+{
+  guint32 lo, hi;
+  __asm__ volatile ("vpcmpeqd %%ymm15, %%ymm15, %%ymm15\n\t"
+      "xgetbv" : "=a" (lo), "=d" (hi) : "c" (1) : "xmm15");
+  return lo;
+}
+
+/* Whether XINUSE can be read, and tracks the upper halves here (a
+ * virtual machine or an emulator may report them always in use). */
+static gboolean
+xinuse_usable (void)
+{
+  guint a, b, c, d;
+
+  if (!__get_cpuid (1, &a, &b, &c, &d) || !(c & bit_OSXSAVE)
+      || !(c & bit_AVX))
+    return FALSE;
+  if (__get_cpuid_max (0, NULL) < 0xd)
+    return FALSE;
+  __cpuid_count (0xd, 1, a, b, c, d);
+  if (!(a & (1u << 2)))         /* XGETBV with ECX = 1 */
+    return FALSE;
+  upper_clear ();
+  if (xinuse () & XINUSE_DIRTY)
+    return FALSE;
+  if (!(xinuse_upper_set () & (1u << 2)))
+    return FALSE;
+  upper_clear ();
+  return TRUE;
+}
+
+/* Fails unless @call (a statement calling the kernel on @n bins) returns with the
+ * upper halves clear; they are cleared before it, so that it is the
+ * kernel's state that is read. */
+#define ASSERT_UPPER_CLEAN_AFTER(what, call) G_STMT_START {            \
+  guint32 state_;                                                       \
+  upper_clear ();                                                       \
+  call;                                                                 \
+  state_ = xinuse ();                                                   \
+  if (state_ & XINUSE_DIRTY) {                                          \
+    g_test_fail_printf ("%s (n %u) returned with the upper halves of "  \
+        "the vector registers in use (XINUSE 0x%x): it needs a "        \
+        "vzeroupper", (what), n, state_);                               \
+    return;                                                             \
+  }                                                                     \
+} G_STMT_END
+#define HAVE_XINUSE 1
+#endif
+
+/* Every implementation of every kernel of the tables, on a length with a
+ * tail after the whole vectors and on one without (their return paths
+ * differ), returns with the upper halves of the vector registers clear. */
+typedef struct
+{
+  const char *kernel;
+  const char *name;
+    gboolean (*available) (void);
+  guint table;
+  guint index;
+} UpperCase;
+
+static void
+test_upper_clean (gconstpointer data)
+{
+#ifdef HAVE_XINUSE
+  const UpperCase *u = data;
+  const guint lengths_tried[] = { 2882, 2880, 64, 9 };
+  const float *re_tables[5], *im_tables[5];
+  const gsize stride = 2882;
+  g_autofree float *a = g_new0 (float, 9 * stride);
+  g_autofree float *b = g_new0 (float, 9 * stride);
+  g_autofree float *re = g_new0 (float, 5 * stride);
+  g_autofree float *im = g_new0 (float, 5 * stride);
+  g_autofree float *f = g_new0 (float, 9 * stride);
+  g_autofree SonarComplex *x = g_new0 (SonarComplex, stride);
+  g_autofree SonarComplex *out = g_new0 (SonarComplex, stride);
+  const double phase0[9] = { 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9 };
+  const double dphase[9] = { 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07,
+    0.08, 0.09
+  };
+  float level[SONAR_RANK_LANES], under[2 * SONAR_RANK_LANES],
+      over[2 * SONAR_RANK_LANES];
+  guint32 below[SONAR_RANK_LANES], finite[SONAR_RANK_LANES];
+  volatile float sink = 0.0f;
+  SonarRng rng;
+
+  if (!u->available ()) {
+    g_test_skip_printf ("the CPU lacks what \"%s\" needs", u->name);
+    return;
+  }
+  if (!xinuse_usable ()) {
+    g_test_skip ("XGETBV cannot read XINUSE's AVX state here");
+    return;
+  }
+  sonar_rng_init (&rng, 37, 0);
+  random_spectrum (&rng, x, stride);
+  for (gsize k = 0; k < 9 * stride; k++) {
+    a[k] = (float) sonar_rng_gaussian (&rng);
+    b[k] = (float) sonar_rng_gaussian (&rng);
+    f[k] = (float) sonar_rng_uniform (&rng);
+  }
+  for (guint j = 0; j < SONAR_RANK_LANES; j++)
+    level[j] = 0.5f;
+  for (guint t = 0; t < 5; t++) {
+    re_tables[t] = re + t * stride;
+    im_tables[t] = im + t * stride;
+    sonar_kernel_steer_phasors_impls[0].fn (re + t * stride,
+        im + t * stride, stride, phase0[t], dphase[t]);
+  }
+
+  for (guint l = 0; l < G_N_ELEMENTS (lengths_tried); l++) {
+    const guint n = lengths_tried[l];
+    const guint i = u->index;
+    SonarComplex z = 0.0f;
+    switch (u->table) {
+      case 0:
+        for (guint c = 1; c <= 9; c++)
+          ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+              sonar_kernel_steer_sum_split_impls[i].fn (f, f + stride, a,
+                  b, stride, c, n, phase0, dphase, c % 2));
+        break;
+      case 1:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_steer_block_sums_conj_impls[i].fn (out, a, a +
+                stride, b, b + stride, n, 0.3, 0.01, 16));
+        break;
+      case 2:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_block8_sums_conj_impls[i].fn (out, a, a + stride,
+                b, b + stride, SONAR_BLOCK8_PADDED (n), 0.3, 0.01));
+        break;
+      case 3:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel, z =
+            sonar_kernel_steer_sum_impls[i].fn (x, n, 0.3, 0.01));
+        break;
+      case 4:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_steer_phasors_impls[i].fn (f, f + stride, n, 0.3,
+                0.01));
+        break;
+      case 5:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel, z =
+            sonar_kernel_steer_sum_phasors_impls[i].fn (x, re, im, n));
+        break;
+      case 6:
+        for (guint t = 1; t <= 5; t++)
+          ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+              sonar_kernel_steer_sums_phasors_impls[i].fn (out, x,
+                  re_tables, im_tables, t, n));
+        break;
+      case 7:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_multiply_split_impls[i].fn (out, a, a + stride, b,
+                b + stride, n));
+        break;
+      case 8:
+        for (int acc = 0; acc < 2; acc++)
+          ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+              sonar_kernel_envelope_impls[i].fn (f, x, n, 0.5f, acc));
+        break;
+      case 9:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel, sink +=
+            sonar_kernel_peak_impls[i].fn (f, NULL, n));
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel, sink +=
+            sonar_kernel_peak_impls[i].fn (f, f + stride, n));
+        break;
+      case 10:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_max_impls[i].fn (f, f + stride, n));
+        break;
+      default:
+        for (int with_finite = 0; with_finite < 2; with_finite++)
+          ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+              sonar_kernel_rank_pass_impls[i].fn (f, SONAR_RANK_LANES + 3,
+                  n / 8, level, below, under, over,
+                  with_finite ? finite : NULL));
+        break;
+    }
+    sink += crealf (z);
+  }
+  (void) sink;
+#else
+  (void) data;
+  g_test_skip ("not an x86-64 build: no AVX kernels");
+#endif
+}
+
 /* One test case per implementation: /kernels/<kernel>/<implementation>. */
 #define ADD_IMPL_TESTS(path, impls, func) G_STMT_START {                \
   for (guint i_ = 0; (impls)[i_].name; i_++) {                          \
     g_autofree char *name_ = g_strdup_printf ("/kernels/%s/%s", (path),  \
         (impls)[i_].name);                                              \
     g_test_add_data_func (name_, &(impls)[i_], (func));                 \
+  }                                                                     \
+} G_STMT_END
+
+/* /kernels/upper-clean/<kernel>/<implementation>, for every table. */
+#define ADD_UPPER_TESTS(path, impls, table_) G_STMT_START {             \
+  for (guint i_ = 0; (impls)[i_].name; i_++) {                          \
+    UpperCase *u_ = g_new0 (UpperCase, 1);                              \
+    g_autofree char *name_ = g_strdup_printf ("/kernels/upper-clean/%s/%s", \
+        (path), (impls)[i_].name);                                      \
+    u_->kernel = (path);                                                \
+    u_->name = (impls)[i_].name;                                        \
+    u_->available = (impls)[i_].available;                              \
+    u_->table = (table_);                                               \
+    u_->index = i_;                                                     \
+    g_test_add_data_func_full (name_, u_, test_upper_clean, g_free);    \
   }                                                                     \
 } G_STMT_END
 
@@ -693,6 +931,21 @@ main (int argc, char **argv)
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
   ADD_IMPL_TESTS ("rank-pass", sonar_kernel_rank_pass_impls,
       test_rank_pass);
+  ADD_UPPER_TESTS ("steer-sum-split", sonar_kernel_steer_sum_split_impls, 0);
+  ADD_UPPER_TESTS ("steer-block-sums",
+      sonar_kernel_steer_block_sums_conj_impls, 1);
+  ADD_UPPER_TESTS ("block8-sums", sonar_kernel_block8_sums_conj_impls, 2);
+  ADD_UPPER_TESTS ("steer-sum", sonar_kernel_steer_sum_impls, 3);
+  ADD_UPPER_TESTS ("steer-phasors", sonar_kernel_steer_phasors_impls, 4);
+  ADD_UPPER_TESTS ("steer-sum-phasors", sonar_kernel_steer_sum_phasors_impls,
+      5);
+  ADD_UPPER_TESTS ("steer-sums-phasors",
+      sonar_kernel_steer_sums_phasors_impls, 6);
+  ADD_UPPER_TESTS ("multiply-split", sonar_kernel_multiply_split_impls, 7);
+  ADD_UPPER_TESTS ("envelope", sonar_kernel_envelope_impls, 8);
+  ADD_UPPER_TESTS ("peak", sonar_kernel_peak_impls, 9);
+  ADD_UPPER_TESTS ("max", sonar_kernel_max_impls, 10);
+  ADD_UPPER_TESTS ("rank-pass", sonar_kernel_rank_pass_impls, 11);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
   g_test_add_func ("/kernels/entry-points-choose-best",

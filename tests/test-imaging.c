@@ -252,6 +252,18 @@ check_coarse_to_fine (Chain * c, SonarDopplerBank * bank,
   sonar_imager_free (imager);
 }
 
+/* 3-D at 2 degrees over +-30 x +-20 degrees (@p's other settings kept). */
+static void
+centred_3d_grid (SonarImagerParams * p)
+{
+  p->n_azimuth = 31;
+  p->azimuth_min = -30;
+  p->azimuth_max = 30;
+  p->n_elevation = 21;
+  p->elevation_min = -20;
+  p->elevation_max = 20;
+}
+
 static void
 test_coarse_to_fine (void)
 {
@@ -289,12 +301,7 @@ test_coarse_to_fine (void)
   check_coarse_to_fine (&c, fast_bank, hypotheses, n_hypotheses, &p, movers,
       0.3);
   /* 3-D at 2 degrees over +-30 x +-20 degrees: a coarse grid of 4. */
-  p.n_azimuth = 31;
-  p.azimuth_min = -30;
-  p.azimuth_max = 30;
-  p.n_elevation = 21;
-  p.elevation_min = -20;
-  p.elevation_max = 20;
+  centred_3d_grid (&p);
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene_3d, 0.25);
   sonar_test_chain_clear (&c);
 }
@@ -502,12 +509,7 @@ test_coarse_band (void)
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene, 0.6);
   check_coarse_to_fine (&c, fast_bank, hypotheses, n_hypotheses, &p, movers,
       0.35);
-  p.n_azimuth = 31;
-  p.azimuth_min = -30;
-  p.azimuth_max = 30;
-  p.n_elevation = 21;
-  p.elevation_min = -20;
-  p.elevation_max = 20;
+  centred_3d_grid (&p);
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene_3d, 0.25);
 
   /* (2) */

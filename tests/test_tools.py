@@ -720,7 +720,7 @@ def uncertainty_3d_matches_scatter():
     elevation and radial velocity sigmas each detection reports match the
     scatter of its estimates within 30 %, pooled over the points found
     in at least 8 pings (the issue's bound; seed 1 reads 0.82-1.06, three
-    seeds over 24 pings 0.87-1.05)"""
+    seeds over 24 pings 0.87-1.07)"""
     per_point = sigma_ratios(0.5, 10, lambda tool: tool.random_points(1),
                              ("range", "azimuth", "elevation",
                               "radial_velocity"), 8)

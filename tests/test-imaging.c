@@ -252,16 +252,17 @@ check_coarse_to_fine (Chain * c, SonarDopplerBank * bank,
   sonar_imager_free (imager);
 }
 
-/* 3-D at 2 degrees over +-30 x +-20 degrees (@p's other settings kept). */
+/* 3-D at 2 degrees, 31 x 21 directions from (@azimuth_min,
+ * @elevation_min) (@p's other settings kept). */
 static void
-centred_3d_grid (SonarImagerParams * p)
+set_3d_grid (SonarImagerParams * p, double azimuth_min, double elevation_min)
 {
   p->n_azimuth = 31;
-  p->azimuth_min = -30;
-  p->azimuth_max = 30;
+  p->azimuth_min = azimuth_min;
+  p->azimuth_max = azimuth_min + 60;
   p->n_elevation = 21;
-  p->elevation_min = -20;
-  p->elevation_max = 20;
+  p->elevation_min = elevation_min;
+  p->elevation_max = elevation_min + 40;
 }
 
 static void
@@ -301,7 +302,7 @@ test_coarse_to_fine (void)
   check_coarse_to_fine (&c, fast_bank, hypotheses, n_hypotheses, &p, movers,
       0.3);
   /* 3-D at 2 degrees over +-30 x +-20 degrees: a coarse grid of 4. */
-  centred_3d_grid (&p);
+  set_3d_grid (&p, -30, -20);
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene_3d, 0.25);
   sonar_test_chain_clear (&c);
 }
@@ -349,12 +350,7 @@ static void
 small_3d_grid (SonarImagerParams * p)
 {
   sonar_imager_params_init_default (p);
-  p->n_azimuth = 31;
-  p->azimuth_min = -42;
-  p->azimuth_max = 18;
-  p->n_elevation = 21;
-  p->elevation_min = -18;
-  p->elevation_max = 22;
+  set_3d_grid (p, -42, -18);
 }
 
 /* The strongest pixel of @image within 2 directions and 20 range bins of
@@ -509,7 +505,7 @@ test_coarse_band (void)
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene, 0.6);
   check_coarse_to_fine (&c, fast_bank, hypotheses, n_hypotheses, &p, movers,
       0.35);
-  centred_3d_grid (&p);
+  set_3d_grid (&p, -30, -20);
   check_coarse_to_fine (&c, bank, &zero, 1, &p, scene_3d, 0.25);
 
   /* (2) */

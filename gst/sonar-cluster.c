@@ -3,6 +3,7 @@
 #include "sonar-cluster.h"
 #include "sonar-error.h"
 #include "sonar-kernels.h"
+#include "sonar-linalg.h"
 #include "sonar-workers.h"
 
 #include <gio/gio.h>
@@ -1271,7 +1272,7 @@ fit_direction (const float *image, gsize p, guint a, guint e,
 {
   const gsize stride_a = g->n_range;
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
-  double l[3][3], grad_a, grad_e, h_aa, h_ee, h_ae, det;
+  double l[3][3], grad_a, grad_e, h_aa, h_ee, h_ae;
 
   if (a == 0 || a + 1 >= g->n_azimuth || e == 0 || e + 1 >= g->n_elevation)
     return FALSE;
@@ -1288,13 +1289,8 @@ fit_direction (const float *image, gsize p, guint a, guint e,
   h_aa = l[1][2] - 2.0 * l[1][1] + l[1][0];
   h_ee = l[2][1] - 2.0 * l[1][1] + l[0][1];
   h_ae = 0.25 * (l[2][2] - l[2][0] - l[0][2] + l[0][0]);
-  det = h_aa * h_ee - h_ae * h_ae;
-  if (!(h_aa < 0.0 && det > 0.0))
-    return FALSE;
-  /* The gradient's zero: H (offset_a, offset_e) = -grad. */
-  *offset_a = (h_ae * grad_e - h_ee * grad_a) / det;
-  *offset_e = (h_ae * grad_a - h_aa * grad_e) / det;
-  return TRUE;
+  return sonar_linalg_quadratic_peak (grad_a, grad_e, h_aa, h_ae, h_ee,
+      offset_a, offset_e);
 }
 
 /* The neighbour's fits' weight along one axis, from where the fits of

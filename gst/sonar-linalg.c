@@ -132,3 +132,16 @@ sonar_linalg_eigen_symmetric3 (const double a_in[3][3], double values[3],
       vectors[i][k] = v[k][order[i]];
   }
 }
+
+gboolean
+sonar_linalg_quadratic_peak (double gx, double gy, double hxx, double hxy,
+    double hyy, double *x, double *y)
+{
+  const double det = hxx * hyy - hxy * hxy;
+
+  if (!(hxx < 0.0 && det > 0.0))
+    return FALSE;
+  *x = (hxy * gy - hyy * gx) / det;
+  *y = (hxy * gx - hxx * gy) / det;
+  return TRUE;
+}

@@ -30,6 +30,13 @@ gboolean sonar_linalg_invert_spd (double *a, guint n, double *log_det);
 void sonar_linalg_eigen_symmetric3 (const double a[3][3], double values[3],
     double vectors[3][3]);
 
+/* The peak (*x, *y) of a quadratic with gradient (@gx, @gy) and Hessian
+ * [@hxx @hxy; @hxy @hyy] at the origin: where H (x, y) = -g. FALSE (and
+ * nothing written) unless H is negative definite (the quadratic has a
+ * maximum). */
+gboolean sonar_linalg_quadratic_peak (double gx, double gy, double hxx,
+    double hxy, double hyy, double *x, double *y);
+
 G_END_DECLS
 
 #endif /* SONAR_LINALG_H */

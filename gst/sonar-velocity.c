@@ -3,6 +3,7 @@
 #include "sonar-error.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
+#include "sonar-linalg.h"
 #include "sonar-steering.h"
 #include "sonar-uncertainty.h"
 #include "sonar-workers.h"
@@ -1088,7 +1089,7 @@ static gboolean
 quadratic_vertex (const double f[9], gboolean two_d, double *x, double *y,
     double hessian[3])
 {
-  double l[9], b = 0.0, c = 0.0, d = 0.0, e = 0.0, g = 0.0, det;
+  double l[9], b = 0.0, c = 0.0, d = 0.0, e = 0.0, g = 0.0;
 
   for (int k = 0; k < 9; k++) {
     if (!(f[k] > 0.0) && (two_d || k / 3 == 1))
@@ -1109,12 +1110,10 @@ quadratic_vertex (const double f[9], gboolean two_d, double *x, double *y,
     d = 0.5 * (l[3] + l[5]) - l[4];
     g = -1.0;                   /* any maximum along y: x alone is fitted */
   }
-  /* A maximum: the Hessian [2d e; e 2g] negative definite. */
-  det = 4.0 * d * g - e * e;
-  if (!(d < 0.0) || !(det > 0.0))
+  if (!sonar_linalg_quadratic_peak (b, c, 2.0 * d, e, 2.0 * g, x, y))
     return FALSE;
-  *x = CLAMP ((e * c - 2.0 * g * b) / det, -1.0, 1.0);
-  *y = CLAMP ((e * b - 2.0 * d * c) / det, -1.0, 1.0);
+  *x = CLAMP (*x, -1.0, 1.0);
+  *y = CLAMP (*y, -1.0, 1.0);
   hessian[0] = 2.0 * d;
   hessian[1] = e;
   hessian[2] = two_d ? 2.0 * g : NAN;

@@ -177,6 +177,54 @@ multiply_split_generic (SonarComplex * out, const float *a_re,
     out[k] = (a_re[k] + I * a_im[k]) * (b_re[k] + I * b_im[k]);
 }
 
+/* The weights of 6-point Lagrange interpolation at @f in [0, 1) through
+ * the nodes -2 .. 3: w[t] = prod over m != t of (f - m) / (t - m), from
+ * the products of the factors before and after each node. */
+static inline void
+lagrange6_weights (float f, float w[6])
+{
+  const float d[6] = { f + 2.0f, f + 1.0f, f, f - 1.0f, f - 2.0f, f - 3.0f };
+  /* prod over m != t of (t - m), t = -2 .. 3. */
+  static const float denominator[6] = { -120.0f, 24.0f, -12.0f, 12.0f,
+    -24.0f, 120.0f
+  };
+  float before[6], after = 1.0f;
+
+  before[0] = 1.0f;
+  for (guint t = 1; t < 6; t++)
+    before[t] = before[t - 1] * d[t - 1];
+  for (int t = 5; t >= 0; t--) {
+    w[t] = before[t] * after / denominator[t];
+    after *= d[t];
+  }
+}
+
+static void
+scaled_product_generic (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain)
+{
+  const SonarComplex rotation = unit_phasor (dphase);
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    SonarComplex p = gain * unit_phasor (phase0 + k0 * dphase);
+    for (guint k = k0; k < k1; k++) {
+      const double x = x0 + k * step;
+      const double node = floor (x);
+      const gsize i = (gsize) node - 2;
+      float w[6];
+      SonarComplex v = 0.0f;
+
+      lagrange6_weights ((float) (x - node), w);
+      for (guint t = 0; t < 6; t++)
+        v += w[t] * (v_re[i + t] + I * v_im[i + t]);
+      out[k] = (r_re[k] + I * r_im[k]) * v * p;
+      p *= rotation;
+    }
+  }
+}
+
 static void
 envelope_generic (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate)
@@ -1112,6 +1160,11 @@ const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
   {NULL, NULL, NULL}
 };
 
+const SonarScaledProductImpl sonar_kernel_scaled_product_impls[] = {
+  {"generic", scaled_product_generic, always_available},
+  {NULL, NULL, NULL}
+};
+
 const SonarEnvelopeImpl sonar_kernel_envelope_impls[] = {
   {"generic", envelope_generic, always_available},
   {"orc", envelope_orc, always_available},
@@ -1153,6 +1206,7 @@ static struct
   SonarSteerPhasorsFn steer_phasors;
   SonarSteerSumsPhasorsFn steer_sums_phasors;
   SonarMultiplySplitFn multiply_split;
+  SonarScaledProductFn scaled_product;
   SonarEnvelopeFn envelope;
   SonarPeakFn peak;
   SonarMaxFn max;
@@ -1184,6 +1238,8 @@ choose (void)
         chosen.steer_sums_phasors);
     LAST_AVAILABLE (sonar_kernel_multiply_split_impls,
         chosen.multiply_split);
+    LAST_AVAILABLE (sonar_kernel_scaled_product_impls,
+        chosen.scaled_product);
     LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
     LAST_AVAILABLE (sonar_kernel_peak_impls, chosen.peak);
     LAST_AVAILABLE (sonar_kernel_max_impls, chosen.max);
@@ -1253,6 +1309,16 @@ sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
 {
   choose ();
   chosen.multiply_split (out, a_re, a_im, b_re, b_im, n);
+}
+
+void
+sonar_kernel_scaled_product (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain)
+{
+  choose ();
+  chosen.scaled_product (out, r_re, r_im, v_re, v_im, n, x0, step, phase0,
+      dphase, gain);
 }
 
 void

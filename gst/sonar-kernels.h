@@ -146,6 +146,23 @@ typedef void (*SonarMultiplySplitFn) (SonarComplex * out, const float *a_re,
 typedef SONAR_KERNEL_IMPL (SonarMultiplySplitFn) SonarMultiplySplitImpl;
 extern const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[];
 
+/* out[k] = gain * exp(i (phase0 + k * dphase)) * (r_re[k] + i r_im[k]) *
+ * V(x0 + k * step), k < n: V the 6-point Lagrange interpolation of the
+ * split table (v_re, v_im) through v[floor (x) - 2 .. floor (x) + 3], all
+ * of which the caller keeps inside the table. A Doppler hypothesis's
+ * transmit sum is the zero-velocity one read at scaled frequencies
+ * (sonar-steering.h, sonar_scaled_transmit_product ()): one interpolation
+ * per bin instead of a sum over the emitters. The exponential advances by
+ * a rotation per bin, re-seeded every 64 bins. */
+void sonar_kernel_scaled_product (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain);
+typedef void (*SonarScaledProductFn) (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain);
+typedef SONAR_KERNEL_IMPL (SonarScaledProductFn) SonarScaledProductImpl;
+extern const SonarScaledProductImpl sonar_kernel_scaled_product_impls[];
+
 /* out[k] = max (out[k], scale * |x[k]|) (or = when !accumulate). */
 void sonar_kernel_envelope (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate);

@@ -80,7 +80,9 @@ typedef struct
 typedef struct
 {
   float *receive_re, *receive_im;       /* K: sum over microphones */
-  float *transmit_re, *transmit_im;     /* K: sum over emitters */
+  /* The zero-velocity transmit sum over the call's window of FFT bins
+   * (sonar_scaled_transmit_table ()), which every hypothesis reads. */
+  float *table_re, *table_im;
   SonarComplex *baseband;       /* M: the product, zero-padded */
   SonarComplex *lags;           /* M: its inverse transform (out of place:
                                  * FFTW's in-place transforms allocate on
@@ -142,6 +144,11 @@ typedef struct
    * call x hypothesis), whether to image it (confirm_sub_image ()); the
    * image holds the mapped sub-band image, which it raises. */
   const guint8 *confirm;
+  /* The window of FFT bins the hypotheses' transmit sums read
+   * (sonar_scaled_transmit_window ()), and the emitters summed. */
+  int window_first;
+  guint window_n;
+  guint first_emitter, end_emitter;
 } ImageJob;
 
 struct _SonarImager
@@ -149,6 +156,7 @@ struct _SonarImager
   SonarSetup *setup;
   SonarBand band;
   SonarSteering steering;
+  SonarScaledTransmit *transmit;
   SonarImageGrid grid;
   guint n_directions;
   SonarVec3 *directions;
@@ -450,6 +458,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   im->setup = sonar_setup_ref (setup);
   im->band = *band;
   sonar_steering_init (&im->steering, setup, band);
+  im->transmit = sonar_scaled_transmit_new (&im->steering, setup, band);
   grid = &im->grid;
 
   grid->n_azimuth = p->n_azimuth;
@@ -546,8 +555,10 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   for (guint w = 0; w < sonar_workers_count (im->workers); w++) {
     im->scratch[w].receive_re = fftwf_alloc_real (band->n_bins);
     im->scratch[w].receive_im = fftwf_alloc_real (band->n_bins);
-    im->scratch[w].transmit_re = fftwf_alloc_real (band->n_bins);
-    im->scratch[w].transmit_im = fftwf_alloc_real (band->n_bins);
+    im->scratch[w].table_re = fftwf_alloc_real
+        (sonar_scaled_transmit_max_window (im->transmit));
+    im->scratch[w].table_im = fftwf_alloc_real
+        (sonar_scaled_transmit_max_window (im->transmit));
     im->scratch[w].baseband = fftwf_alloc_complex (im->ifft_size);
     im->scratch[w].lags = fftwf_alloc_complex (im->ifft_size);
     /* The padding stays zero: products fill the band's bins only, and an
@@ -624,8 +635,8 @@ sonar_imager_free (SonarImager * im)
   for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
     fftwf_free (im->scratch[w].receive_re);
     fftwf_free (im->scratch[w].receive_im);
-    fftwf_free (im->scratch[w].transmit_re);
-    fftwf_free (im->scratch[w].transmit_im);
+    fftwf_free (im->scratch[w].table_re);
+    fftwf_free (im->scratch[w].table_im);
     fftwf_free (im->scratch[w].baseband);
     fftwf_free (im->scratch[w].lags);
     g_free (im->scratch[w].envelope);
@@ -640,6 +651,7 @@ sonar_imager_free (SonarImager * im)
     g_free (im->scratch[w].confirm_hypothesis);
   }
   sonar_workers_free (im->workers);
+  sonar_scaled_transmit_free (im->transmit);
   g_free (im->mic_re);
   g_free (im->mic_im);
   g_free (im->zone_peaks);
@@ -728,13 +740,42 @@ sub_to_grid (float *out, const float *sub, guint first_lag, guint ratio,
   }
 }
 
+/* Worker @scratch's transmit table for direction @d in @zone: once per
+ * unit, for every hypothesis. */
+static void
+transmit_table (const SonarImager * im, Scratch * scratch,
+    const FocusZone * zone, guint d)
+{
+  const ImageJob *job = &im->job;
+
+  sonar_scaled_transmit_table (im->transmit, zone->emitter_legs + (gsize) d *
+      im->setup->geometry.n_emitters, job->first_emitter, job->end_emitter,
+      job->window_first, job->window_n, scratch->table_re,
+      scratch->table_im);
+}
+
+/* Hypothesis @h's delay-and-sum spectrum, the receive sum in @scratch
+ * (bins @first to @first + @n - 1 of the band) times its transmit sum
+ * read from the table, into @out. */
+static void
+transmit_product (const SonarImager * im, const Scratch * scratch, guint h,
+    guint first, guint n, SonarComplex * out)
+{
+  const ImageJob *job = &im->job;
+
+  sonar_scaled_transmit_product (im->transmit, scratch->table_re,
+      scratch->table_im, job->window_first, sonar_steering_stretch
+      (&im->steering, job->hypotheses[h].velocity), scratch->receive_re,
+      scratch->receive_im, first, n, out);
+}
+
 /* Coarse unit @u (direction @d, the coarse zone) on the sub-band: for
  * every coarse hypothesis its r^2-weighted peak per zone, and per block of
  * range bins which is strongest, at the sub-band's lags; their maximum
  * onto the grid's range bins, into the image. */
 static void
 image_sub_unit (SonarImager * im, guint w, guint u, guint d,
-    const FocusZone * zone, guint n_first, guint n_end)
+    const FocusZone * zone)
 {
   const ImageJob *job = &im->job;
   Scratch *scratch = &im->scratch[w];
@@ -755,18 +796,12 @@ image_sub_unit (SonarImager * im, guint w, guint u, guint d,
   sonar_steering_receive_sum_part (&im->steering, &mic_spectra,
       zone->mic_legs + (gsize) d * g->n_microphones, 0, im->sub_bins,
       scratch->receive_re, scratch->receive_im);
+  transmit_table (im, scratch, zone, d);
   for (guint h0 = 0; h0 < n_hyp; h0 += step) {
     const guint h = coarse_hypothesis (h0, step, n_hyp);
-    const SonarHypothesis *hypothesis = &job->hypotheses[h];
 
-    sonar_steering_transmit_sum_part (&im->steering, &hypothesis->templates,
-        zone->emitter_legs + (gsize) d * g->n_emitters,
-        sonar_steering_stretch (&im->steering, hypothesis->velocity),
-        n_first, n_end, 0, im->sub_bins, scratch->transmit_re,
-        scratch->transmit_im);
-    sonar_kernel_multiply_split (scratch->sub_baseband, scratch->receive_re,
-        scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
-        im->sub_bins);
+    transmit_product (im, scratch, h, 0, im->sub_bins,
+        scratch->sub_baseband);
     fftwf_execute_dft (im->sub_inverse, scratch->sub_baseband,
         scratch->sub_lags);
     sonar_kernel_envelope (env, scratch->sub_lags, im->sub_ifft_size,
@@ -813,7 +848,7 @@ image_sub_unit (SonarImager * im, guint w, guint u, guint d,
  * and direction), else their maximum. */
 static void
 image_confirm_unit (SonarImager * im, guint w, guint u, guint d,
-    const FocusZone * zone, guint n_first, guint n_end)
+    const FocusZone * zone)
 {
   const ImageJob *job = &im->job;
   Scratch *scratch = &im->scratch[w];
@@ -834,19 +869,13 @@ image_confirm_unit (SonarImager * im, guint w, guint u, guint d,
   sonar_steering_receive_sum (&im->steering, &mic_spectra,
       zone->mic_legs + (gsize) d * g->n_microphones, scratch->receive_re,
       scratch->receive_im);
+  transmit_table (im, scratch, zone, d);
   for (guint h = 0; h < n_hyp; h++) {
-    const SonarHypothesis *hypothesis = &job->hypotheses[h];
     float *envelope = first ? scratch->confirm_max : scratch->envelope;
 
     if (!confirm[h])
       continue;
-    sonar_steering_transmit_sum (&im->steering, &hypothesis->templates,
-        zone->emitter_legs + (gsize) d * g->n_emitters,
-        sonar_steering_stretch (&im->steering, hypothesis->velocity),
-        n_first, n_end, scratch->transmit_re, scratch->transmit_im);
-    sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
-        scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
-        im->band.n_bins);
+    transmit_product (im, scratch, h, 0, im->band.n_bins, scratch->baseband);
     fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
     sonar_kernel_envelope (envelope, scratch->lags + im->first_lag, n_range,
         job->scale, FALSE);
@@ -887,13 +916,10 @@ image_units (gpointer data, guint w, guint n_workers)
 {
   SonarImager *im = data;
   const ImageJob *job = &im->job;
-  const Scratch *scratch = &im->scratch[w];
+  Scratch *scratch = &im->scratch[w];
   const SonarGeometry *g = &im->setup->geometry;
   const guint n_bins = im->band.n_bins, n_range = im->grid.n_range;
   const SonarSplitSpectra mic_spectra = { im->mic_re, im->mic_im };
-  const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
-  const guint n_end = job->emitter < 0 ? g->n_emitters :
-      (guint) job->emitter + 1;
 
   for (guint u = w; u < job->n_units; u += n_workers) {
     const guint d = UNIT_DIRECTION (im, job->units[u]);
@@ -901,8 +927,6 @@ image_units (gpointer data, guint w, guint n_workers)
     const guint first = zone->first_range;
     const guint count = zone->end_range - zone->first_range;
     const double *mic_legs = zone->mic_legs + (gsize) d * g->n_microphones;
-    const double *emitter_legs = zone->emitter_legs +
-        (gsize) d * g->n_emitters;
     const gsize pixels = (gsize) d * n_range + first;
     const guint n_hyp = job->n_hypotheses;
     /* Whether the next envelope is written over the pixels, or its
@@ -915,21 +939,22 @@ image_units (gpointer data, guint w, guint n_workers)
     if (count == 0)
       continue;
     if (job->sub) {
-      image_sub_unit (im, w, u, d, zone, n_first, n_end);
+      image_sub_unit (im, w, u, d, zone);
       continue;
     }
     if (job->confirm) {
-      image_confirm_unit (im, w, u, d, zone, n_first, n_end);
+      image_confirm_unit (im, w, u, d, zone);
       continue;
     }
     if (job->wanted)
       coarse_corners (im, d, corners);
-    /* Receive side: once per direction for every hypothesis. */
+    /* Receive side and the transmit table: once per direction for every
+     * hypothesis. */
     sonar_steering_receive_sum (&im->steering, &mic_spectra, mic_legs,
         scratch->receive_re, scratch->receive_im);
+    transmit_table (im, scratch, zone, d);
 
     for (guint h = 0; h < n_hyp; h++) {
-      const SonarHypothesis *hypothesis = &job->hypotheses[h];
       const guint z = UNIT_ZONE (im, job->units[u]);
       const SonarComplex *lags;
 
@@ -938,13 +963,7 @@ image_units (gpointer data, guint w, guint n_workers)
           && !job->wanted[UNIT (im, corners[2], z) * n_hyp + h]
           && !job->wanted[UNIT (im, corners[3], z) * n_hyp + h])
         continue;
-      sonar_steering_transmit_sum (&im->steering, &hypothesis->templates,
-          emitter_legs, sonar_steering_stretch (&im->steering,
-              hypothesis->velocity), n_first, n_end, scratch->transmit_re,
-          scratch->transmit_im);
-      sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
-          scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
-          n_bins);
+      transmit_product (im, scratch, h, 0, n_bins, scratch->baseband);
       fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
       lags = scratch->lags + im->first_lag + first;
       if (job->zone_peaks) {
@@ -1132,7 +1151,7 @@ static void
 range_floors_share (gpointer data, guint w, guint n_workers)
 {
   SonarImager *im = data;
-  const Scratch *scratch = &im->scratch[w];
+  Scratch *scratch = &im->scratch[w];
   const guint n_range = im->grid.n_range, n_coarse = im->job.n_coarse;
   const guint n_blocks = (n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
   const double k_eff = sonar_cluster_effective_hypotheses
@@ -1192,24 +1211,16 @@ calibrate_share (gpointer data, guint w, guint n_workers)
   const SonarGeometry *g = &im->setup->geometry;
   const SonarSplitSpectra mic_spectra = { im->mic_re, im->mic_im };
   const FocusZone *zone = &im->zones[im->n_zones];
-  const SonarHypothesis *hypothesis = &job->hypotheses[job->cal_hypothesis];
   const guint n_range = im->grid.n_range;
-  const guint n_first = job->emitter < 0 ? 0 : (guint) job->emitter;
-  const guint n_end = job->emitter < 0 ? g->n_emitters :
-      (guint) job->emitter + 1;
 
   for (guint k = w; k < job->n_cal; k += n_workers) {
     const guint d = UNIT_DIRECTION (im, job->units[job->cal_units[k]]);
     sonar_steering_receive_sum (&im->steering, &mic_spectra,
         zone->mic_legs + (gsize) d * g->n_microphones, scratch->receive_re,
         scratch->receive_im);
-    sonar_steering_transmit_sum (&im->steering, &hypothesis->templates,
-        zone->emitter_legs + (gsize) d * g->n_emitters,
-        sonar_steering_stretch (&im->steering, hypothesis->velocity),
-        n_first, n_end, scratch->transmit_re, scratch->transmit_im);
-    sonar_kernel_multiply_split (scratch->baseband, scratch->receive_re,
-        scratch->receive_im, scratch->transmit_re, scratch->transmit_im,
-        im->band.n_bins);
+    transmit_table (im, scratch, zone, d);
+    transmit_product (im, scratch, job->cal_hypothesis, 0, im->band.n_bins,
+        scratch->baseband);
     fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
     sonar_kernel_envelope (im->cal_full + (gsize) k * n_range,
         scratch->lags + im->first_lag, n_range, job->scale, FALSE);
@@ -1806,6 +1817,23 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   im->job.n_hypotheses = n_hypotheses;
   im->job.hypotheses = hypotheses;
   im->job.emitter = emitter;
+  im->job.first_emitter = emitter < 0 ? 0 : (guint) emitter;
+  im->job.end_emitter = emitter < 0 ? im->setup->geometry.n_emitters :
+      (guint) emitter + 1;
+  {
+    double lo = G_MAXDOUBLE, hi = 0.0;
+    for (guint h = 0; h < n_hypotheses; h++) {
+      const double s = sonar_steering_stretch (&im->steering,
+          hypotheses[h].velocity);
+      lo = MIN (lo, s);
+      hi = MAX (hi, s);
+    }
+    sonar_scaled_transmit_window (im->transmit, lo, hi,
+        &im->job.window_first, &im->job.window_n);
+    /* The bank's velocities, |v| < c / 4, fit the tables. */
+    g_return_if_fail (im->job.window_n <=
+        sonar_scaled_transmit_max_window (im->transmit));
+  }
   im->job.image = image;
   im->job.stride = stride;
   im->job.scale = scale;

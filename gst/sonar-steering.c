@@ -95,27 +95,6 @@ sonar_steering_receive_sum_part (const SonarSteering * s,
       FALSE);
 }
 
-void
-sonar_steering_transmit_sum_part (const SonarSteering * s,
-    const SonarSplitSpectra * templates, const double *emitter_legs,
-    double stretch, guint first_emitter, guint end_emitter, guint first,
-    guint n, float *transmit_re, float *transmit_im)
-{
-  const gsize at = (gsize) first_emitter * s->n_bins + first;
-  const double k_first = s->k0 + first * s->dk;
-  double phase0[SONAR_MAX_EMITTERS], dphase[SONAR_MAX_EMITTERS];
-
-  g_return_if_fail (first + n <= s->n_bins);
-  for (guint e = first_emitter; e < end_emitter; e++) {
-    const double path = emitter_legs[e] * stretch;
-    phase0[e - first_emitter] = k_first * path;
-    dphase[e - first_emitter] = s->dk * path;
-  }
-  sonar_kernel_steer_sum_split (transmit_re, transmit_im, templates->re + at,
-      templates->im + at, s->n_bins, end_emitter - first_emitter, n, phase0,
-      dphase, TRUE);
-}
-
 /* The path of an emitter's output at the lag of @range: the two-way
  * range plus the stretched emitter leg (the receive sum already holds the
  * microphone legs). */
@@ -200,4 +179,136 @@ sonar_steering_blocks_sums (const SonarSteering * s,
 {
   sonar_kernel_steer_sums_phasors (out, blocks, re, im, n_tables,
       sonar_steering_n_blocks (s, block));
+}
+
+/* Taps of the interpolation either side of its node, and a bin of slack
+ * for the rounding of s k. */
+#define TAPS_BEFORE 3
+#define TAPS_AFTER 4
+
+struct _SonarScaledTransmit
+{
+  const SonarSteering *steering;
+  guint n_emitters;
+  guint first_bin;              /* the band's, on the FFT grid */
+  guint n_spectrum;             /* FFT bins 0 .. fft_size / 2 */
+  float *spectra_re, *spectra_im;       /* [emitter][bin] */
+  double centre;                /* c0: the emissions' centre, m of path */
+  double stretch_min, stretch_max;      /* of |v| < c / 4 */
+};
+
+SonarScaledTransmit *
+sonar_scaled_transmit_new (const SonarSteering * steering,
+    const SonarSetup * setup, const SonarBand * band)
+{
+  SonarScaledTransmit *t = g_new0 (SonarScaledTransmit, 1);
+  const double c = setup->speed_of_sound;
+  SonarBand whole = *band;
+  g_autoptr (SonarSpectrum) analyzer = NULL;
+  g_autofree SonarComplex *spectrum = NULL;
+
+  t->steering = steering;
+  t->n_emitters = setup->geometry.n_emitters;
+  t->first_bin = band->first_bin;
+  t->n_spectrum = band->fft_size / 2 + 1;
+  t->centre = 0.5 * (setup->waveform_length - 1) * c / setup->sample_rate;
+  t->stretch_min = (c - 0.25 * c) / (c + 0.25 * c);
+  t->stretch_max = 1.0 / t->stretch_min;
+  whole.first_bin = 0;
+  whole.n_bins = t->n_spectrum;
+  analyzer = sonar_spectrum_new (&whole);
+  spectrum = g_new (SonarComplex, t->n_spectrum);
+  t->spectra_re = g_new (float, (gsize) t->n_emitters * t->n_spectrum);
+  t->spectra_im = g_new (float, (gsize) t->n_emitters * t->n_spectrum);
+  for (guint n = 0; n < t->n_emitters; n++) {
+    sonar_spectrum_process (analyzer, sonar_setup_waveform (setup, n),
+        setup->waveform_length, 1, spectrum, NULL);
+    sonar_kernel_split (t->spectra_re + (gsize) n * t->n_spectrum,
+        t->spectra_im + (gsize) n * t->n_spectrum, spectrum, t->n_spectrum);
+  }
+  return t;
+}
+
+void
+sonar_scaled_transmit_free (SonarScaledTransmit * t)
+{
+  if (!t)
+    return;
+  g_free (t->spectra_re);
+  g_free (t->spectra_im);
+  g_free (t);
+}
+
+void
+sonar_scaled_transmit_window (const SonarScaledTransmit * t,
+    double stretch_min, double stretch_max, int *first, guint * n)
+{
+  const double low = t->first_bin, high = t->first_bin +
+      t->steering->n_bins - 1.0;
+  const int last = (int) floor (stretch_max * high) + TAPS_AFTER;
+
+  *first = (int) floor (stretch_min * low) - TAPS_BEFORE;
+  *n = (guint) (last - *first + 1);
+}
+
+guint
+sonar_scaled_transmit_max_window (const SonarScaledTransmit * t)
+{
+  int first;
+  guint n;
+
+  sonar_scaled_transmit_window (t, t->stretch_min, t->stretch_max, &first,
+      &n);
+  return n;
+}
+
+void
+sonar_scaled_transmit_table (const SonarScaledTransmit * t,
+    const double *emitter_legs, guint first_emitter, guint end_emitter,
+    int first, guint n, float *v_re, float *v_im)
+{
+  const SonarSteering *s = t->steering;
+  /* The bins of the window the spectra hold; zeros outside. */
+  const int lo = MAX (first, 0);
+  const int hi = MIN (first + (int) n, (int) t->n_spectrum);
+  double phase0[SONAR_MAX_EMITTERS], dphase[SONAR_MAX_EMITTERS];
+
+  if (hi <= lo) {
+    memset (v_re, 0, sizeof (float) * n);
+    memset (v_im, 0, sizeof (float) * n);
+    return;
+  }
+  for (guint e = first_emitter; e < end_emitter; e++) {
+    const double path = emitter_legs[e] - t->centre;
+    phase0[e - first_emitter] = lo * s->dk * path;
+    dphase[e - first_emitter] = s->dk * path;
+  }
+  memset (v_re, 0, sizeof (float) * (lo - first));
+  memset (v_im, 0, sizeof (float) * (lo - first));
+  sonar_kernel_steer_sum_split (v_re + (lo - first), v_im + (lo - first),
+      t->spectra_re + (gsize) first_emitter * t->n_spectrum + lo,
+      t->spectra_im + (gsize) first_emitter * t->n_spectrum + lo,
+      t->n_spectrum, end_emitter - first_emitter, hi - lo, phase0, dphase,
+      TRUE);
+  memset (v_re + (hi - first), 0, sizeof (float) * (first + (int) n - hi));
+  memset (v_im + (hi - first), 0, sizeof (float) * (first + (int) n - hi));
+}
+
+void
+sonar_scaled_transmit_product (const SonarScaledTransmit * t,
+    const float *v_re, const float *v_im, int window_first, double stretch,
+    const float *receive_re, const float *receive_im, guint first, guint n,
+    SonarComplex * out)
+{
+  const SonarSteering *s = t->steering;
+  /* Band bin first + b is FFT bin first_bin + first + b; read at
+   * stretch times that, in the window's coordinates. */
+  const double x0 = stretch * (t->first_bin + first) - window_first;
+  /* exp(i s kappa c0): the centre's ramp put back, at the scaled
+   * frequency. */
+  const double k_first = s->k0 + first * s->dk;
+
+  sonar_kernel_scaled_product (out, receive_re, receive_im, v_re, v_im, n,
+      x0, stretch, stretch * k_first * t->centre,
+      stretch * s->dk * t->centre, (float) sqrt (stretch));
 }

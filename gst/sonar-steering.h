@@ -84,17 +84,13 @@ void sonar_steering_transmit_sum (const SonarSteering * steering,
     double stretch, guint first, guint end, float *transmit_re,
     float *transmit_im);
 
-/* The same two sums on part of the band, bins @first to @first + @n - 1
- * (a sub-band: the imager's coarse pass), into @n values each: bit for
- * bit what the whole band's sums hold there, but for the phase ramps'
+/* The receive sum on part of the band, bins @first to @first + @n - 1 (a
+ * sub-band: the imager's coarse pass), into @n values each: bit for bit
+ * what the whole band's sum holds there, but for the phase ramps'
  * rounding (tests/test-steering.c). */
 void sonar_steering_receive_sum_part (const SonarSteering * steering,
     const SonarSplitSpectra * mic_spectra, const double *mic_legs,
     guint first, guint n, float *receive_re, float *receive_im);
-void sonar_steering_transmit_sum_part (const SonarSteering * steering,
-    const SonarSplitSpectra * templates, const double *emitter_legs,
-    double stretch, guint first_emitter, guint end_emitter, guint first,
-    guint n, float *transmit_re, float *transmit_im);
 /* Emitter @emitter's output, for the receive sum @receive_re, _im and
  * @templates stretched by @stretch, at the lag of range @range, as partial
  * sums over blocks of @block bins (sonar_kernel_steer_block_sums_conj ())
@@ -136,6 +132,59 @@ void sonar_steering_blocks_phasors (const SonarSteering * steering,
 void sonar_steering_blocks_sums (const SonarSteering * steering,
     const SonarComplex * blocks, guint block, const float *const *re,
     const float *const *im, guint n_tables, SonarComplex * out);
+
+/* A Doppler hypothesis's transmit sum from the zero-velocity one. The
+ * templates are the emissions time-scaled by alpha and weighted by
+ * sqrt (alpha) (sonar-doppler-bank.h), so with s = 1 / alpha their
+ * spectra are sqrt (s) S_n(s k), and the stretched legs turn by the same
+ * scaled frequency:
+ *
+ *   T(k) = sqrt (s) U(s k),   U(kappa) = sum_n conj (S_n(kappa)) exp(i kappa e_n),
+ *
+ * kappa in rad per metre of path. U is made once per direction and zone,
+ * on the FFT's own grid, over the window of it that the call's
+ * hypotheses read; each hypothesis then reads it at s k, one 6-point
+ * interpolation per bin (sonar_kernel_scaled_product ()) instead of a
+ * sum over the emitters, and its product with the receive sum is the
+ * same kernel. What is interpolated is U with the phase ramp of the
+ * emissions' centre taken out, V = U exp(-i kappa c0): V's transform
+ * spans half an emission either side of zero, a fifth of the FFT's
+ * length or less, so the interpolation is within -70 dB of the exact
+ * sum (tests/test-steering.c). The hypotheses' own templates are not
+ * read: only their velocities. */
+typedef struct _SonarScaledTransmit SonarScaledTransmit;
+
+/* The emissions of @setup on the FFT grid of @band (every bin to
+ * Nyquist); borrows @steering, which must outlive it. */
+SonarScaledTransmit *sonar_scaled_transmit_new (const SonarSteering *
+    steering, const SonarSetup * setup, const SonarBand * band);
+void sonar_scaled_transmit_free (SonarScaledTransmit * transmit);
+
+/* The window of FFT bins, @first (may be negative: zeros there) and @n,
+ * that hypotheses of stretches from @stretch_min to @stretch_max read. */
+void sonar_scaled_transmit_window (const SonarScaledTransmit * transmit,
+    double stretch_min, double stretch_max, int *first, guint * n);
+/* The longest window, of the stretches of every velocity |v| < c / 4 that
+ * a Doppler bank allows: the table's size to allocate once. */
+guint sonar_scaled_transmit_max_window (const SonarScaledTransmit *
+    transmit);
+
+/* V of emitters @first_emitter to @end_emitter - 1 with @emitter_legs,
+ * over the window (@first, @n) into @v_re, _im (@n each). */
+void sonar_scaled_transmit_table (const SonarScaledTransmit * transmit,
+    const double *emitter_legs, guint first_emitter, guint end_emitter,
+    int first, guint n, float *v_re, float *v_im);
+
+/* R(k) T(k) for the hypothesis of @stretch, bins @first to @first + @n -
+ * 1 of the band (@receive_re, _im and @out hold those @n), T read from
+ * the table @v_re, _im of the window starting at @window_first (which
+ * must hold @stretch's). */
+void sonar_scaled_transmit_product (const SonarScaledTransmit * transmit,
+    const float *v_re, const float *v_im, int window_first, double stretch,
+    const float *receive_re, const float *receive_im, guint first, guint n,
+    SonarComplex * out);
+
+G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarScaledTransmit, sonar_scaled_transmit_free)
 
 G_END_DECLS
 

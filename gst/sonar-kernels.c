@@ -850,6 +850,193 @@ steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
   }
 }
 
+/* x0 + k step as the reference rounds it, not fused into one FMA (which
+ * -ffp-contract=fast would do here): the same positions, so the same
+ * nodes, whose taps the caller checked are inside the table. */
+#define POSITION_UNFUSED(x0, k, step) ({                                  \
+  __typeof__ ((k) * (step)) product_ = (k) * (step);                     \
+  __asm__ ("" : "+x" (product_));                                        \
+  (x0) + product_;                                                       \
+})
+
+/* scaled_product_generic () by vectors of LANES bins. Lane l's node is
+ * node_0 + l + delta_l; when every delta_l is lo or lo + 1 (lo = 0 for
+ * step >= 1, -1 below; so whenever |step - 1| < 1/8), the taps come from
+ * seven unaligned loads L_j = v[node_0 - 2 + lo + j + l], j = 0 .. 6,
+ * lane l weighting L_j by w_j (delta lo) or w_(j-1) (delta lo + 1): the
+ * weights are chosen, once for both parts, not the taps. Only the lanes
+ * of one kind have a tap in L_0 (in L_6): masked loads, so that nothing
+ * outside the taps is read (a lane not loaded reads 0, times a finite
+ * weight). Other vectors gather their taps, 12 gathers (slower). */
+AVX2_TARGET static void
+scaled_product_avx2 (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain)
+{
+  const guint whole = n - n % LANES;
+  const int lo = step >= 1.0 ? 0 : -1;
+  const __m256d step_d = _mm256_set1_pd (step), x0_d = _mm256_set1_pd (x0);
+  const __m256d lanes_first = _mm256_setr_pd (0.0, 1.0, 2.0, 3.0);
+  const __m256d lanes_second = _mm256_setr_pd (4.0, 5.0, 6.0, 7.0);
+  const __m256i lane_index = _mm256_setr_epi32 (0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i delta_lo = _mm256_set1_epi32 (lo);
+  const __m256i delta_hi = _mm256_set1_epi32 (lo + 1);
+  __m256 step_re, step_im;
+  float tail_gain = 1.0f;       /* the lanes hold gain times the phasors */
+  Lanes p;
+
+  /* The nodes are int32 lanes: a table past 2^30 (never, in practice)
+   * takes the reference. */
+  if (n > 0 && !(fmax (x0, x0 + (n - 1) * step) < (double) (1 << 30))) {
+    scaled_product_generic (out, r_re, r_im, v_re, v_im, n, x0, step, phase0,
+        dphase, gain);
+    return;
+  }
+  lanes_init (&p, phase0, dphase);
+  step_re = _mm256_set1_ps (p.step_re);
+  step_im = _mm256_set1_ps (p.step_im);
+  for (guint k0 = 0; k0 < whole; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (whole, k0 + RESEED_INTERVAL);
+    __m256 phasor_re, phasor_im;
+    lanes_seed (&p);
+    /* The phasors times gain, in registers: in the struct, each vector's
+     * rotation waited on a store and a load. */
+    phasor_re = _mm256_mul_ps ((__m256) p.re, _mm256_set1_ps (gain));
+    phasor_im = _mm256_mul_ps ((__m256) p.im, _mm256_set1_ps (gain));
+    for (guint k = k0; k < k1; k += LANES) {
+      const __m256d k_d = _mm256_set1_pd ((double) k);
+      const __m256d x_first = POSITION_UNFUSED (x0_d,
+          _mm256_add_pd (k_d, lanes_first), step_d);
+      const __m256d x_second = POSITION_UNFUSED (x0_d,
+          _mm256_add_pd (k_d, lanes_second), step_d);
+      const __m256d node_first = _mm256_floor_pd (x_first);
+      const __m256d node_second = _mm256_floor_pd (x_second);
+      const __m256 f = _mm256_set_m128 (_mm256_cvtpd_ps (_mm256_sub_pd
+              (x_second, node_second)), _mm256_cvtpd_ps (_mm256_sub_pd
+              (x_first, node_first)));
+      const __m256i node = _mm256_set_m128i (_mm256_cvttpd_epi32
+          (node_second), _mm256_cvttpd_epi32 (node_first));
+      const int node0 = _mm_cvtsi128_si32 (_mm256_castsi256_si128 (node));
+      const __m256i delta = _mm256_sub_epi32 (_mm256_sub_epi32 (node,
+              _mm256_set1_epi32 (node0)), lane_index);
+      const __m256i is_lo = _mm256_cmpeq_epi32 (delta, delta_lo);
+      const __m256i is_hi = _mm256_cmpeq_epi32 (delta, delta_hi);
+      __m256 w[6], sum_re, sum_im, rr, ri, tr, ti, out_re, out_im, low,
+          high, next_re;
+
+      /* lagrange6_weights (), lane by lane, in fewer operations (the
+       * vector's time goes in its arithmetic): the factors (f - m) by
+       * pairs as fused quadratics, 1 / denominator folded into one. */
+      {
+        const __m256 d01 = _mm256_fmadd_ps (f, _mm256_add_ps (f,
+                _mm256_set1_ps (3.0f)), _mm256_set1_ps (2.0f));
+        const __m256 d23 = _mm256_fmsub_ps (f, f, f);
+        const __m256 d45 = _mm256_fmadd_ps (f, _mm256_sub_ps (f,
+                _mm256_set1_ps (5.0f)), _mm256_set1_ps (6.0f));
+        const __m256 d0123 = _mm256_mul_ps (d01, d23);
+        const __m256 d2345 = _mm256_mul_ps (d23, d45);
+        /* c_t (f - m) for c_t = 1 / prod over m' != t of (t - m'). */
+#define SCALED_FACTOR(m, c) \
+  _mm256_fmadd_ps (f, _mm256_set1_ps (c), _mm256_set1_ps (-(m) * (c)))
+        w[0] = _mm256_mul_ps (SCALED_FACTOR (-1, -1.0f / 120.0f), d2345);
+        w[1] = _mm256_mul_ps (SCALED_FACTOR (-2, 1.0f / 24.0f), d2345);
+        w[2] = _mm256_mul_ps (d01, _mm256_mul_ps (SCALED_FACTOR (1,
+                    -1.0f / 12.0f), d45));
+        w[3] = _mm256_mul_ps (d01, _mm256_mul_ps (SCALED_FACTOR (0,
+                    1.0f / 12.0f), d45));
+        w[4] = _mm256_mul_ps (d0123, SCALED_FACTOR (3, -1.0f / 24.0f));
+        w[5] = _mm256_mul_ps (d0123, SCALED_FACTOR (2, 1.0f / 120.0f));
+#undef SCALED_FACTOR
+      }
+
+      /* Each tap into the sums as it is loaded: tap arrays held across
+       * the two ways were kept in memory. */
+      if (_mm256_movemask_ps (_mm256_castsi256_ps (_mm256_or_si256 (is_lo,
+                      is_hi))) == 0xff) {
+        const float *base_re = v_re + (node0 - 2 + lo);
+        const float *base_im = v_im + (node0 - 2 + lo);
+        /* 1 in the lanes of node_0 + l + lo + 1, 0 in the others: a
+         * weight's choice as one fused multiply-add, which took less time
+         * than a blend (vblendvps). */
+        const __m256 hi = _mm256_and_ps (_mm256_castsi256_ps (is_hi),
+            _mm256_set1_ps (1.0f));
+        sum_re = _mm256_mul_ps (w[0], _mm256_maskload_ps (base_re, is_lo));
+        sum_im = _mm256_mul_ps (w[0], _mm256_maskload_ps (base_im, is_lo));
+        for (int j = 1; j < 6; j++) {
+          const __m256 weight = _mm256_fmadd_ps (hi, _mm256_sub_ps (w[j - 1],
+                  w[j]), w[j]);
+          sum_re = _mm256_fmadd_ps (weight, _mm256_loadu_ps (base_re + j),
+              sum_re);
+          sum_im = _mm256_fmadd_ps (weight, _mm256_loadu_ps (base_im + j),
+              sum_im);
+        }
+        sum_re = _mm256_fmadd_ps (w[5], _mm256_maskload_ps (base_re + 6,
+                is_hi), sum_re);
+        sum_im = _mm256_fmadd_ps (w[5], _mm256_maskload_ps (base_im + 6,
+                is_hi), sum_im);
+      } else {
+        sum_re = sum_im = _mm256_setzero_ps ();
+        for (int t = 0; t < 6; t++) {
+          const __m256i index = _mm256_add_epi32 (node,
+              _mm256_set1_epi32 (t - 2));
+          sum_re = _mm256_fmadd_ps (w[t], _mm256_i32gather_ps (v_re, index,
+                  4), sum_re);
+          sum_im = _mm256_fmadd_ps (w[t], _mm256_i32gather_ps (v_im, index,
+                  4), sum_im);
+        }
+      }
+
+      /* (r V) (gain phasor), as the reference groups it. */
+      rr = _mm256_loadu_ps (r_re + k);
+      ri = _mm256_loadu_ps (r_im + k);
+      tr = _mm256_fmsub_ps (rr, sum_re, _mm256_mul_ps (ri, sum_im));
+      ti = _mm256_fmadd_ps (rr, sum_im, _mm256_mul_ps (ri, sum_re));
+      out_re = _mm256_fmsub_ps (tr, phasor_re, _mm256_mul_ps (ti,
+              phasor_im));
+      out_im = _mm256_fmadd_ps (tr, phasor_im, _mm256_mul_ps (ti,
+              phasor_re));
+      /* Interleaved: bins 0 1 4 5 and 2 3 6 7, then in order. */
+      low = _mm256_unpacklo_ps (out_re, out_im);
+      high = _mm256_unpackhi_ps (out_re, out_im);
+      _mm256_storeu_ps ((float *) (out + k), _mm256_permute2f128_ps (low,
+              high, 0x20));
+      _mm256_storeu_ps ((float *) (out + k + LANES / 2),
+          _mm256_permute2f128_ps (low, high, 0x31));
+      /* LANES_ADVANCE (). */
+      next_re = _mm256_fmsub_ps (phasor_re, step_re, _mm256_mul_ps
+          (phasor_im, step_im));
+      phasor_im = _mm256_fmadd_ps (phasor_re, step_im, _mm256_mul_ps
+          (phasor_im, step_re));
+      phasor_re = next_re;
+    }
+    p.re = (Vec) phasor_re;
+    p.im = (Vec) phasor_im;
+  }
+  /* The bins after the whole vectors, as the reference does them, on
+   * the lanes' phasors: times gain after the vectors, seeded if a
+   * reseed's bin starts them. The gain is applied in scalar: a vector
+   * product there left the upper halves set at the return (gcc put no
+   * vzeroupper on the way out without a tail; tests/test_vzeroupper.py). */
+  if (whole < n && whole % RESEED_INTERVAL == 0) {
+    lanes_seed (&p);
+    tail_gain = gain;
+  }
+  for (guint k = whole; k < n; k++) {
+    const SonarComplex phasor = tail_gain * (p.re[k - whole] + I *
+        p.im[k - whole]);
+    const double x = POSITION_UNFUSED (x0, (double) k, step);
+    const double node = floor (x);
+    const gsize i = (gsize) node - 2;
+    float wt[6];
+    SonarComplex v = 0.0f;
+
+    lagrange6_weights ((float) (x - node), wt);
+    for (guint t = 0; t < 6; t++)
+      v += wt[t] * (v_re[i + t] + I * v_im[i + t]);
+    out[k] = (r_re[k] + I * r_im[k]) * v * phasor;
+  }
+}
+
 /* _mm256_max_ps (a, b) is a > b ? a : b lane by lane: with the new
  * values first a NaN never wins, with the kept ones first it is
  * max_generic (). Two vectors of lanes: a comparison's latency is a few
@@ -1162,6 +1349,9 @@ const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
 
 const SonarScaledProductImpl sonar_kernel_scaled_product_impls[] = {
   {"generic", scaled_product_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", scaled_product_avx2, cpu_has_avx2_fma},
+#endif
   {NULL, NULL, NULL}
 };
 

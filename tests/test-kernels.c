@@ -405,6 +405,197 @@ test_multiply_split (gconstpointer data)
   }
 }
 
+/* The cases of the scaled product: Doppler stretches near 1 (the vector
+ * code's loads), at its bounds (|step - 1| just under 1/8), exactly 1,
+ * and far from it (0.6, 1.7: gathers); positions at the table's start
+ * (x0 in [2, 3): the first tap is v[0]) and far in; slow and fast phase
+ * ramps, one from a large phase. */
+typedef struct
+{
+  double x0, step, phase0, dphase;
+  float gain;
+} ScaledCase;
+
+static const ScaledCase scaled_cases[] = {
+  {2.0, 1.0, 0.0, 0.0, 1.0f},
+  {2.37, 1.02, 0.3, 0.01, 1.0f},
+  {2.999, 0.98, -1.2, 0.7, 0.5f},
+  {1000.5, 1.04, 1e4 + 0.3, -2.9, 2.0f},
+  {3999.9, 0.96, 0.2, 0.001, 1.0f},
+  {2.5, 1.124, 0.1, 0.05, 1.0f},
+  {2.5, 0.876, 0.1, -0.05, 1.0f},
+  {17.25, 1.0 + 1e-9, 0.4, 0.3, 1.0f},
+  {3000.0, 1.0, 0.4, 1.3, 3.0f},
+  {2.0, 1.3, 0.6, 0.02, 1.0f},
+  {2.1, 0.6, 0.6, 2.0, 1.0f},
+  {4000.75, 1.7, 0.6, 0.2, 0.25f},
+};
+
+/* floor (x0 + k step) as the kernels compute it: the table holds the
+ * taps of every bin k < n, v[0] .. v[node + 3] of the last bin. */
+static gsize
+scaled_table_length (const ScaledCase * c, guint n)
+{
+  return (gsize) floor (c->x0 + (n - 1) * c->step) + 4;
+}
+
+/* Every implementation against the reference on random data (tables of
+ * the exact length the taps need, so that a read past them shows under
+ * AddressSanitizer), bin by bin, within 1e-5 of max |r| max |v| gain: a
+ * different order of float operations, no more. */
+static void
+test_scaled_product (gconstpointer data)
+{
+  enum { N = 2883 };
+  static const guint scaled_lengths[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
+    12, 13, 14, 15, 16, 17, 63, 64, 65, 72, 200, N
+  };
+  const SonarScaledProductImpl *impl = data;
+  const SonarScaledProductFn reference =
+      sonar_kernel_scaled_product_impls[0].fn;
+  SonarRng rng;
+  float r_re[N], r_im[N];
+  SonarComplex fast[N], ref[N];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 41, 0);
+  for (guint c = 0; c < G_N_ELEMENTS (scaled_cases); c++) {
+    const ScaledCase *sc = &scaled_cases[c];
+    for (guint t = 0; t < G_N_ELEMENTS (scaled_lengths); t++) {
+      const guint n = scaled_lengths[t];
+      const gsize length = scaled_table_length (sc, n);
+      g_autofree float *v_re = g_new (float, length);
+      g_autofree float *v_im = g_new (float, length);
+      double r_max = 0.0, v_max = 0.0, scale;
+
+      for (guint k = 0; k < n; k++) {
+        r_re[k] = (float) sonar_rng_gaussian (&rng);
+        r_im[k] = (float) sonar_rng_gaussian (&rng);
+        r_max = MAX (r_max, hypot (r_re[k], r_im[k]));
+      }
+      for (gsize m = 0; m < length; m++) {
+        v_re[m] = (float) sonar_rng_gaussian (&rng);
+        v_im[m] = (float) sonar_rng_gaussian (&rng);
+        v_max = MAX (v_max, hypot (v_re[m], v_im[m]));
+      }
+      scale = r_max * v_max * sc->gain;
+      impl->fn (fast, r_re, r_im, v_re, v_im, n, sc->x0, sc->step,
+          sc->phase0, sc->dphase, sc->gain);
+      reference (ref, r_re, r_im, v_re, v_im, n, sc->x0, sc->step,
+          sc->phase0, sc->dphase, sc->gain);
+      for (guint k = 0; k < n; k++)
+        if (!(cabsf (fast[k] - ref[k]) <= 1e-5 * scale)) {
+          g_test_fail_printf ("x0 %g step %.10g n %u: bin %u is %g%+gi, "
+              "the reference's %g%+gi (scale %g)", sc->x0, sc->step, n, k,
+              crealf (fast[k]), cimagf (fast[k]), crealf (ref[k]),
+              cimagf (ref[k]), scale);
+          return;
+        }
+    }
+  }
+}
+
+/* Every implementation against the product in double precision, V exact:
+ * a table sampled from a sum of complex exponentials exp(i w x), |w| <=
+ * 0.6 rad a sample, is interpolated within 3e-4 of the sum of their
+ * amplitudes (6-point Lagrange's error there: at most 0.6^6 / 6! times
+ * 3.5, 2.3e-4); a polynomial of degree 5 exactly, to float rounding, over
+ * a stretch of a few dozen samples where each of its terms counts. */
+static void
+test_scaled_product_exact (gconstpointer data)
+{
+  enum { N = 2883, WAVES = 4, POLY_N = 24 };
+  const SonarScaledProductImpl *impl = data;
+  SonarRng rng;
+  float r_re[N], r_im[N];
+  SonarComplex out[N];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 43, 0);
+  for (guint c = 0; c < G_N_ELEMENTS (scaled_cases); c++) {
+    const ScaledCase *sc = &scaled_cases[c];
+    double complex amplitude[WAVES], coefficient[6];
+    double omega[WAVES], amplitudes = 0.0;
+
+    for (guint k = 0; k < N; k++) {
+      r_re[k] = (float) sonar_rng_gaussian (&rng);
+      r_im[k] = (float) sonar_rng_gaussian (&rng);
+    }
+    for (guint j = 0; j < WAVES; j++) {
+      /* The last at the bound, 0.6 or -0.6. */
+      omega[j] = j == WAVES - 1 ? (c % 2 ? 0.6 : -0.6) :
+          0.6 * (2.0 * sonar_rng_uniform (&rng) - 1.0);
+      amplitude[j] = sonar_rng_gaussian (&rng) + I * sonar_rng_gaussian (&rng);
+      amplitudes += cabs (amplitude[j]);
+    }
+    for (guint j = 0; j < 6; j++)
+      coefficient[j] = sonar_rng_gaussian (&rng) + I *
+          sonar_rng_gaussian (&rng);
+
+    for (int polynomial = 0; polynomial < 2; polynomial++) {
+      const guint n = polynomial ? POLY_N : c % 2 ? N : 1001;
+      const gsize length = scaled_table_length (sc, n);
+      /* The polynomial's variable, (x - centre) / quarter: within [-2,
+       * 2] over the bins' positions. */
+      const double centre = sc->x0 + 0.5 * (n - 1) * sc->step;
+      const double quarter = 0.25 * n * sc->step;
+      g_autofree float *v_re = g_new (float, length);
+      g_autofree float *v_im = g_new (float, length);
+      double worst = 0.0, tolerance;
+      guint worst_k = 0;
+
+      for (gsize m = 0; m < length; m++) {
+        double complex v = 0.0;
+        if (polynomial)
+          for (int j = 5; j >= 0; j--)
+            v = v * ((m - centre) / quarter) + coefficient[j];
+        else
+          for (guint j = 0; j < WAVES; j++)
+            v += amplitude[j] * cexp (I * omega[j] * m);
+        v_re[m] = (float) creal (v);
+        v_im[m] = (float) cimag (v);
+      }
+      impl->fn (out, r_re, r_im, v_re, v_im, n, sc->x0, sc->step,
+          sc->phase0, sc->dphase, sc->gain);
+      for (guint k = 0; k < n; k++) {
+        const double x = sc->x0 + k * sc->step;
+        const double complex r = r_re[k] + I * (double) r_im[k];
+        double complex v = 0.0, exact;
+        double scale = 0.0, error;
+        if (polynomial) {
+          /* Against the largest of the bin's taps: float rounding's
+           * scale. */
+          const gsize node = (gsize) floor (x);
+          for (gsize m = node - 2; m <= node + 3; m++)
+            scale = MAX (scale, hypot (v_re[m], v_im[m]));
+          for (int j = 5; j >= 0; j--)
+            v = v * ((x - centre) / quarter) + coefficient[j];
+        } else {
+          scale = amplitudes;
+          for (guint j = 0; j < WAVES; j++)
+            v += amplitude[j] * cexp (I * omega[j] * x);
+        }
+        exact = sc->gain * cexp (I * (sc->phase0 + k * sc->dphase)) * r * v;
+        error = cabs (out[k] - exact) / (sc->gain * cabs (r) * scale);
+        if (error > worst) {
+          worst = error;
+          worst_k = k;
+        }
+      }
+      tolerance = polynomial ? 2e-6 : 3e-4;
+      g_test_message ("%s, x0 %g step %g: worst relative error %.3g at "
+          "bin %u", polynomial ? "polynomial" : "exponentials", sc->x0,
+          sc->step, worst, worst_k);
+      if (!(worst <= tolerance)) {
+        g_test_fail_printf ("%s, x0 %g step %g n %u: bin %u's relative "
+            "error %.3g is above %.3g", polynomial ? "a polynomial" :
+            "exponentials", sc->x0, sc->step, n, worst_k, worst, tolerance);
+        return;
+      }
+    }
+  }
+}
+
 static void
 test_envelope (gconstpointer data)
 {
@@ -863,12 +1054,20 @@ test_upper_clean (gconstpointer data)
         ASSERT_UPPER_CLEAN_AFTER (u->kernel,
             sonar_kernel_max_impls[i].fn (f, f + stride, n));
         break;
-      default:
+      case 11:
         for (int with_finite = 0; with_finite < 2; with_finite++)
           ASSERT_UPPER_CLEAN_AFTER (u->kernel,
               sonar_kernel_rank_pass_impls[i].fn (f, SONAR_RANK_LANES + 3,
                   n / 8, level, below, under, over,
                   with_finite ? finite : NULL));
+        break;
+      default:
+        /* A stretch of the vector loads, then one of the gathers; the
+         * tables' taps reach 1.3 n + 5 < 5 stride. */
+        for (int gathered = 0; gathered < 2; gathered++)
+          ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+              sonar_kernel_scaled_product_impls[i].fn (out, a, a + stride,
+                  re, im, n, 2.5, gathered ? 1.3 : 1.02, 0.3, 0.01, 1.0f));
         break;
     }
     sink += crealf (z);
@@ -926,6 +1125,10 @@ main (int argc, char **argv)
       sonar_kernel_steer_sums_phasors_impls, test_steer_sums_phasors);
   ADD_IMPL_TESTS ("multiply-split", sonar_kernel_multiply_split_impls,
       test_multiply_split);
+  ADD_IMPL_TESTS ("scaled-product", sonar_kernel_scaled_product_impls,
+      test_scaled_product);
+  ADD_IMPL_TESTS ("scaled-product-exact", sonar_kernel_scaled_product_impls,
+      test_scaled_product_exact);
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);
   ADD_IMPL_TESTS ("peak", sonar_kernel_peak_impls, test_peak);
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
@@ -946,6 +1149,7 @@ main (int argc, char **argv)
   ADD_UPPER_TESTS ("peak", sonar_kernel_peak_impls, 9);
   ADD_UPPER_TESTS ("max", sonar_kernel_max_impls, 10);
   ADD_UPPER_TESTS ("rank-pass", sonar_kernel_rank_pass_impls, 11);
+  ADD_UPPER_TESTS ("scaled-product", sonar_kernel_scaled_product_impls, 12);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
   g_test_add_func ("/kernels/entry-points-choose-best",

@@ -1821,15 +1821,12 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
   im->job.end_emitter = emitter < 0 ? im->setup->geometry.n_emitters :
       (guint) emitter + 1;
   {
-    double lo = G_MAXDOUBLE, hi = 0.0;
-    for (guint h = 0; h < n_hypotheses; h++) {
-      const double s = sonar_steering_stretch (&im->steering,
-          hypotheses[h].velocity);
-      lo = MIN (lo, s);
-      hi = MAX (hi, s);
-    }
-    sonar_scaled_transmit_window (im->transmit, lo, hi,
-        &im->job.window_first, &im->job.window_n);
+    double hi = 0.0;
+    for (guint h = 0; h < n_hypotheses; h++)
+      hi = MAX (hi, sonar_steering_stretch (&im->steering,
+              hypotheses[h].velocity));
+    sonar_scaled_transmit_window (im->transmit, hi, &im->job.window_first,
+        &im->job.window_n);
     /* The bank's velocities, |v| < c / 4, fit the tables. */
     g_return_if_fail (im->job.window_n <=
         sonar_scaled_transmit_max_window (im->transmit));

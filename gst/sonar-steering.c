@@ -185,6 +185,8 @@ sonar_steering_blocks_sums (const SonarSteering * s,
  * for the rounding of s k. */
 #define TAPS_BEFORE 3
 #define TAPS_AFTER 4
+/* Windows are whole multiples of the kernels' reseed interval. */
+#define WINDOW_QUANTUM 64
 
 struct _SonarScaledTransmit
 {
@@ -241,14 +243,19 @@ sonar_scaled_transmit_free (SonarScaledTransmit * t)
 
 void
 sonar_scaled_transmit_window (const SonarScaledTransmit * t,
-    double stretch_min, double stretch_max, int *first, guint * n)
+    double stretch_max, int *first, guint * n)
 {
   const double low = t->first_bin, high = t->first_bin +
       t->steering->n_bins - 1.0;
   const int last = (int) floor (stretch_max * high) + TAPS_AFTER;
 
-  *first = (int) floor (stretch_min * low) - TAPS_BEFORE;
+  /* The table's phase ramps run from its first bin: fixed (the slowest
+   * stretch's), and whole reseed intervals of the kernels, so that a
+   * bin's value does not depend on the other hypotheses of the call (the
+   * same image bit for bit in every mode). */
+  *first = (int) floor (t->stretch_min * low) - TAPS_BEFORE;
   *n = (guint) (last - *first + 1);
+  *n = (*n + WINDOW_QUANTUM - 1) / WINDOW_QUANTUM * WINDOW_QUANTUM;
 }
 
 guint
@@ -257,8 +264,7 @@ sonar_scaled_transmit_max_window (const SonarScaledTransmit * t)
   int first;
   guint n;
 
-  sonar_scaled_transmit_window (t, t->stretch_min, t->stretch_max, &first,
-      &n);
+  sonar_scaled_transmit_window (t, t->stretch_max, &first, &n);
   return n;
 }
 

@@ -161,9 +161,12 @@ SonarScaledTransmit *sonar_scaled_transmit_new (const SonarSteering *
 void sonar_scaled_transmit_free (SonarScaledTransmit * transmit);
 
 /* The window of FFT bins, @first (may be negative: zeros there) and @n,
- * that hypotheses of stretches from @stretch_min to @stretch_max read. */
+ * that hypotheses of stretches up to @stretch_max read: it starts where
+ * the slowest stretch a bank allows reads, whatever the call, so that the
+ * table's values, hence the image, do not depend on which other
+ * hypotheses a call images. */
 void sonar_scaled_transmit_window (const SonarScaledTransmit * transmit,
-    double stretch_min, double stretch_max, int *first, guint * n);
+    double stretch_max, int *first, guint * n);
 /* The longest window, of the stretches of every velocity |v| < c / 4 that
  * a Doppler bank allows: the table's size to allocate once. */
 guint sonar_scaled_transmit_max_window (const SonarScaledTransmit *

@@ -282,8 +282,8 @@ test_scaled_transmit (void)
       int window_first;
       guint window_n;
 
-      sonar_scaled_transmit_window (transmit, stretch, stretch,
-          &window_first, &window_n);
+      sonar_scaled_transmit_window (transmit, stretch, &window_first,
+          &window_n);
       g_assert_cmpuint (window_n, <=, max_window);
       for (int alone = -1; alone < 8; alone += 5) {
         const guint first = alone < 0 ? 0 : (guint) alone;
@@ -310,6 +310,30 @@ test_scaled_transmit (void)
         }
       }
     }
+  }
+  /* A table's values are its window's, not its call's: a wider window
+   * (faster hypotheses in the call) holds the same values bit for bit. */
+  {
+    int first_slow, first_fast;
+    guint n_slow, n_fast;
+    float *w_re = g_new (float, max_window), *w_im = g_new (float,
+        max_window);
+
+    sonar_scaled_transmit_window (transmit, 1.0, &first_slow, &n_slow);
+    sonar_scaled_transmit_window (transmit, sonar_steering_stretch
+        (&steering, 30.0), &first_fast, &n_fast);
+    g_assert_cmpint (first_slow, ==, first_fast);
+    g_assert_cmpuint (n_slow, <, n_fast);
+    sonar_scaled_transmit_table (transmit, emitter, 0, g->n_emitters,
+        first_slow, n_slow, v_re, v_im);
+    sonar_scaled_transmit_table (transmit, emitter, 0, g->n_emitters,
+        first_fast, n_fast, w_re, w_im);
+    g_assert_cmpmem (v_re, n_slow * sizeof (float), w_re,
+        n_slow * sizeof (float));
+    g_assert_cmpmem (v_im, n_slow * sizeof (float), w_im,
+        n_slow * sizeof (float));
+    g_free (w_re);
+    g_free (w_im);
   }
   g_test_message ("worst error of the scaled transmit products: %.1f dB",
       worst_db);

@@ -2256,36 +2256,64 @@ echo_model (EchoWorker * ew, const SonarVelocityEstimate * e,
       sonar_steering_stretch (st, v), 0, n_emitters, t_re, t_im);
 }
 
+/* Microphones whose models subtract_model () makes together. */
+#define MODEL_LANES 4
+
+/* subtract_model () on the @lanes (at most MODEL_LANES) microphones from
+ * @j on: each one's phasor turns a bin at a time, a chain of dependent
+ * products that waits on each step alone; a core runs the lanes' chains
+ * side by side. Each lane's arithmetic is one microphone's as it was. */
+static inline __attribute__ ((always_inline)) void
+subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
+    const float *t_re, const float *t_im, float *re_out, float *im_out,
+    guint j, guint lanes)
+{
+  const SonarSteering *st = &ew->est->steering;
+  const guint nb = ew->est->band.n_bins;
+  float sr[MODEL_LANES], si[MODEL_LANES], pr[MODEL_LANES], pi[MODEL_LANES];
+  float *re[MODEL_LANES], *im[MODEL_LANES];
+
+  for (guint l = 0; l < lanes; l++) {
+    /* a exp (-i k path) conj (t(k)), in float: the phasor's drift over
+     * the band's bins stays far below the model's own error. */
+    const double path = 2.0 * range + ew->mic_legs[j + l];
+    const double complex p0 = a * cexp (-I * st->k0 * path);
+    sr[l] = (float) cos (st->dk * path);
+    si[l] = (float) -sin (st->dk * path);
+    pr[l] = (float) creal (p0);
+    pi[l] = (float) cimag (p0);
+    re[l] = re_out + (gsize) (j + l) * nb;
+    im[l] = im_out + (gsize) (j + l) * nb;
+  }
+  for (guint k = 0; k < nb; k++) {
+    const float tr = t_re[k], ti = -t_im[k];
+    /* MODEL_LANES (the pragma takes no macro): unrolled, the lanes'
+     * phasors stay in registers, not in their arrays. */
+#pragma GCC unroll 4
+    for (guint l = 0; l < lanes; l++) {
+      const float q = pr[l] * sr[l] - pi[l] * si[l];
+      re[l][k] -= pr[l] * tr - pi[l] * ti;
+      im[l][k] -= pr[l] * ti + pi[l] * tr;
+      pi[l] = pr[l] * si[l] + pi[l] * sr[l];
+      pr[l] = q;
+    }
+  }
+}
+
 /* Subtracts @a times the model of transmit sum @t_re, @t_im (of an echo at
  * @range m, ew->mic_legs its legs) from the spectra @re_out, @im_out. */
 static void
 subtract_model (EchoWorker * ew, double range, double complex a,
     const float *t_re, const float *t_im, float *re_out, float *im_out)
 {
-  const SonarVelocityEstimator *est = ew->est;
-  const SonarSteering *st = &est->steering;
-  const guint n_mics = est->setup->geometry.n_microphones;
-  const guint nb = est->band.n_bins;
+  const guint n_mics = ew->est->setup->geometry.n_microphones;
+  guint j = 0;
 
-  for (guint j = 0; j < n_mics; j++) {
-    /* a exp (-i k path) conj (t(k)), in float: the phasor's drift over
-     * the band's bins stays far below the model's own error. */
-    const double path = 2.0 * range + ew->mic_legs[j];
-    const float sr = (float) cos (st->dk * path);
-    const float si = (float) -sin (st->dk * path);
-    const double complex p0 = a * cexp (-I * st->k0 * path);
-    float pr = (float) creal (p0), pi = (float) cimag (p0);
-    float *re = re_out + (gsize) j * nb;
-    float *im = im_out + (gsize) j * nb;
-    for (guint k = 0; k < nb; k++) {
-      const float tr = t_re[k], ti = -t_im[k];
-      const float q = pr * sr - pi * si;
-      re[k] -= pr * tr - pi * ti;
-      im[k] -= pr * ti + pi * tr;
-      pi = pr * si + pi * sr;
-      pr = q;
-    }
-  }
+  for (; j + MODEL_LANES <= n_mics; j += MODEL_LANES)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j,
+        MODEL_LANES);
+  for (; j < n_mics; j++)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j, 1);
 }
 
 /* <model, X> over every microphone and bin, for the model of transmit sum

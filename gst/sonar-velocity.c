@@ -625,9 +625,17 @@ gate_focus (SonarVelocityEstimator * est, double range)
     est->gate_band[k] = est->receive_re[k] + I * est->receive_im[k];
   }
   fftwf_execute (est->gate_inverse);
-  for (gint64 t = first; t < first + g; t++) {
-    const gint64 from = ((t % m) + m) % m, to = ((t % g) + g) % g;
-    est->gate_time[to] = est->gate_baseband[from];
+  {
+    /* t mod m and t mod g stepped, not divided: four divisions a sample
+     * were most of a focus's own time. */
+    gint64 from = ((first % m) + m) % m, to = ((first % g) + g) % g;
+    for (gint64 i = 0; i < g; i++) {
+      est->gate_time[to] = est->gate_baseband[from];
+      if (++from == m)
+        from = 0;
+      if (++to == g)
+        to = 0;
+    }
   }
   fftwf_execute (est->gate_forward);
   for (guint q = 0; q < est->gate_bins; q++) {

@@ -625,9 +625,17 @@ gate_focus (SonarVelocityEstimator * est, double range)
     est->gate_band[k] = est->receive_re[k] + I * est->receive_im[k];
   }
   fftwf_execute (est->gate_inverse);
-  for (gint64 t = first; t < first + g; t++) {
-    const gint64 from = ((t % m) + m) % m, to = ((t % g) + g) % g;
-    est->gate_time[to] = est->gate_baseband[from];
+  {
+    /* t mod m and t mod g stepped, not divided: four divisions a sample
+     * were most of a focus's own time. */
+    gint64 from = ((first % m) + m) % m, to = ((first % g) + g) % g;
+    for (gint64 i = 0; i < g; i++) {
+      est->gate_time[to] = est->gate_baseband[from];
+      if (++from == m)
+        from = 0;
+      if (++to == g)
+        to = 0;
+    }
   }
   fftwf_execute (est->gate_forward);
   for (guint q = 0; q < est->gate_bins; q++) {
@@ -1999,6 +2007,23 @@ sonar_velocity_point (double range, double azimuth, double elevation)
 
 /* The pool -----------------------------------------------------------------*/
 
+/* One worker's echo models (echo_model () and its users: cancel_echo (),
+ * echo_shape (), split_blend ()): the estimator it runs, the spectra its
+ * echoes were found on, and its buffers, so that the workers examine
+ * echoes side by side (split_first ()). */
+typedef struct
+{
+  SonarVelocityEstimator *est;
+  SonarSplitSpectra spectra;
+  float *model_re, *model_im;   /* echo_shape ()'s, from the first use */
+  float *split_re, *split_im;   /* split_blend ()'s, from the first use */
+  float *split_t_re, *split_t_im;       /* its candidates' transmit sums */
+  double *split_legs;           /* and their microphone legs */
+  float *transmit_re, *transmit_im, *transmit2_re, *transmit2_im;
+  float *receive_re, *receive_im;
+  double *mic_legs, *emitter_legs;
+} EchoWorker;
+
 struct _SonarVelocityPool
 {
   SonarWorkers *workers;
@@ -2013,20 +2038,15 @@ struct _SonarVelocityPool
   SonarVelocityEstimate *results;
   guint *counts;
   gint next_centroid;           /* the next to estimate, shared */
+  /* split_first ()'s: echoes examined, whether any was split. */
+  gint n_examined, any_split;
 
+  EchoWorker echo[SONAR_MAX_WORKERS];
   /* Successive cancellation (pool_cancel ()): the spectra less the
-   * accepted echoes' models, split; one echo's transmit and receive sums
-   * and legs; per centroid (grown to the largest ping's, then kept): the
-   * failed ones' copies, indices and estimates on the residual, and which
-   * estimates are cancelled. */
+   * accepted echoes' models, split; per centroid (grown to the largest
+   * ping's, then kept): the failed ones' copies, indices and estimates on
+   * the residual, and which estimates are cancelled. */
   float *residual_re, *residual_im;
-  float *model_re, *model_im;   /* echo_shape ()'s, from the first use */
-  float *split_re, *split_im;   /* split_blend ()'s, from the first use */
-  float *split_t_re, *split_t_im;       /* its candidates' transmit sums */
-  double *split_legs;           /* and their microphone legs */
-  float *transmit_re, *transmit_im, *transmit2_re, *transmit2_im;
-  float *receive_re, *receive_im;
-  double *mic_legs, *emitter_legs;
   guint capacity;
   SonarCentroid *failed;
   guint *failed_index, *failed_counts;
@@ -2111,27 +2131,27 @@ sonar_velocity_pool_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   pool->spectra_im = g_new (float, size);
   pool->residual_re = g_new (float, size);
   pool->residual_im = g_new (float, size);
-  if (band) {
-    const SonarSetup *setup = sonar_doppler_bank_get_setup (bank);
-    pool->transmit_re = g_new (float, band->n_bins);
-    pool->transmit_im = g_new (float, band->n_bins);
-    pool->transmit2_re = g_new (float, band->n_bins);
-    pool->transmit2_im = g_new (float, band->n_bins);
-    pool->receive_re = g_new (float, band->n_bins);
-    pool->receive_im = g_new (float, band->n_bins);
-    pool->mic_legs = g_new (double, setup->geometry.n_microphones);
-    pool->emitter_legs = g_new (double, setup->geometry.n_emitters);
-  }
   pool->spectra.re = pool->spectra_re;
   pool->spectra.im = pool->spectra_im;
   pool->workers = sonar_workers_new (n_threads, error);
   if (!pool->workers)
     goto failed;
   for (guint w = 0; w < sonar_workers_count (pool->workers); w++) {
+    const SonarSetup *setup = sonar_doppler_bank_get_setup (bank);
+    EchoWorker *ew = &pool->echo[w];
     pool->estimators[w] = estimator_new (bank, grid, params,
         w ? pool->estimators[0] : NULL, error);
     if (!pool->estimators[w])
       goto failed;
+    ew->est = pool->estimators[w];
+    ew->transmit_re = g_new (float, band->n_bins);
+    ew->transmit_im = g_new (float, band->n_bins);
+    ew->transmit2_re = g_new (float, band->n_bins);
+    ew->transmit2_im = g_new (float, band->n_bins);
+    ew->receive_re = g_new (float, band->n_bins);
+    ew->receive_im = g_new (float, band->n_bins);
+    ew->mic_legs = g_new (double, setup->geometry.n_microphones);
+    ew->emitter_legs = g_new (double, setup->geometry.n_emitters);
   }
   return pool;
 
@@ -2189,28 +2209,30 @@ sonar_velocity_pool_free (SonarVelocityPool * pool)
 {
   if (!pool)
     return;
-  for (guint w = 0; w < SONAR_MAX_WORKERS; w++)
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
+    EchoWorker *ew = &pool->echo[w];
     sonar_velocity_estimator_free (pool->estimators[w]);
+    g_free (ew->model_re);
+    g_free (ew->model_im);
+    g_free (ew->split_re);
+    g_free (ew->split_im);
+    g_free (ew->split_t_re);
+    g_free (ew->split_t_im);
+    g_free (ew->split_legs);
+    g_free (ew->transmit_re);
+    g_free (ew->transmit_im);
+    g_free (ew->transmit2_re);
+    g_free (ew->transmit2_im);
+    g_free (ew->receive_re);
+    g_free (ew->receive_im);
+    g_free (ew->mic_legs);
+    g_free (ew->emitter_legs);
+  }
   sonar_workers_free (pool->workers);
   g_free (pool->spectra_re);
   g_free (pool->spectra_im);
   g_free (pool->residual_re);
   g_free (pool->residual_im);
-  g_free (pool->model_re);
-  g_free (pool->model_im);
-  g_free (pool->split_re);
-  g_free (pool->split_im);
-  g_free (pool->split_t_re);
-  g_free (pool->split_t_im);
-  g_free (pool->split_legs);
-  g_free (pool->transmit_re);
-  g_free (pool->transmit_im);
-  g_free (pool->transmit2_re);
-  g_free (pool->transmit2_im);
-  g_free (pool->receive_re);
-  g_free (pool->receive_im);
-  g_free (pool->mic_legs);
-  g_free (pool->emitter_legs);
   g_free (pool->failed);
   g_free (pool->failed_index);
   g_free (pool->failed_counts);
@@ -2223,13 +2245,13 @@ sonar_velocity_pool_free (SonarVelocityPool * pool)
 /* The model of an echo at the position of @e and the bank velocity @index:
  * every emitter's template on its path to each microphone (sonar-steering.h's
  * delay model: X_j(k) = a sum_n S_n(k) exp (-i (k0 + k dk) (2 r + e_n /
- * alpha + m_j))). Sets pool->mic_legs and the transmit sum @t_re, @t_im
+ * alpha + m_j))). Sets ew->mic_legs and the transmit sum @t_re, @t_im
  * (conjugated templates); subtract_model () and model_dot () read them. */
 static void
-echo_model (SonarVelocityPool * pool, const SonarVelocityEstimate * e,
+echo_model (EchoWorker * ew, const SonarVelocityEstimate * e,
     guint index, float *t_re, float *t_im)
 {
-  const SonarVelocityEstimator *est = pool->estimators[0];
+  const SonarVelocityEstimator *est = ew->est;
   const SonarSteering *st = &est->steering;
   const guint n_emitters = est->setup->geometry.n_emitters;
   const double v = sonar_doppler_bank_velocity (est->bank, index);
@@ -2237,53 +2259,81 @@ echo_model (SonarVelocityPool * pool, const SonarVelocityEstimate * e,
       index);
 
   sonar_steering_legs (st, sonar_vec3_from_direction (e->azimuth,
-          e->elevation), e->range, pool->mic_legs, pool->emitter_legs);
-  sonar_steering_transmit_sum (st, &templates, pool->emitter_legs,
+          e->elevation), e->range, ew->mic_legs, ew->emitter_legs);
+  sonar_steering_transmit_sum (st, &templates, ew->emitter_legs,
       sonar_steering_stretch (st, v), 0, n_emitters, t_re, t_im);
 }
 
-/* Subtracts @a times the model of transmit sum @t_re, @t_im (of an echo at
- * @range m, pool->mic_legs its legs) from the spectra @re_out, @im_out. */
-static void
-subtract_model (SonarVelocityPool * pool, double range, double complex a,
-    const float *t_re, const float *t_im, float *re_out, float *im_out)
-{
-  const SonarVelocityEstimator *est = pool->estimators[0];
-  const SonarSteering *st = &est->steering;
-  const guint n_mics = est->setup->geometry.n_microphones;
-  const guint nb = est->band.n_bins;
+/* Microphones whose models subtract_model () makes together. */
+#define MODEL_LANES 4
 
-  for (guint j = 0; j < n_mics; j++) {
+/* subtract_model () on the @lanes (at most MODEL_LANES) microphones from
+ * @j on: each one's phasor turns a bin at a time, a chain of dependent
+ * products that waits on each step alone; a core runs the lanes' chains
+ * side by side. Each lane's arithmetic is one microphone's as it was. */
+static inline __attribute__ ((always_inline)) void
+subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
+    const float *t_re, const float *t_im, float *re_out, float *im_out,
+    guint j, guint lanes)
+{
+  const SonarSteering *st = &ew->est->steering;
+  const guint nb = ew->est->band.n_bins;
+  float sr[MODEL_LANES], si[MODEL_LANES], pr[MODEL_LANES], pi[MODEL_LANES];
+  float *re[MODEL_LANES], *im[MODEL_LANES];
+
+  for (guint l = 0; l < lanes; l++) {
     /* a exp (-i k path) conj (t(k)), in float: the phasor's drift over
      * the band's bins stays far below the model's own error. */
-    const double path = 2.0 * range + pool->mic_legs[j];
-    const float sr = (float) cos (st->dk * path);
-    const float si = (float) -sin (st->dk * path);
+    const double path = 2.0 * range + ew->mic_legs[j + l];
     const double complex p0 = a * cexp (-I * st->k0 * path);
-    float pr = (float) creal (p0), pi = (float) cimag (p0);
-    float *re = re_out + (gsize) j * nb;
-    float *im = im_out + (gsize) j * nb;
-    for (guint k = 0; k < nb; k++) {
-      const float tr = t_re[k], ti = -t_im[k];
-      const float q = pr * sr - pi * si;
-      re[k] -= pr * tr - pi * ti;
-      im[k] -= pr * ti + pi * tr;
-      pi = pr * si + pi * sr;
-      pr = q;
+    sr[l] = (float) cos (st->dk * path);
+    si[l] = (float) -sin (st->dk * path);
+    pr[l] = (float) creal (p0);
+    pi[l] = (float) cimag (p0);
+    re[l] = re_out + (gsize) (j + l) * nb;
+    im[l] = im_out + (gsize) (j + l) * nb;
+  }
+  for (guint k = 0; k < nb; k++) {
+    const float tr = t_re[k], ti = -t_im[k];
+    /* MODEL_LANES (the pragma takes no macro): unrolled, the lanes'
+     * phasors stay in registers, not in their arrays. */
+#pragma GCC unroll 4
+    for (guint l = 0; l < lanes; l++) {
+      const float q = pr[l] * sr[l] - pi[l] * si[l];
+      re[l][k] -= pr[l] * tr - pi[l] * ti;
+      im[l][k] -= pr[l] * ti + pi[l] * tr;
+      pi[l] = pr[l] * si[l] + pi[l] * sr[l];
+      pr[l] = q;
     }
   }
 }
 
+/* Subtracts @a times the model of transmit sum @t_re, @t_im (of an echo at
+ * @range m, ew->mic_legs its legs) from the spectra @re_out, @im_out. */
+static void
+subtract_model (EchoWorker * ew, double range, double complex a,
+    const float *t_re, const float *t_im, float *re_out, float *im_out)
+{
+  const guint n_mics = ew->est->setup->geometry.n_microphones;
+  guint j = 0;
+
+  for (; j + MODEL_LANES <= n_mics; j += MODEL_LANES)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j,
+        MODEL_LANES);
+  for (; j < n_mics; j++)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j, 1);
+}
+
 /* <model, X> over every microphone and bin, for the model of transmit sum
  * @t_re, @t_im at @range m: sum_k t(k) exp (i k 2 r) R(k), R the receive
- * sum of X (pool->receive_re, _im); the phasor turned a bin at a time
+ * sum of X (ew->receive_re, _im); the phasor turned a bin at a time
  * (real arithmetic: C's complex product checks for NaN). *@power
  * receives sum_k |t(k)|^2. */
 static double complex
-model_dot (const SonarVelocityPool * pool, double range, const float *t_re,
+model_dot (const EchoWorker * ew, double range, const float *t_re,
     const float *t_im, double *power)
 {
-  const SonarVelocityEstimator *est = pool->estimators[0];
+  const SonarVelocityEstimator *est = ew->est;
   const SonarSteering *st = &est->steering;
   const guint nb = est->band.n_bins;
   const double path = 2.0 * range;
@@ -2293,7 +2343,7 @@ model_dot (const SonarVelocityPool * pool, double range, const float *t_re,
 
   for (guint k = 0; k < nb; k++) {
     const double tr = t_re[k], ti = t_im[k];
-    const double rr = pool->receive_re[k], ri = pool->receive_im[k];
+    const double rr = ew->receive_re[k], ri = ew->receive_im[k];
     /* t ph */
     const double ar = tr * pr - ti * pi, ai = tr * pi + ti * pr;
     const double q = pr * sr - pi * si;
@@ -2326,23 +2376,24 @@ fit_two_models (double g_aa, double g_bb, double complex g_ab,
   return TRUE;
 }
 
-/* Subtracts from the residual (pool->residual_re, _im) the model of the
- * echo @e: a point at its range and direction, its template between the
- * two bank velocities either side of its own, as the least-squares fit
- * of the two bank templates' models (echo_model ()) to the residual over
- * every microphone and bin (their complex amplitudes: 2 x 2 normal
+/* Subtracts from the residual @re, @im the model of the echo @e: a point
+ * at its range and direction, its template between the two bank
+ * velocities either side of its own, as the least-squares fit of the two
+ * bank templates' models (echo_model ()) to the residual over every
+ * microphone and bin (their complex amplitudes: 2 x 2 normal
  * equations). The bank is 0.05 m/s apart by default: the nearest one
  * alone leaves up to half a step's error in the model, which the echoes
  * accepted on the residual inherit. */
 static void
-cancel_echo (SonarVelocityPool * pool, const SonarVelocityEstimate * e)
+cancel_echo (EchoWorker * ew, const SonarVelocityEstimate * e, float *re,
+    float *im)
 {
-  const SonarVelocityEstimator *est = pool->estimators[0];
+  const SonarVelocityEstimator *est = ew->est;
   const SonarSteering *st = &est->steering;
   const guint n_mics = est->setup->geometry.n_microphones;
   const guint nb = est->band.n_bins;
   const guint nv = est->n_velocities;
-  const SonarSplitSpectra residual = { pool->residual_re, pool->residual_im };
+  const SonarSplitSpectra residual = { re, im };
   const guint b0 = e->bank_index;
   const double v0 = sonar_doppler_bank_velocity (est->bank, b0);
   guint b1;
@@ -2353,33 +2404,32 @@ cancel_echo (SonarVelocityPool * pool, const SonarVelocityEstimate * e)
     b1 = b0 + 1 < nv ? b0 + 1 : b0;
   else
     b1 = b0 > 0 ? b0 - 1 : b0;
-  echo_model (pool, e, b0, pool->transmit_re, pool->transmit_im);
-  sonar_steering_receive_sum (st, &residual, pool->mic_legs,
-      pool->receive_re, pool->receive_im);
-  n0 = model_dot (pool, e->range, pool->transmit_re, pool->transmit_im,
-      &g00);
+  echo_model (ew, e, b0, ew->transmit_re, ew->transmit_im);
+  sonar_steering_receive_sum (st, &residual, ew->mic_legs,
+      ew->receive_re, ew->receive_im);
+  n0 = model_dot (ew, e->range, ew->transmit_re, ew->transmit_im, &g00);
   if (!(g00 > 0.0))
     return;
   if (b1 != b0) {
-    echo_model (pool, e, b1, pool->transmit2_re, pool->transmit2_im);
-    n1 = model_dot (pool, e->range, pool->transmit2_re, pool->transmit2_im,
+    echo_model (ew, e, b1, ew->transmit2_re, ew->transmit2_im);
+    n1 = model_dot (ew, e->range, ew->transmit2_re, ew->transmit2_im,
         &g11);
     /* <m0, m1> / n_mics = sum_k t0(k) conj (t1(k)) */
     for (guint k = 0; k < nb; k++)
-      g01 += (pool->transmit_re[k] + I * pool->transmit_im[k]) *
-          (pool->transmit2_re[k] - I * pool->transmit2_im[k]);
+      g01 += (ew->transmit_re[k] + I * ew->transmit_im[k]) *
+          (ew->transmit2_re[k] - I * ew->transmit2_im[k]);
     /* Over every microphone: the sums above times n_mics. */
     if (fit_two_models (g00 * n_mics, g11 * n_mics, g01 * n_mics, n0, n1,
             1e-9, a)) {
-      subtract_model (pool, e->range, a[0], pool->transmit_re,
-          pool->transmit_im, pool->residual_re, pool->residual_im);
-      subtract_model (pool, e->range, a[1], pool->transmit2_re,
-          pool->transmit2_im, pool->residual_re, pool->residual_im);
+      subtract_model (ew, e->range, a[0], ew->transmit_re,
+          ew->transmit_im, re, im);
+      subtract_model (ew, e->range, a[1], ew->transmit2_re,
+          ew->transmit2_im, re, im);
       return;
     }
   }
-  subtract_model (pool, e->range, n0 / (g00 * n_mics), pool->transmit_re,
-      pool->transmit_im, pool->residual_re, pool->residual_im);
+  subtract_model (ew, e->range, n0 / (g00 * n_mics), ew->transmit_re,
+      ew->transmit_im, re, im);
 }
 
 /* echo_shape (): steps either side of an echo's direction at most, and the
@@ -2395,7 +2445,7 @@ cancel_echo (SonarVelocityPool * pool, const SonarVelocityEstimate * e)
  * on one of the two). */
 #define SHAPE_FALL 0.8
 
-/* How the echo @e (of @centroid, found on pool->spectra) falls either side
+/* How the echo @e (of @centroid, found on ew->spectra) falls either side
  * of its direction along azimuth: the power of the emitters' sum at its
  * velocity against the model of a lone point there (echo_model ()), summed
  * over the image steps down to SHAPE_DB of the model's fall; a side
@@ -2413,13 +2463,13 @@ typedef enum
 } EchoShape;
 
 static EchoShape
-echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
+echo_shape (EchoWorker * ew, const SonarCentroid * centroid,
     const SonarVelocityEstimate * e, guint * half_width)
 {
-  SonarVelocityEstimator *est = pool->estimators[0];
+  SonarVelocityEstimator *est = ew->est;
   const gsize size = (gsize) est->setup->geometry.n_microphones *
       est->band.n_bins;
-  const SonarSplitSpectra model = { pool->model_re, pool->model_im };
+  const SonarSplitSpectra model = { ew->model_re, ew->model_im };
   const double step = est->grid.azimuth_step;
   guint v = e->bank_index;
   double model_top, top, fall[2] = { 0.0, 0.0 }, model_fall[2] = { 0.0, 0.0 };
@@ -2431,11 +2481,11 @@ echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
   if (!(step > 0.0) || est->grid.n_azimuth < 2)
     return ECHO_LONE;
   set_window_lags (est, centroid);
-  memset (pool->model_re, 0, size * sizeof (float));
-  memset (pool->model_im, 0, size * sizeof (float));
-  echo_model (pool, e, e->bank_index, pool->transmit_re, pool->transmit_im);
-  subtract_model (pool, e->range, -1.0, pool->transmit_re, pool->transmit_im,
-      pool->model_re, pool->model_im);
+  memset (ew->model_re, 0, size * sizeof (float));
+  memset (ew->model_im, 0, size * sizeof (float));
+  echo_model (ew, e, e->bank_index, ew->transmit_re, ew->transmit_im);
+  subtract_model (ew, e->range, -1.0, ew->transmit_re, ew->transmit_im,
+      ew->model_re, ew->model_im);
   est->focused = FALSE;
   coherence_over (est, &model, e->range, e->azimuth, e->elevation, &v, 1,
       &model_top, NULL, NULL, NULL);
@@ -2459,7 +2509,7 @@ echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
         break;
     }
   est->focused = FALSE;
-  coherence_over (est, &pool->spectra, e->range, e->azimuth, e->elevation,
+  coherence_over (est, &ew->spectra, e->range, e->azimuth, e->elevation,
       &v, 1, &top, NULL, NULL, NULL);
   if (!(top > 0.0)) {
     est->focused = FALSE;
@@ -2468,7 +2518,7 @@ echo_shape (SonarVelocityPool * pool, const SonarCentroid * centroid,
   for (int side = 0; side < 2; side++) {
     for (int k = 1; k <= reach[side]; k++) {
       double s;
-      coherence_over (est, &pool->spectra, e->range, e->azimuth + (side ? k :
+      coherence_over (est, &ew->spectra, e->range, e->azimuth + (side ? k :
               -k) * step, e->elevation, &v, 1, &s, NULL, NULL, NULL);
       fall[side] += MAX (10.0 * log10 (top / MAX (s, 1e-12 * top)), 0.0);
     }
@@ -2522,32 +2572,32 @@ typedef struct
 
 /* <m_a, m_b> of split_blend ()'s candidate @b with each of @n_as
  * candidates @as into @grams: the model of @b built once into
- * pool->split_re, _im, then its receive sum at each a's legs dotted with
+ * ew->split_re, _im, then its receive sum at each a's legs dotted with
  * a's transmit sum (the steering kernels, as model_dot () does on the
  * spectra). */
 static void
-candidate_grams (SonarVelocityPool * pool, double range, int b,
+candidate_grams (EchoWorker * ew, double range, int b,
     const int *as, guint n_as, double complex *grams)
 {
-  const SonarVelocityEstimator *est = pool->estimators[0];
+  const SonarVelocityEstimator *est = ew->est;
   const SonarSteering *st = &est->steering;
   const guint n_mics = est->setup->geometry.n_microphones;
   const guint nb = est->band.n_bins;
   const gsize size = (gsize) n_mics * nb;
-  const SonarSplitSpectra model = { pool->split_re, pool->split_im };
+  const SonarSplitSpectra model = { ew->split_re, ew->split_im };
 
-  memset (pool->split_re, 0, size * sizeof (float));
-  memset (pool->split_im, 0, size * sizeof (float));
-  memcpy (pool->mic_legs, pool->split_legs + (gsize) b * n_mics,
+  memset (ew->split_re, 0, size * sizeof (float));
+  memset (ew->split_im, 0, size * sizeof (float));
+  memcpy (ew->mic_legs, ew->split_legs + (gsize) b * n_mics,
       n_mics * sizeof (double));
-  subtract_model (pool, range, -1.0, pool->split_t_re + (gsize) b * nb,
-      pool->split_t_im + (gsize) b * nb, pool->split_re, pool->split_im);
+  subtract_model (ew, range, -1.0, ew->split_t_re + (gsize) b * nb,
+      ew->split_t_im + (gsize) b * nb, ew->split_re, ew->split_im);
   for (guint i = 0; i < n_as; i++) {
     double power;
-    sonar_steering_receive_sum (st, &model, pool->split_legs +
-        (gsize) as[i] * n_mics, pool->receive_re, pool->receive_im);
-    grams[i] = model_dot (pool, range, pool->split_t_re +
-        (gsize) as[i] * nb, pool->split_t_im + (gsize) as[i] * nb, &power);
+    sonar_steering_receive_sum (st, &model, ew->split_legs +
+        (gsize) as[i] * n_mics, ew->receive_re, ew->receive_im);
+    grams[i] = model_dot (ew, range, ew->split_t_re +
+        (gsize) as[i] * nb, ew->split_t_im + (gsize) as[i] * nb, &power);
   }
 }
 
@@ -2573,7 +2623,7 @@ fit_pair (const double complex *dots, const double *norms, int a, int b,
   }
 }
 
-/* Whether the echo @blend (of @centroid, found on pool->spectra), which
+/* Whether the echo @blend (of @centroid, found on ew->spectra), which
  * echo_shape () finds not lone, is two echoes, and where. The beam does
  * not resolve them; the least-squares fit of two points does (each point
  * an echo model at the blend's range and bank velocity, echo_model ();
@@ -2588,11 +2638,11 @@ fit_pair (const double complex *dots, const double *norms, int a, int b,
  * SPLIT_HALF_SNR pooled-snr's over the pooled interference, and not a
  * blend itself (echo_shape ()): both into @halves. */
 static gboolean
-split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
+split_blend (EchoWorker * ew, const SonarCentroid * centroid,
     const SonarVelocityEstimate * blend, guint half_width,
     SonarVelocityEstimate halves[2])
 {
-  SonarVelocityEstimator *est = pool->estimators[0];
+  SonarVelocityEstimator *est = ew->est;
   const SonarSteering *st = &est->steering;
   const guint n_mics = est->setup->geometry.n_microphones;
   const guint nb = est->band.n_bins;
@@ -2601,7 +2651,7 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
   const int reach = (int) MIN (2 * half_width + 1, SHAPE_STEPS) *
       SPLIT_SUBSTEPS;
   const int n_candidates = 2 * reach + 1;
-  const SonarSplitSpectra spectra = pool->spectra;
+  const SonarSplitSpectra spectra = ew->spectra;
   double complex dots[2 * SHAPE_STEPS * SPLIT_SUBSTEPS + 1];
   double norms[2 * SHAPE_STEPS * SPLIT_SUBSTEPS + 1];
   double complex grams[SHAPE_STEPS + 1];
@@ -2613,15 +2663,6 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
 
   if (!(step > 0.0) || est->grid.n_azimuth < 2)
     return FALSE;
-  if (!pool->split_re) {
-    /* Made on the first blend, for the widest reach, and kept. */
-    const gsize most = G_N_ELEMENTS (dots);
-    pool->split_re = g_new (float, size);
-    pool->split_im = g_new (float, size);
-    pool->split_t_re = g_new (float, most * nb);
-    pool->split_t_im = g_new (float, most * nb);
-    pool->split_legs = g_new (double, most * n_mics);
-  }
 
   /* Each candidate's model: its transmit sum, legs, <m, X> and |m|^2. */
   for (int c = 0; c < n_candidates; c++) {
@@ -2630,14 +2671,14 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
     norms[c] = 0.0;
     if (at.azimuth < -90.0 || at.azimuth > 90.0)
       continue;
-    echo_model (pool, &at, blend->bank_index, pool->split_t_re +
-        (gsize) c * nb, pool->split_t_im + (gsize) c * nb);
-    memcpy (pool->split_legs + (gsize) c * n_mics, pool->mic_legs,
+    echo_model (ew, &at, blend->bank_index, ew->split_t_re +
+        (gsize) c * nb, ew->split_t_im + (gsize) c * nb);
+    memcpy (ew->split_legs + (gsize) c * n_mics, ew->mic_legs,
         n_mics * sizeof (double));
-    sonar_steering_receive_sum (st, &spectra, pool->mic_legs,
-        pool->receive_re, pool->receive_im);
-    dots[c] = model_dot (pool, blend->range, pool->split_t_re +
-        (gsize) c * nb, pool->split_t_im + (gsize) c * nb, &norms[c]);
+    sonar_steering_receive_sum (st, &spectra, ew->mic_legs,
+        ew->receive_re, ew->receive_im);
+    dots[c] = model_dot (ew, blend->range, ew->split_t_re +
+        (gsize) c * nb, ew->split_t_im + (gsize) c * nb, &norms[c]);
     norms[c] *= n_mics;
     if (norms[c] > 0.0)
       one = MAX (one, cabs2 (dots[c]) / norms[c]);
@@ -2650,7 +2691,7 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
   for (int b = reach + SPLIT_SUBSTEPS; b < n_candidates; b += SPLIT_SUBSTEPS) {
     if (!(norms[b] > 0.0))
       continue;
-    candidate_grams (pool, blend->range, b, as, n_as, grams);
+    candidate_grams (ew, blend->range, b, as, n_as, grams);
     for (guint i = 0; i < n_as; i++)
       fit_pair (dots, norms, as[i], b, grams[i], &best);
   }
@@ -2665,7 +2706,7 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
         b++) {
       if (!(norms[b] > 0.0))
         continue;
-      candidate_grams (pool, blend->range, b, as, n_as, grams);
+      candidate_grams (ew, blend->range, b, as, n_as, grams);
       for (guint i = 0; i < n_as; i++)
         if (as[i] != a0 || b != b0)
           fit_pair (dots, norms, as[i], b, grams[i], &best);
@@ -2677,7 +2718,7 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
     /* What the pair leaves at the blend's own direction: <m_0, X - fit>. */
     const int pair[2] = { best.a, best.b };
     double complex g[2], left;
-    candidate_grams (pool, blend->range, reach, pair, 2, g);
+    candidate_grams (ew, blend->range, reach, pair, 2, g);
     left = dots[reach] - conj (g[0]) * best.x[0] - conj (g[1]) * best.x[1];
     if (!(cabs2 (left) <= SPLIT_LEFT * cabs2 (dots[reach])))
       return FALSE;
@@ -2685,25 +2726,25 @@ split_blend (SonarVelocityPool * pool, const SonarCentroid * centroid,
 
   for (int i = 0; i < 2; i++) {
     const int own = i ? best.b : best.a, other = i ? best.a : best.b;
-    const SonarSplitSpectra rest = { pool->split_re, pool->split_im };
+    const SonarSplitSpectra rest = { ew->split_re, ew->split_im };
     SonarVelocityEstimate out[2];
     EchoShape shape;
-    memcpy (pool->split_re, spectra.re, size * sizeof (float));
-    memcpy (pool->split_im, spectra.im, size * sizeof (float));
-    memcpy (pool->mic_legs, pool->split_legs + (gsize) other * n_mics,
+    memcpy (ew->split_re, spectra.re, size * sizeof (float));
+    memcpy (ew->split_im, spectra.im, size * sizeof (float));
+    memcpy (ew->mic_legs, ew->split_legs + (gsize) other * n_mics,
         n_mics * sizeof (double));
-    subtract_model (pool, blend->range, best.x[1 - i], pool->split_t_re +
-        (gsize) other * nb, pool->split_t_im + (gsize) other * nb,
-        pool->split_re, pool->split_im);
+    subtract_model (ew, blend->range, best.x[1 - i], ew->split_t_re +
+        (gsize) other * nb, ew->split_t_im + (gsize) other * nb,
+        ew->split_re, ew->split_im);
     est->screen_snr = 0.0;
     estimate_at (est, &rest, centroid, blend->azimuth + (own - reach) *
         step, blend->elevation, ECHO_AT_EVALUATED, out, NULL);
     if (!out[0].valid || est->screen_snr < SPLIT_HALF_SNR *
         est->min_pooled_snr)
       return FALSE;
-    pool->spectra = rest;
-    shape = echo_shape (pool, centroid, &out[0], NULL);
-    pool->spectra = spectra;
+    ew->spectra = rest;
+    shape = echo_shape (ew, centroid, &out[0], NULL);
+    ew->spectra = spectra;
     if (shape == ECHO_BLEND)
       return FALSE;
     found[i] = out[0];
@@ -2742,18 +2783,72 @@ est_pooled (const SonarVelocityPool * pool)
   return pool->estimators[0]->min_pooled_snr > 0.0;
 }
 
-/* echo_shape ()'s model, made on the first ping that needs it and kept
- * (the presets never do: 0.7 MB not held). */
+/* Every worker's models of echo_shape () and split_blend (), made on the
+ * first ping that needs them and kept (the presets never do: 2.2 MB a
+ * worker not held): all at once, so that no later ping allocates
+ * whichever worker meets its first blend there. */
 static void
-shape_model_ensure (SonarVelocityPool * pool)
+echo_models_ensure (SonarVelocityPool * pool)
 {
   const SonarVelocityEstimator *est = pool->estimators[0];
-  const gsize size = (gsize) est->setup->geometry.n_microphones *
-      est->band.n_bins;
+  const guint n_mics = est->setup->geometry.n_microphones;
+  const guint nb = est->band.n_bins;
+  /* split_blend ()'s candidates, at most. */
+  const gsize most = 2 * SHAPE_STEPS * SPLIT_SUBSTEPS + 1;
 
-  if (!pool->model_re) {
-    pool->model_re = g_new (float, size);
-    pool->model_im = g_new (float, size);
+  for (guint w = 0; w < sonar_workers_count (pool->workers); w++) {
+    EchoWorker *ew = &pool->echo[w];
+    if (ew->model_re)
+      continue;
+    ew->model_re = g_new (float, (gsize) n_mics * nb);
+    ew->model_im = g_new (float, (gsize) n_mics * nb);
+    ew->split_re = g_new (float, (gsize) n_mics * nb);
+    ew->split_im = g_new (float, (gsize) n_mics * nb);
+    ew->split_t_re = g_new (float, most * nb);
+    ew->split_t_im = g_new (float, most * nb);
+    ew->split_legs = g_new (double, most * n_mics);
+  }
+}
+
+/* Whether split_first () examines centroid @k's estimate: one, valid,
+ * less coherent than a lone echo. */
+static gboolean
+may_be_blend (const SonarVelocityEstimate * results, const guint * counts,
+    guint k)
+{
+  const SonarVelocityEstimate *e = &results[2 * k];
+
+  return counts[k] == 1 && e->valid && e->coherence < ISOLATED_COHERENCE;
+}
+
+/* Worker @w's share of split_first (): the next centroid not taken, as
+ * estimate_share () takes them. A crowd holds many echoes to examine
+ * (sonar-bench --sweep reflectors, 50 objects: 22 a ping, over half the
+ * stage's CPU time, all of it on one thread before they were shared).
+ * Each depends on its centroid's estimate alone. */
+static void
+split_share (gpointer data, guint w, guint n)
+{
+  SonarVelocityPool *pool = data;
+  EchoWorker *ew = &pool->echo[w];
+
+  (void) n;
+  ew->spectra = pool->spectra;
+  for (;;) {
+    const guint k = (guint) g_atomic_int_add (&pool->next_centroid, 1);
+    SonarVelocityEstimate *e;
+    guint half_width;
+    if (k >= pool->n_centroids)
+      break;
+    if (!may_be_blend (pool->results, pool->counts, k))
+      continue;
+    e = &pool->results[2 * k];
+    g_atomic_int_inc (&pool->n_examined);
+    if (echo_shape (ew, &pool->centroids[k], e, &half_width) != ECHO_LONE
+        && split_blend (ew, &pool->centroids[k], e, half_width, e)) {
+      pool->counts[k] = 2;
+      g_atomic_int_set (&pool->any_split, 1);
+    }
   }
 }
 
@@ -2766,22 +2861,22 @@ static void
 split_first (SonarVelocityPool * pool, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts)
 {
-  gboolean split = FALSE;
+  guint k = 0;
 
-  for (guint k = 0; k < n_centroids; k++) {
-    SonarVelocityEstimate *e = &results[2 * k];
-    guint half_width;
-    if (counts[k] != 1 || !e->valid || e->coherence >= ISOLATED_COHERENCE)
-      continue;
-    shape_model_ensure (pool);
-    if (echo_shape (pool, &centroids[k], e, &half_width) != ECHO_LONE
-        && split_blend (pool, &centroids[k], e, half_width, e)) {
-      counts[k] = 2;
-      split = TRUE;
-    }
-  }
+  while (k < n_centroids && !may_be_blend (results, counts, k))
+    k++;
+  if (k == n_centroids)
+    return;
+  echo_models_ensure (pool);
+  pool->centroids = centroids;
+  pool->n_centroids = n_centroids;
+  pool->results = results;
+  pool->counts = counts;
+  pool->any_split = 0;
+  g_atomic_int_set (&pool->next_centroid, 0);
+  sonar_workers_run (pool->workers, split_share, pool);
   /* A half may be an echo another centroid reports. */
-  if (split)
+  if (pool->any_split)
     drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }
 
@@ -2820,7 +2915,7 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
     if (!n_failed)
       break;
     if (!copied) {
-      shape_model_ensure (pool);
+      echo_models_ensure (pool);
       memcpy (pool->residual_re, pool->spectra_re, size * sizeof (float));
       memcpy (pool->residual_im, pool->spectra_im, size * sizeof (float));
       copied = TRUE;
@@ -2828,7 +2923,8 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
     for (guint k = 0; k < n_centroids; k++)
       for (guint i = 0; i < counts[k]; i++)
         if (results[2 * k + i].valid && !pool->cancelled[2 * k + i]) {
-          cancel_echo (pool, &results[2 * k + i]);
+          cancel_echo (&pool->echo[0], &results[2 * k + i],
+              pool->residual_re, pool->residual_im);
           pool->cancelled[2 * k + i] = TRUE;
           n_cancelled++;
         }
@@ -2843,6 +2939,7 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
     pool->screens = NULL;
     g_atomic_int_set (&pool->next_centroid, 0);
     sonar_workers_run (pool->workers, estimate_share, pool);
+    pool->echo[0].spectra = pool->spectra;
     for (guint f = 0; f < n_failed; f++) {
       const guint k = pool->failed_index[f];
       gboolean any = FALSE;
@@ -2855,11 +2952,12 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
         guint half_width;
         if (!e->valid)
           continue;
-        shape = echo_shape (pool, &pool->failed[f], e, &half_width);
+        shape = echo_shape (&pool->echo[0], &pool->failed[f], e,
+            &half_width);
         /* An echo not lone may be two: both kept when found; else it is
          * kept when it falls as one point on one side. */
         if (shape != ECHO_LONE && pool->failed_counts[f] == 1
-            && split_blend (pool, &pool->failed[f], e, half_width,
+            && split_blend (&pool->echo[0], &pool->failed[f], e, half_width,
                 &pool->failed_results[2 * f])) {
           pool->failed_counts[f] = 2;
           any = TRUE;
@@ -2906,6 +3004,7 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     pool->screen_snr = g_renew (double, pool->screen_snr, n_centroids);
   }
   pool->screens = pool->screen_snr;
+  pool->n_examined = 0;
   g_atomic_int_set (&pool->next_centroid, 0);
   sonar_workers_run (pool->workers, estimate_share, pool);
   pool->screens = NULL;
@@ -2937,6 +3036,12 @@ sonar_velocity_pool_work (const SonarVelocityPool * pool,
   /* Every hypothesis at the centroid's direction, three elsewhere. */
   work->screens = est->n_hypotheses + (work->directions - 1) *
       MIN (3, est->n_hypotheses);
+}
+
+guint
+sonar_velocity_pool_last_examined (const SonarVelocityPool * pool)
+{
+  return (guint) g_atomic_int_get (&pool->n_examined);
 }
 
 double

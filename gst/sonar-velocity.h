@@ -250,7 +250,8 @@ gboolean sonar_velocity_pool_retune (SonarVelocityPool * pool,
  * centroids that fail, interfered at their own pixel, are estimated again
  * with the accepted echoes cancelled (above). Returns after all are done.
  * Allocates only when a ping has more centroids than any before it, and
- * on the first ping that cancels or fits two points (their models). */
+ * on the first ping that examines an echo or cancels (the workers'
+ * models). */
 void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);
@@ -271,6 +272,12 @@ typedef struct
 
 void sonar_velocity_pool_work (const SonarVelocityPool * pool,
     SonarVelocityWork * work);
+
+/* The echoes the last sonar_velocity_pool_estimate () examined as
+ * possible blends of two unresolved echoes (one estimate, less coherent
+ * than a lone echo's): a crowd's work beyond its bank evaluations, which
+ * the workers share as they share the centroids. */
+guint sonar_velocity_pool_last_examined (const SonarVelocityPool * pool);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
     sonar_velocity_estimator_free)

@@ -342,7 +342,7 @@ test_acf_no_underflow (void)
 
 /* The core chain as the elements run it at their defaults: the detection
  * image over the hypotheses 0.3 m/s apart, the centroids (@cluster), the
- * velocity pool. */
+ * velocity pool (of chain_init ()'s @n_threads). */
 typedef struct
 {
   SonarImager *imager;
@@ -357,7 +357,8 @@ typedef struct
 } Chain;
 
 static void
-chain_init (Chain * c, Fixture * f, const SonarClusterParams * cluster)
+chain_init (Chain * c, Fixture * f, const SonarClusterParams * cluster,
+    guint n_threads)
 {
   SonarImagerParams ip;
   SonarClusterParams cp = *cluster;
@@ -379,7 +380,7 @@ chain_init (Chain * c, Fixture * f, const SonarClusterParams * cluster)
   g_assert_nonnull (c->clusterer);
   sonar_velocity_params_init_default (&vp);
   c->pool = sonar_velocity_pool_new (f->bank, sonar_imager_grid (c->imager),
-      &vp, 1, NULL);
+      &vp, n_threads, NULL);
   g_assert_nonnull (c->pool);
   c->image = g_new (float, sonar_image_grid_size (sonar_imager_grid
           (c->imager)));
@@ -472,7 +473,7 @@ test_split_pairs (void)
 
   fixture_init (&f, -7.0, 7.0, 0.05);
   sonar_cluster_params_init_default (&cp);
-  chain_init (&c, &f, &cp);
+  chain_init (&c, &f, &cp, 1);
   for (guint w = 0; w < G_N_ELEMENTS (weaker); w++) {
     for (guint i = 0; i < G_N_ELEMENTS (separations); i++) {
       for (guint j = w; j < G_N_ELEMENTS (differences); j++) {
@@ -530,7 +531,7 @@ test_single_not_split (void)
 
   fixture_init (&f, -7.0, 7.0, 0.05);
   sonar_cluster_params_init_default (&cp);
-  chain_init (&c, &f, &cp);
+  chain_init (&c, &f, &cp, 1);
   for (guint i = 0; i < G_N_ELEMENTS (cases); i++) {
     g_autofree char *json = g_strdup_printf ("{\"dimensions\": 2, "
         "\"reflectors\": [{\"range\": %g, \"azimuth\": %g, "
@@ -567,7 +568,7 @@ test_split_not_duplicated (void)
   sonar_cluster_params_init_default (&cp);
   cp.stop = SONAR_STOP_DISTANCE;
   cp.distance = 0.001;
-  chain_init (&c, &f, &cp);
+  chain_init (&c, &f, &cp, 1);
   for (guint i = 0; i < G_N_ELEMENTS (separations); i++) {
     /* The mover, imaged 8.7 mm nearer than it is, 5-6 mm from the still
      * one. */
@@ -689,6 +690,54 @@ test_independent_of_order (void)
   fixture_clear (&f);
 }
 
+/* A crowd's echoes that may be blends of two (split_first ()) are
+ * examined by the pool's workers side by side, each on its own buffers
+ * and estimator: the same estimates, bit for bit, as one worker's, on a
+ * ping of 40 objects where several are examined. */
+static void
+test_crowd_examined_by_workers (void)
+{
+  GString *json = g_string_new ("{\"dimensions\": 2, \"reflectors\": [");
+  g_autoptr (GRand) rand = g_rand_new_with_seed (11);
+  SonarTruth truths[40];
+  SonarVelocityEstimate found[2][128];
+  guint n_centroids[2], n[2], examined;
+  SonarClusterParams cp;
+  Fixture f;
+  Chain one, three;
+
+  for (guint i = 0; i < G_N_ELEMENTS (truths); i++)
+    g_string_append_printf (json, "%s{\"range\": %.3f, \"azimuth\": %.1f, "
+        "\"radial-velocity\": %.2f}", i ? ", " : "", g_rand_double_range
+        (rand, 1.0, 4.0), g_rand_double_range (rand, -60.0, 60.0),
+        g_rand_double_range (rand, -0.8, 0.8));
+  g_string_append (json, "]}");
+  fixture_init (&f, -1.0, 1.0, 0.05);
+  sonar_cluster_params_init_default (&cp);
+  chain_init (&one, &f, &cp, 1);
+  chain_init (&three, &f, &cp, 3);
+  n[0] = chain_run (&one, &f, json->str, truths, found[0], &n_centroids[0]);
+  examined = sonar_velocity_pool_last_examined (one.pool);
+  n[1] = chain_run (&three, &f, json->str, truths, found[1], &n_centroids[1]);
+  g_test_message ("%u centroids, %u objects, %u echoes examined",
+      n_centroids[0], n[0], examined);
+  g_assert_cmpuint (examined, >=, 3);
+  g_assert_cmpuint (sonar_velocity_pool_last_examined (three.pool), ==,
+      examined);
+  g_assert_cmpuint (n_centroids[1], ==, n_centroids[0]);
+  g_assert_cmpuint (n[1], ==, n[0]);
+  for (guint k = 0; k < n_centroids[0]; k++) {
+    g_assert_cmpuint (three.counts[k], ==, one.counts[k]);
+    for (guint i = 0; i < one.counts[k]; i++)
+      assert_same_estimate (&three.results[2 * k + i],
+          &one.results[2 * k + i]);
+  }
+  chain_clear (&one);
+  chain_clear (&three);
+  fixture_clear (&f);
+  g_string_free (json, TRUE);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -703,5 +752,7 @@ main (int argc, char **argv)
       test_split_not_duplicated);
   g_test_add_func ("/velocity/independent-of-order",
       test_independent_of_order);
+  g_test_add_func ("/velocity/crowd-examined-by-workers",
+      test_crowd_examined_by_workers);
   return g_test_run ();
 }

@@ -1206,6 +1206,211 @@ rank_pass_avx512 (const float *x, gsize stride, guint n_rows,
 
 #undef RANK_ROW_AVX512
 
+/* scaled_product_generic () by vectors of 16 bins. Bin k0 + l is at
+ * base + l step, base = x0 + k0 step; with node_0 = floor (base) and fb =
+ * base - node_0 (exact, as the reference computes them), lane l's node is
+ * node_0 + l + floor (s_l) and its fraction s_l - floor (s_l), s_l = fb +
+ * l (step - 1) in float: a few operations for the 16 positions, within
+ * 1e-6 of the exact ones (the excess l (step - 1) is small). A lane
+ * within that of a node may take the node next to it with a fraction
+ * near 1 (near 0): the same value, V being continuous there. The taps of
+ * the vector lie in the 32 floats from node_0 - 2 (when the last node is
+ * at most node_0 + 26: any step up to 1.7): two registers a part, loaded
+ * with masks to the taps of the exact last node, each tap a permute of
+ * them. Only tap 5 of a lane past the last node can fall outside: it is
+ * 0 (a masked lane) or wraps to the first float, times a weight near 0.
+ * Other vectors gather their taps. The last vector's lanes past n are
+ * masked. */
+#define SCALED_LANES 16
+G_STATIC_ASSERT (RESEED_INTERVAL % SCALED_LANES == 0);
+
+/* Bins k .. k + m - 1 (m <= SCALED_LANES, a constant where it is
+ * inlined) on the gain times the phasors at *phasor_re, *phasor_im. */
+static inline __attribute__ ((always_inline)) AVX512_TARGET void
+scaled_vector_avx512 (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint k,
+    guint m, double x0, double step, const __m512 * excess,
+    const __m512 * phasor_re, const __m512 * phasor_im)
+{
+  const __mmask16 lanes = m >= 16 ? 0xffff : (1u << m) - 1;
+  const double base = POSITION_UNFUSED (x0, (double) k, step);
+  const double node0 = floor (base);
+  const int span = (int) (floor (POSITION_UNFUSED (x0, (double) (k + m -
+                  1), step)) - node0);
+  const __m512 s = _mm512_add_ps (_mm512_set1_ps ((float) (base - node0)),
+      *excess);
+  const __m512 s_floor = _mm512_roundscale_ps (s, _MM_FROUND_TO_NEG_INF |
+      _MM_FROUND_NO_EXC);
+  const __m512 f = _mm512_sub_ps (s, s_floor);
+  /* node_l - node_0 */
+  const __m512i rel = _mm512_add_epi32 (_mm512_cvtps_epi32 (s_floor),
+      _mm512_setr_epi32 (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14,
+          15));
+  __m512 w[6], sum_re, sum_im, rr, ri, tr, ti, o_re, o_im;
+
+  /* The weights as in scaled_product_avx2 (). */
+  {
+    const __m512 d01 = _mm512_fmadd_ps (f, _mm512_add_ps (f,
+            _mm512_set1_ps (3.0f)), _mm512_set1_ps (2.0f));
+    const __m512 d23 = _mm512_fmsub_ps (f, f, f);
+    const __m512 d45 = _mm512_fmadd_ps (f, _mm512_sub_ps (f,
+            _mm512_set1_ps (5.0f)), _mm512_set1_ps (6.0f));
+    const __m512 d0123 = _mm512_mul_ps (d01, d23);
+    const __m512 d2345 = _mm512_mul_ps (d23, d45);
+    const __m512 d0145 = _mm512_mul_ps (d01, d45);
+#define SCALED_FACTOR(m, c) \
+  _mm512_fmadd_ps (f, _mm512_set1_ps (c), _mm512_set1_ps (-(m) * (c)))
+    w[0] = _mm512_mul_ps (SCALED_FACTOR (-1, -1.0f / 120.0f), d2345);
+    w[1] = _mm512_mul_ps (SCALED_FACTOR (-2, 1.0f / 24.0f), d2345);
+    w[2] = _mm512_mul_ps (SCALED_FACTOR (1, -1.0f / 12.0f), d0145);
+    w[3] = _mm512_mul_ps (SCALED_FACTOR (0, 1.0f / 12.0f), d0145);
+    w[4] = _mm512_mul_ps (d0123, SCALED_FACTOR (3, -1.0f / 24.0f));
+    w[5] = _mm512_mul_ps (d0123, SCALED_FACTOR (2, 1.0f / 120.0f));
+#undef SCALED_FACTOR
+  }
+
+  if (span <= 26) {
+    /* The window's floats up to the last node's tap 5, node0 + span + 3. */
+    const int count = span + 6;
+    const __mmask16 low = count >= 16 ? 0xffff : (1u << count) - 1;
+    const __mmask16 high = count >= 32 ? 0xffff : count <= 16 ? 0 :
+        (1u << (count - 16)) - 1;
+    const float *wr = v_re + ((gssize) node0 - 2);
+    const float *wi = v_im + ((gssize) node0 - 2);
+    const __m512 lo_re = _mm512_maskz_loadu_ps (low, wr);
+    const __m512 hi_re = _mm512_maskz_loadu_ps (high, wr + 16);
+    const __m512 lo_im = _mm512_maskz_loadu_ps (low, wi);
+    const __m512 hi_im = _mm512_maskz_loadu_ps (high, wi + 16);
+
+    sum_re = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_re, rel,
+            hi_re));
+    sum_im = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_im, rel,
+            hi_im));
+    for (int t = 1; t < 6; t++) {
+      const __m512i index = _mm512_add_epi32 (rel, _mm512_set1_epi32 (t));
+      sum_re = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_re, index,
+              hi_re), sum_re);
+      sum_im = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_im, index,
+              hi_im), sum_im);
+    }
+  } else {
+    const __m512i first = _mm512_add_epi32 (rel,
+        _mm512_set1_epi32 ((int) node0 - 2));
+    const __m512i end = _mm512_set1_epi32 ((int) node0 + span + 3);
+    sum_re = sum_im = _mm512_setzero_ps ();
+    for (int t = 0; t < 6; t++) {
+      const __m512i index = _mm512_add_epi32 (first, _mm512_set1_epi32 (t));
+      const __mmask16 in = t < 5 ? lanes :
+          _mm512_mask_cmple_epi32_mask (lanes, index, end);
+      sum_re = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
+          (_mm512_setzero_ps (), in, index, v_re, 4), sum_re);
+      sum_im = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
+          (_mm512_setzero_ps (), in, index, v_im, 4), sum_im);
+    }
+  }
+
+  /* (r V) (gain phasor), as the reference groups it. */
+  rr = _mm512_maskz_loadu_ps (lanes, r_re + k);
+  ri = _mm512_maskz_loadu_ps (lanes, r_im + k);
+  tr = _mm512_fmsub_ps (rr, sum_re, _mm512_mul_ps (ri, sum_im));
+  ti = _mm512_fmadd_ps (rr, sum_im, _mm512_mul_ps (ri, sum_re));
+  o_re = _mm512_fmsub_ps (tr, *phasor_re, _mm512_mul_ps (ti, *phasor_im));
+  o_im = _mm512_fmadd_ps (tr, *phasor_im, _mm512_mul_ps (ti, *phasor_re));
+  {
+    const __m512i first_half = _mm512_setr_epi32 (0, 16, 1, 17, 2, 18, 3,
+        19, 4, 20, 5, 21, 6, 22, 7, 23);
+    const __m512i second_half = _mm512_setr_epi32 (8, 24, 9, 25, 10, 26,
+        11, 27, 12, 28, 13, 29, 14, 30, 15, 31);
+    const __m512 a = _mm512_permutex2var_ps (o_re, first_half, o_im);
+    const __m512 b = _mm512_permutex2var_ps (o_re, second_half, o_im);
+    if (m >= 16) {
+      _mm512_storeu_ps ((float *) (out + k), a);
+      _mm512_storeu_ps ((float *) (out + k + 8), b);
+    } else {
+      _mm512_mask_storeu_ps ((float *) (out + k), m >= 8 ? 0xffff :
+          (1u << (2 * m)) - 1, a);
+      if (m > 8)
+        _mm512_mask_storeu_ps ((float *) (out + k + 8),
+            (1u << (2 * (m - 8))) - 1, b);
+    }
+  }
+}
+
+AVX512_TARGET static void
+scaled_product_avx512 (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain)
+{
+  const double c = cos (dphase), s = sin (dphase);
+  double offset_re[SCALED_LANES], offset_im[SCALED_LANES];
+  double seed_re = cos (phase0), seed_im = sin (phase0);
+  double jump_re, jump_im;      /* rotation by RESEED_INTERVAL bins */
+  float excess_l[SCALED_LANES];
+  __m512 excess, step_re, step_im;
+
+  /* The nodes are int32 lanes: a table past 2^30 takes the reference. */
+  if (n > 0 && !(fmax (x0, x0 + (n - 1) * step) < (double) (1 << 30))) {
+    scaled_product_generic (out, r_re, r_im, v_re, v_im, n, x0, step, phase0,
+        dphase, gain);
+    return;
+  }
+  /* exp(i l dphase) in double; exp(i 16 dphase) in float for the steps,
+   * squared in double up to the reseeds' rotation. */
+  offset_re[0] = 1.0;
+  offset_im[0] = 0.0;
+  for (int l = 1; l < SCALED_LANES; l++) {
+    offset_re[l] = offset_re[l - 1] * c - offset_im[l - 1] * s;
+    offset_im[l] = offset_re[l - 1] * s + offset_im[l - 1] * c;
+  }
+  jump_re = offset_re[SCALED_LANES - 1] * c - offset_im[SCALED_LANES - 1] * s;
+  jump_im = offset_re[SCALED_LANES - 1] * s + offset_im[SCALED_LANES - 1] * c;
+  step_re = _mm512_set1_ps ((float) jump_re);
+  step_im = _mm512_set1_ps ((float) jump_im);
+  for (int k = SCALED_LANES; k < RESEED_INTERVAL; k *= 2) {
+    const double re = jump_re * jump_re - jump_im * jump_im;
+    jump_im = 2.0 * jump_re * jump_im;
+    jump_re = re;
+  }
+  for (int l = 0; l < SCALED_LANES; l++)
+    excess_l[l] = (float) (l * (step - 1.0));
+  excess = _mm512_loadu_ps (excess_l);
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    float seeded_re[SCALED_LANES], seeded_im[SCALED_LANES];
+    __m512 phasor_re, phasor_im;
+    double next_re;
+
+    for (int l = 0; l < SCALED_LANES; l++) {
+      seeded_re[l] = (float) (gain * (seed_re * offset_re[l] - seed_im *
+              offset_im[l]));
+      seeded_im[l] = (float) (gain * (seed_re * offset_im[l] + seed_im *
+              offset_re[l]));
+    }
+    next_re = seed_re * jump_re - seed_im * jump_im;
+    seed_im = seed_re * jump_im + seed_im * jump_re;
+    seed_re = next_re;
+    phasor_re = _mm512_loadu_ps (seeded_re);
+    phasor_im = _mm512_loadu_ps (seeded_im);
+    for (guint k = k0; k < k1; k += SCALED_LANES) {
+      __m512 rotated;
+      if (k1 - k >= SCALED_LANES)
+        scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, SCALED_LANES,
+            x0, step, &excess, &phasor_re, &phasor_im);
+      else
+        scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, k1 - k, x0,
+            step, &excess, &phasor_re, &phasor_im);
+      rotated = _mm512_fmsub_ps (phasor_re, step_re, _mm512_mul_ps
+          (phasor_im, step_im));
+      phasor_im = _mm512_fmadd_ps (phasor_re, step_im, _mm512_mul_ps
+          (phasor_im, step_re));
+      phasor_re = rotated;
+    }
+  }
+}
+
+#undef SCALED_LANES
+
 #endif /* HAVE_AVX2_KERNELS */
 
 /* ORC versions -----------------------------------------------------------*/
@@ -1351,6 +1556,7 @@ const SonarScaledProductImpl sonar_kernel_scaled_product_impls[] = {
   {"generic", scaled_product_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
   {"avx2", scaled_product_avx2, cpu_has_avx2_fma},
+  {"avx512", scaled_product_avx512, cpu_has_avx512f},
 #endif
   {NULL, NULL, NULL}
 };

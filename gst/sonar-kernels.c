@@ -1209,43 +1209,57 @@ rank_pass_avx512 (const float *x, gsize stride, guint n_rows,
 /* scaled_product_generic () by vectors of 16 bins. Bin k0 + l is at
  * base + l step, base = x0 + k0 step; with node_0 = floor (base) and fb =
  * base - node_0 (exact, as the reference computes them), lane l's node is
- * node_0 + l + floor (s_l) and its fraction s_l - floor (s_l), s_l = fb +
- * l (step - 1) in float: a few operations for the 16 positions, within
- * 1e-6 of the exact ones (the excess l (step - 1) is small). A lane
- * within that of a node may take the node next to it with a fraction
- * near 1 (near 0): the same value, V being continuous there. The taps of
- * the vector lie in the 32 floats from node_0 - 2 (when the last node is
- * at most node_0 + 26: any step up to 1.7): two registers a part, loaded
- * with masks to the taps of the exact last node, each tap a permute of
- * them. Only tap 5 of a lane past the last node can fall outside: it is
- * 0 (a masked lane) or wraps to the first float, times a weight near 0.
- * Other vectors gather their taps. The last vector's lanes past n are
- * masked. */
+ * node_0 + l + delta_l, delta_l = floor (s_l), and its fraction s_l -
+ * delta_l, s_l = fb + l (step - 1) in float: a few operations for the 16
+ * positions, within 1e-6 of the exact ones (the excess l (step - 1) is
+ * small). A lane within that of a node may take the node next to it with
+ * a fraction near 1 (near 0): the same value, V being continuous there,
+ * and only its tap 0 (tap 5) can fall outside the call's taps, with a
+ * weight near 0: those are masked (read as 0).
+ *
+ * The taps, by the fastest way that holds:
+ * - when every delta_l is lo or lo + 1 (|step - 1| < 1/15), seven
+ *   unaligned loads L_j = v[node_0 - 2 + lo + j + l], lane l weighting L_j
+ *   by w_j (delta lo) or w_(j-1) (delta lo + 1), the weights chosen once
+ *   for both parts as in scaled_product_avx2 () (L_0 and L_6 masked loads);
+ * - for steps in [0.5, 1.73), the 32 floats from node_0 - 2 hold every
+ *   tap of the vector: two registers a part, each tap a permute of them
+ *   (loaded with masks up to the call's last tap);
+ * - for steps in [1.73, 2], gathers.
+ * Other steps take the reference (the float positions' error grows with
+ * |step - 1|). */
 #define SCALED_LANES 16
 G_STATIC_ASSERT (RESEED_INTERVAL % SCALED_LANES == 0);
 
+typedef struct
+{
+  __m512 excess;                /* l (step - 1), lane l */
+  double x0, step;
+  gssize first, last;           /* the call's first and last taps */
+  float lo;                     /* the smaller delta of the loads' way */
+  gboolean near;                /* the loads' way may hold */
+  gboolean permute;             /* the permutes' way holds */
+} ScaledCall;
+
 /* Bins k .. k + m - 1 (m <= SCALED_LANES, a constant where it is
- * inlined) on the gain times the phasors at *phasor_re, *phasor_im. */
+ * inlined; bin k at @k_d) on the gain times the phasors at *phasor_re,
+ * *phasor_im. */
 static inline __attribute__ ((always_inline)) AVX512_TARGET void
 scaled_vector_avx512 (SonarComplex * out, const float *r_re,
     const float *r_im, const float *v_re, const float *v_im, guint k,
-    guint m, double x0, double step, const __m512 * excess,
-    const __m512 * phasor_re, const __m512 * phasor_im)
+    guint m, double k_d, const ScaledCall * c, const __m512 * phasor_re,
+    const __m512 * phasor_im)
 {
   const __mmask16 lanes = m >= 16 ? 0xffff : (1u << m) - 1;
-  const double base = POSITION_UNFUSED (x0, (double) k, step);
-  const double node0 = floor (base);
-  const int span = (int) (floor (POSITION_UNFUSED (x0, (double) (k + m -
-                  1), step)) - node0);
-  const __m512 s = _mm512_add_ps (_mm512_set1_ps ((float) (base - node0)),
-      *excess);
-  const __m512 s_floor = _mm512_roundscale_ps (s, _MM_FROUND_TO_NEG_INF |
+  const double base = POSITION_UNFUSED (c->x0, k_d, c->step);
+  const double node_d = floor (base);
+  const gssize node0 = (gssize) node_d;
+  const __m512 s = _mm512_add_ps (_mm512_set1_ps ((float) (base - node_d)),
+      c->excess);
+  const __m512 delta = _mm512_roundscale_ps (s, _MM_FROUND_TO_NEG_INF |
       _MM_FROUND_NO_EXC);
-  const __m512 f = _mm512_sub_ps (s, s_floor);
-  /* node_l - node_0 */
-  const __m512i rel = _mm512_add_epi32 (_mm512_cvtps_epi32 (s_floor),
-      _mm512_setr_epi32 (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14,
-          15));
+  const __m512 f = _mm512_sub_ps (s, delta);
+  gboolean loaded = FALSE;
   __m512 w[6], sum_re, sum_im, rr, ri, tr, ti, o_re, o_im;
 
   /* The weights as in scaled_product_avx2 (). */
@@ -1269,43 +1283,78 @@ scaled_vector_avx512 (SonarComplex * out, const float *r_re,
 #undef SCALED_FACTOR
   }
 
-  if (span <= 26) {
-    /* The window's floats up to the last node's tap 5, node0 + span + 3. */
-    const int count = span + 6;
-    const __mmask16 low = count >= 16 ? 0xffff : (1u << count) - 1;
-    const __mmask16 high = count >= 32 ? 0xffff : count <= 16 ? 0 :
-        (1u << (count - 16)) - 1;
-    const float *wr = v_re + ((gssize) node0 - 2);
-    const float *wi = v_im + ((gssize) node0 - 2);
-    const __m512 lo_re = _mm512_maskz_loadu_ps (low, wr);
-    const __m512 hi_re = _mm512_maskz_loadu_ps (high, wr + 16);
-    const __m512 lo_im = _mm512_maskz_loadu_ps (low, wi);
-    const __m512 hi_im = _mm512_maskz_loadu_ps (high, wi + 16);
-
-    sum_re = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_re, rel,
-            hi_re));
-    sum_im = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_im, rel,
-            hi_im));
-    for (int t = 1; t < 6; t++) {
-      const __m512i index = _mm512_add_epi32 (rel, _mm512_set1_epi32 (t));
-      sum_re = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_re, index,
-              hi_re), sum_re);
-      sum_im = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_im, index,
-              hi_im), sum_im);
+  /* The loads' way, when its loads (up to node_0 + 19 + lo) stay within
+   * the call's taps. */
+  if (m == SCALED_LANES && c->near && node0 + 19 + (gssize) c->lo <= c->last) {
+    const __mmask16 is_lo = _mm512_cmp_ps_mask (delta,
+        _mm512_set1_ps (c->lo), _CMP_EQ_OQ);
+    const __mmask16 is_hi = _mm512_cmp_ps_mask (delta,
+        _mm512_set1_ps (c->lo + 1.0f), _CMP_EQ_OQ);
+    if (_mm512_kortestc (is_lo, is_hi)) {
+      const float *base_re = v_re + (node0 - 2 + (gssize) c->lo);
+      const float *base_im = v_im + (node0 - 2 + (gssize) c->lo);
+      sum_re = _mm512_mul_ps (w[0], _mm512_maskz_loadu_ps (is_lo, base_re));
+      sum_im = _mm512_mul_ps (w[0], _mm512_maskz_loadu_ps (is_lo, base_im));
+      for (int j = 1; j < 6; j++) {
+        const __m512 weight = _mm512_mask_blend_ps (is_hi, w[j], w[j - 1]);
+        sum_re = _mm512_fmadd_ps (weight, _mm512_loadu_ps (base_re + j),
+            sum_re);
+        sum_im = _mm512_fmadd_ps (weight, _mm512_loadu_ps (base_im + j),
+            sum_im);
+      }
+      sum_re = _mm512_fmadd_ps (w[5], _mm512_maskz_loadu_ps (is_hi,
+              base_re + 6), sum_re);
+      sum_im = _mm512_fmadd_ps (w[5], _mm512_maskz_loadu_ps (is_hi,
+              base_im + 6), sum_im);
+      loaded = TRUE;
     }
-  } else {
-    const __m512i first = _mm512_add_epi32 (rel,
-        _mm512_set1_epi32 ((int) node0 - 2));
-    const __m512i end = _mm512_set1_epi32 ((int) node0 + span + 3);
-    sum_re = sum_im = _mm512_setzero_ps ();
-    for (int t = 0; t < 6; t++) {
-      const __m512i index = _mm512_add_epi32 (first, _mm512_set1_epi32 (t));
-      const __mmask16 in = t < 5 ? lanes :
-          _mm512_mask_cmple_epi32_mask (lanes, index, end);
-      sum_re = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
-          (_mm512_setzero_ps (), in, index, v_re, 4), sum_re);
-      sum_im = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
-          (_mm512_setzero_ps (), in, index, v_im, 4), sum_im);
+  }
+  if (!loaded) {
+    /* node_l - node_0 */
+    const __m512i rel = _mm512_add_epi32 (_mm512_cvtps_epi32 (delta),
+        _mm512_setr_epi32 (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
+            14, 15));
+    if (c->permute) {
+      /* The window's floats up to the call's last tap; a lane's tap past
+       * it (or past the window: the index wraps) has a weight near 0. */
+      const gssize count = c->last - (node0 - 2) + 1;
+      const __mmask16 low = count >= 16 ? 0xffff : (1u << count) - 1;
+      const __mmask16 high = count >= 32 ? 0xffff : count <= 16 ? 0 :
+          (1u << (count - 16)) - 1;
+      const float *wr = v_re + (node0 - 2);
+      const float *wi = v_im + (node0 - 2);
+      const __m512 lo_re = _mm512_maskz_loadu_ps (low, wr);
+      const __m512 hi_re = _mm512_maskz_loadu_ps (high, wr + 16);
+      const __m512 lo_im = _mm512_maskz_loadu_ps (low, wi);
+      const __m512 hi_im = _mm512_maskz_loadu_ps (high, wi + 16);
+
+      sum_re = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_re, rel,
+              hi_re));
+      sum_im = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_im, rel,
+              hi_im));
+      for (int t = 1; t < 6; t++) {
+        const __m512i index = _mm512_add_epi32 (rel, _mm512_set1_epi32 (t));
+        sum_re = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_re,
+                index, hi_re), sum_re);
+        sum_im = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_im,
+                index, hi_im), sum_im);
+      }
+    } else {
+      const __m512i first = _mm512_add_epi32 (rel,
+          _mm512_set1_epi32 ((int) node0 - 2));
+      sum_re = sum_im = _mm512_setzero_ps ();
+      for (int t = 0; t < 6; t++) {
+        const __m512i index = _mm512_add_epi32 (first,
+            _mm512_set1_epi32 (t));
+        const __mmask16 in = t == 0 ? _mm512_mask_cmpge_epi32_mask (lanes,
+            index, _mm512_set1_epi32 ((int) c->first)) : t == 5 ?
+            _mm512_mask_cmple_epi32_mask (lanes, index,
+            _mm512_set1_epi32 ((int) c->last)) : lanes;
+        sum_re = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
+            (_mm512_setzero_ps (), in, index, v_re, 4), sum_re);
+        sum_im = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
+            (_mm512_setzero_ps (), in, index, v_im, 4), sum_im);
+      }
     }
   }
 
@@ -1341,29 +1390,50 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
     const float *r_im, const float *v_re, const float *v_im, guint n,
     double x0, double step, double phase0, double dphase, float gain)
 {
-  const double c = cos (dphase), s = sin (dphase);
+  const double cd = cos (dphase), sd = sin (dphase);
   double offset_re[SCALED_LANES], offset_im[SCALED_LANES];
   double seed_re = cos (phase0), seed_im = sin (phase0);
   double jump_re, jump_im;      /* rotation by RESEED_INTERVAL bins */
-  float excess_l[SCALED_LANES];
-  __m512 excess, step_re, step_im;
+  float excess[SCALED_LANES];
+  __m512 step_re, step_im;
+  ScaledCall c;
 
-  /* The nodes are int32 lanes: a table past 2^30 takes the reference. */
-  if (n > 0 && !(fmax (x0, x0 + (n - 1) * step) < (double) (1 << 30))) {
+  /* The nodes are int32 lanes: a table past 2^30 takes the reference, as
+   * do the steps the float positions do not cover. */
+  if (n == 0)
+    return;
+  if (!(fmax (x0, x0 + (n - 1) * step) < (double) (1 << 30))
+      || !(step >= 0.5 && step <= 2.0)) {
     scaled_product_generic (out, r_re, r_im, v_re, v_im, n, x0, step, phase0,
         dphase, gain);
     return;
   }
+  c.x0 = x0;
+  c.step = step;
+  c.first = (gssize) floor (x0) - 2;
+  c.last = (gssize) floor (POSITION_UNFUSED (x0, (double) (n - 1),
+          step)) + 3;
+  c.lo = step >= 1.0 ? 0.0f : -1.0f;
+  c.near = fabs (step - 1.0) < 1.0 / 15.0;
+  /* The last lane's node is below node_0 + 1 + 15 step: node_0 + 26 at
+   * most, its tap 5 the window's last float. */
+  c.permute = step < 1.73;
+  for (int l = 0; l < SCALED_LANES; l++)
+    excess[l] = (float) (l * (step - 1.0));
+  c.excess = _mm512_loadu_ps (excess);
+
   /* exp(i l dphase) in double; exp(i 16 dphase) in float for the steps,
    * squared in double up to the reseeds' rotation. */
   offset_re[0] = 1.0;
   offset_im[0] = 0.0;
   for (int l = 1; l < SCALED_LANES; l++) {
-    offset_re[l] = offset_re[l - 1] * c - offset_im[l - 1] * s;
-    offset_im[l] = offset_re[l - 1] * s + offset_im[l - 1] * c;
+    offset_re[l] = offset_re[l - 1] * cd - offset_im[l - 1] * sd;
+    offset_im[l] = offset_re[l - 1] * sd + offset_im[l - 1] * cd;
   }
-  jump_re = offset_re[SCALED_LANES - 1] * c - offset_im[SCALED_LANES - 1] * s;
-  jump_im = offset_re[SCALED_LANES - 1] * s + offset_im[SCALED_LANES - 1] * c;
+  jump_re = offset_re[SCALED_LANES - 1] * cd - offset_im[SCALED_LANES - 1]
+      * sd;
+  jump_im = offset_re[SCALED_LANES - 1] * sd + offset_im[SCALED_LANES - 1]
+      * cd;
   step_re = _mm512_set1_ps ((float) jump_re);
   step_im = _mm512_set1_ps ((float) jump_im);
   for (int k = SCALED_LANES; k < RESEED_INTERVAL; k *= 2) {
@@ -1371,15 +1441,12 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
     jump_im = 2.0 * jump_re * jump_im;
     jump_re = re;
   }
-  for (int l = 0; l < SCALED_LANES; l++)
-    excess_l[l] = (float) (l * (step - 1.0));
-  excess = _mm512_loadu_ps (excess_l);
 
   for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
     float seeded_re[SCALED_LANES], seeded_im[SCALED_LANES];
     __m512 phasor_re, phasor_im;
-    double next_re;
+    double next_re, k_d = (double) k0;
 
     for (int l = 0; l < SCALED_LANES; l++) {
       seeded_re[l] = (float) (gain * (seed_re * offset_re[l] - seed_im *
@@ -1392,14 +1459,14 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
     seed_re = next_re;
     phasor_re = _mm512_loadu_ps (seeded_re);
     phasor_im = _mm512_loadu_ps (seeded_im);
-    for (guint k = k0; k < k1; k += SCALED_LANES) {
+    for (guint k = k0; k < k1; k += SCALED_LANES, k_d += SCALED_LANES) {
       __m512 rotated;
       if (k1 - k >= SCALED_LANES)
         scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, SCALED_LANES,
-            x0, step, &excess, &phasor_re, &phasor_im);
+            k_d, &c, &phasor_re, &phasor_im);
       else
-        scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, k1 - k, x0,
-            step, &excess, &phasor_re, &phasor_im);
+        scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, k1 - k, k_d,
+            &c, &phasor_re, &phasor_im);
       rotated = _mm512_fmsub_ps (phasor_re, step_re, _mm512_mul_ps
           (phasor_im, step_im));
       phasor_im = _mm512_fmadd_ps (phasor_re, step_im, _mm512_mul_ps

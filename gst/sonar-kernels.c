@@ -867,7 +867,9 @@ steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
  * weights are chosen, once for both parts, not the taps. Only the lanes
  * of one kind have a tap in L_0 (in L_6): masked loads, so that nothing
  * outside the taps is read (a lane not loaded reads 0, times a finite
- * weight). Other vectors gather their taps, 12 gathers (slower). */
+ * weight). When every lane has the same delta, six plain loads and the
+ * weights as they are (no choice, no masked load). Other vectors gather
+ * their taps, 12 gathers (slower). */
 AVX2_TARGET static void
 scaled_product_avx2 (SonarComplex * out, const float *r_re,
     const float *r_im, const float *v_re, const float *v_im, guint n,
@@ -923,6 +925,7 @@ scaled_product_avx2 (SonarComplex * out, const float *r_re,
       const __m256i is_hi = _mm256_cmpeq_epi32 (delta, delta_hi);
       __m256 w[6], sum_re, sum_im, rr, ri, tr, ti, out_re, out_im, low,
           high, next_re;
+      int lo_lanes, hi_lanes;
 
       /* lagrange6_weights (), lane by lane, in fewer operations (the
        * vector's time goes in its arithmetic): the factors (f - m) by
@@ -951,8 +954,24 @@ scaled_product_avx2 (SonarComplex * out, const float *r_re,
 
       /* Each tap into the sums as it is loaded: tap arrays held across
        * the two ways were kept in memory. */
-      if (_mm256_movemask_ps (_mm256_castsi256_ps (_mm256_or_si256 (is_lo,
-                      is_hi))) == 0xff) {
+      lo_lanes = _mm256_movemask_ps (_mm256_castsi256_ps (is_lo));
+      hi_lanes = _mm256_movemask_ps (_mm256_castsi256_ps (is_hi));
+      if (lo_lanes == 0xff || hi_lanes == 0xff) {
+        /* Every lane's node at node_0 + l + delta, one delta: tap t of
+         * every lane in one plain load, its weight as it is (most vectors
+         * when |step - 1| is small). */
+        const int delta0 = hi_lanes == 0xff ? lo + 1 : lo;
+        const float *base_re = v_re + (node0 - 2 + delta0);
+        const float *base_im = v_im + (node0 - 2 + delta0);
+        sum_re = _mm256_mul_ps (w[0], _mm256_loadu_ps (base_re));
+        sum_im = _mm256_mul_ps (w[0], _mm256_loadu_ps (base_im));
+        for (int t = 1; t < 6; t++) {
+          sum_re = _mm256_fmadd_ps (w[t], _mm256_loadu_ps (base_re + t),
+              sum_re);
+          sum_im = _mm256_fmadd_ps (w[t], _mm256_loadu_ps (base_im + t),
+              sum_im);
+        }
+      } else if ((lo_lanes | hi_lanes) == 0xff) {
         const float *base_re = v_re + (node0 - 2 + lo);
         const float *base_im = v_im + (node0 - 2 + lo);
         /* 1 in the lanes of node_0 + l + lo + 1, 0 in the others: a

@@ -867,7 +867,9 @@ steer_sums_phasors_avx2 (SonarComplex * out, const SonarComplex * x,
  * weights are chosen, once for both parts, not the taps. Only the lanes
  * of one kind have a tap in L_0 (in L_6): masked loads, so that nothing
  * outside the taps is read (a lane not loaded reads 0, times a finite
- * weight). Other vectors gather their taps, 12 gathers (slower). */
+ * weight). When every lane has the same delta, six plain loads and the
+ * weights as they are (no choice, no masked load). Other vectors gather
+ * their taps, 12 gathers (slower). */
 AVX2_TARGET static void
 scaled_product_avx2 (SonarComplex * out, const float *r_re,
     const float *r_im, const float *v_re, const float *v_im, guint n,
@@ -923,6 +925,7 @@ scaled_product_avx2 (SonarComplex * out, const float *r_re,
       const __m256i is_hi = _mm256_cmpeq_epi32 (delta, delta_hi);
       __m256 w[6], sum_re, sum_im, rr, ri, tr, ti, out_re, out_im, low,
           high, next_re;
+      int lo_lanes, hi_lanes;
 
       /* lagrange6_weights (), lane by lane, in fewer operations (the
        * vector's time goes in its arithmetic): the factors (f - m) by
@@ -951,8 +954,24 @@ scaled_product_avx2 (SonarComplex * out, const float *r_re,
 
       /* Each tap into the sums as it is loaded: tap arrays held across
        * the two ways were kept in memory. */
-      if (_mm256_movemask_ps (_mm256_castsi256_ps (_mm256_or_si256 (is_lo,
-                      is_hi))) == 0xff) {
+      lo_lanes = _mm256_movemask_ps (_mm256_castsi256_ps (is_lo));
+      hi_lanes = _mm256_movemask_ps (_mm256_castsi256_ps (is_hi));
+      if (lo_lanes == 0xff || hi_lanes == 0xff) {
+        /* Every lane's node at node_0 + l + delta, one delta: tap t of
+         * every lane in one plain load, its weight as it is (most vectors
+         * when |step - 1| is small). */
+        const int delta0 = hi_lanes == 0xff ? lo + 1 : lo;
+        const float *base_re = v_re + (node0 - 2 + delta0);
+        const float *base_im = v_im + (node0 - 2 + delta0);
+        sum_re = _mm256_mul_ps (w[0], _mm256_loadu_ps (base_re));
+        sum_im = _mm256_mul_ps (w[0], _mm256_loadu_ps (base_im));
+        for (int t = 1; t < 6; t++) {
+          sum_re = _mm256_fmadd_ps (w[t], _mm256_loadu_ps (base_re + t),
+              sum_re);
+          sum_im = _mm256_fmadd_ps (w[t], _mm256_loadu_ps (base_im + t),
+              sum_im);
+        }
+      } else if ((lo_lanes | hi_lanes) == 0xff) {
         const float *base_re = v_re + (node0 - 2 + lo);
         const float *base_im = v_im + (node0 - 2 + lo);
         /* 1 in the lanes of node_0 + l + lo + 1, 0 in the others: a
@@ -1206,6 +1225,290 @@ rank_pass_avx512 (const float *x, gsize stride, guint n_rows,
 
 #undef RANK_ROW_AVX512
 
+/* scaled_product_generic () by vectors of 16 bins. Bin k0 + l is at
+ * base + l step, base = x0 + k0 step; with node_0 = floor (base) and fb =
+ * base - node_0 (exact, as the reference computes them), lane l's node is
+ * node_0 + l + delta_l, delta_l = floor (s_l), and its fraction s_l -
+ * delta_l, s_l = fb + l (step - 1) in float: a few operations for the 16
+ * positions, within 1e-6 of the exact ones (the excess l (step - 1) is
+ * small). A lane within that of a node may take the node next to it with
+ * a fraction near 1 (near 0): the same value, V being continuous there,
+ * and only its tap 0 (tap 5) can fall outside the call's taps, with a
+ * weight near 0: those are masked (read as 0).
+ *
+ * The taps, by the fastest way that holds:
+ * - when every delta_l is lo or lo + 1 (|step - 1| < 1/15), seven
+ *   unaligned loads L_j = v[node_0 - 2 + lo + j + l], lane l weighting L_j
+ *   by w_j (delta lo) or w_(j-1) (delta lo + 1), the weights chosen once
+ *   for both parts as in scaled_product_avx2 () (L_0 and L_6 masked loads);
+ * - for steps in [0.5, 1.73), the 32 floats from node_0 - 2 hold every
+ *   tap of the vector: two registers a part, each tap a permute of them
+ *   (loaded with masks up to the call's last tap);
+ * - for steps in [1.73, 2], gathers.
+ * Other steps take the reference (the float positions' error grows with
+ * |step - 1|). */
+#define SCALED_LANES 16
+G_STATIC_ASSERT (RESEED_INTERVAL % SCALED_LANES == 0);
+
+typedef struct
+{
+  __m512 excess;                /* l (step - 1), lane l */
+  double x0, step;
+  gssize first, last;           /* the call's first and last taps */
+  float lo;                     /* the smaller delta of the loads' way */
+  gboolean near;                /* the loads' way may hold */
+  gboolean permute;             /* the permutes' way holds */
+} ScaledCall;
+
+/* Bins k .. k + m - 1 (m <= SCALED_LANES, a constant where it is
+ * inlined; bin k's node @node0, its fraction @fraction) on the gain times
+ * the phasors at *phasor_re, *phasor_im. */
+static inline __attribute__ ((always_inline)) AVX512_TARGET void
+scaled_vector_avx512 (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint k,
+    guint m, gssize node0, float fraction, const ScaledCall * c,
+    const __m512 * phasor_re, const __m512 * phasor_im)
+{
+  const __mmask16 lanes = m >= 16 ? 0xffff : (1u << m) - 1;
+  const __m512 s = _mm512_add_ps (_mm512_set1_ps (fraction), c->excess);
+  const __m512 delta = _mm512_roundscale_ps (s, _MM_FROUND_TO_NEG_INF |
+      _MM_FROUND_NO_EXC);
+  const __m512 f = _mm512_sub_ps (s, delta);
+  gboolean loaded = FALSE;
+  __m512 w[6], sum_re, sum_im, rr, ri, tr, ti, o_re, o_im;
+
+  /* The weights as in scaled_product_avx2 (). */
+  {
+    const __m512 d01 = _mm512_fmadd_ps (f, _mm512_add_ps (f,
+            _mm512_set1_ps (3.0f)), _mm512_set1_ps (2.0f));
+    const __m512 d23 = _mm512_fmsub_ps (f, f, f);
+    const __m512 d45 = _mm512_fmadd_ps (f, _mm512_sub_ps (f,
+            _mm512_set1_ps (5.0f)), _mm512_set1_ps (6.0f));
+    const __m512 d0123 = _mm512_mul_ps (d01, d23);
+    const __m512 d2345 = _mm512_mul_ps (d23, d45);
+    const __m512 d0145 = _mm512_mul_ps (d01, d45);
+#define SCALED_FACTOR(m, c) \
+  _mm512_fmadd_ps (f, _mm512_set1_ps (c), _mm512_set1_ps (-(m) * (c)))
+    w[0] = _mm512_mul_ps (SCALED_FACTOR (-1, -1.0f / 120.0f), d2345);
+    w[1] = _mm512_mul_ps (SCALED_FACTOR (-2, 1.0f / 24.0f), d2345);
+    w[2] = _mm512_mul_ps (SCALED_FACTOR (1, -1.0f / 12.0f), d0145);
+    w[3] = _mm512_mul_ps (SCALED_FACTOR (0, 1.0f / 12.0f), d0145);
+    w[4] = _mm512_mul_ps (d0123, SCALED_FACTOR (3, -1.0f / 24.0f));
+    w[5] = _mm512_mul_ps (d0123, SCALED_FACTOR (2, 1.0f / 120.0f));
+#undef SCALED_FACTOR
+  }
+
+  /* The loads' way, when its loads (up to node_0 + 19 + lo) stay within
+   * the call's taps. */
+  if (m == SCALED_LANES && c->near && node0 + 19 + (gssize) c->lo <= c->last) {
+    const __mmask16 is_lo = _mm512_cmp_ps_mask (delta,
+        _mm512_set1_ps (c->lo), _CMP_EQ_OQ);
+    const __mmask16 is_hi = _mm512_cmp_ps_mask (delta,
+        _mm512_set1_ps (c->lo + 1.0f), _CMP_EQ_OQ);
+    if (_mm512_kortestc (is_lo, is_hi)) {
+      const float *base_re = v_re + (node0 - 2 + (gssize) c->lo);
+      const float *base_im = v_im + (node0 - 2 + (gssize) c->lo);
+      sum_re = _mm512_mul_ps (w[0], _mm512_maskz_loadu_ps (is_lo, base_re));
+      sum_im = _mm512_mul_ps (w[0], _mm512_maskz_loadu_ps (is_lo, base_im));
+      for (int j = 1; j < 6; j++) {
+        const __m512 weight = _mm512_mask_blend_ps (is_hi, w[j], w[j - 1]);
+        sum_re = _mm512_fmadd_ps (weight, _mm512_loadu_ps (base_re + j),
+            sum_re);
+        sum_im = _mm512_fmadd_ps (weight, _mm512_loadu_ps (base_im + j),
+            sum_im);
+      }
+      sum_re = _mm512_fmadd_ps (w[5], _mm512_maskz_loadu_ps (is_hi,
+              base_re + 6), sum_re);
+      sum_im = _mm512_fmadd_ps (w[5], _mm512_maskz_loadu_ps (is_hi,
+              base_im + 6), sum_im);
+      loaded = TRUE;
+    }
+  }
+  if (!loaded) {
+    /* node_l - node_0 */
+    const __m512i rel = _mm512_add_epi32 (_mm512_cvtps_epi32 (delta),
+        _mm512_setr_epi32 (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
+            14, 15));
+    if (c->permute) {
+      /* The window's floats up to the call's last tap; a lane's tap past
+       * it (or past the window: the index wraps) has a weight near 0. */
+      const gssize count = c->last - (node0 - 2) + 1;
+      const __mmask16 low = count >= 16 ? 0xffff : (1u << count) - 1;
+      const __mmask16 high = count >= 32 ? 0xffff : count <= 16 ? 0 :
+          (1u << (count - 16)) - 1;
+      const float *wr = v_re + (node0 - 2);
+      const float *wi = v_im + (node0 - 2);
+      const __m512 lo_re = _mm512_maskz_loadu_ps (low, wr);
+      const __m512 hi_re = _mm512_maskz_loadu_ps (high, wr + 16);
+      const __m512 lo_im = _mm512_maskz_loadu_ps (low, wi);
+      const __m512 hi_im = _mm512_maskz_loadu_ps (high, wi + 16);
+
+      sum_re = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_re, rel,
+              hi_re));
+      sum_im = _mm512_mul_ps (w[0], _mm512_permutex2var_ps (lo_im, rel,
+              hi_im));
+      for (int t = 1; t < 6; t++) {
+        const __m512i index = _mm512_add_epi32 (rel, _mm512_set1_epi32 (t));
+        sum_re = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_re,
+                index, hi_re), sum_re);
+        sum_im = _mm512_fmadd_ps (w[t], _mm512_permutex2var_ps (lo_im,
+                index, hi_im), sum_im);
+      }
+    } else {
+      const __m512i first = _mm512_add_epi32 (rel,
+          _mm512_set1_epi32 ((int) node0 - 2));
+      sum_re = sum_im = _mm512_setzero_ps ();
+      for (int t = 0; t < 6; t++) {
+        const __m512i index = _mm512_add_epi32 (first,
+            _mm512_set1_epi32 (t));
+        const __mmask16 in = t == 0 ? _mm512_mask_cmpge_epi32_mask (lanes,
+            index, _mm512_set1_epi32 ((int) c->first)) : t == 5 ?
+            _mm512_mask_cmple_epi32_mask (lanes, index,
+            _mm512_set1_epi32 ((int) c->last)) : lanes;
+        sum_re = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
+            (_mm512_setzero_ps (), in, index, v_re, 4), sum_re);
+        sum_im = _mm512_fmadd_ps (w[t], _mm512_mask_i32gather_ps
+            (_mm512_setzero_ps (), in, index, v_im, 4), sum_im);
+      }
+    }
+  }
+
+  /* (r V) (gain phasor), as the reference groups it. */
+  rr = _mm512_maskz_loadu_ps (lanes, r_re + k);
+  ri = _mm512_maskz_loadu_ps (lanes, r_im + k);
+  tr = _mm512_fmsub_ps (rr, sum_re, _mm512_mul_ps (ri, sum_im));
+  ti = _mm512_fmadd_ps (rr, sum_im, _mm512_mul_ps (ri, sum_re));
+  o_re = _mm512_fmsub_ps (tr, *phasor_re, _mm512_mul_ps (ti, *phasor_im));
+  o_im = _mm512_fmadd_ps (tr, *phasor_im, _mm512_mul_ps (ti, *phasor_re));
+  {
+    const __m512i first_half = _mm512_setr_epi32 (0, 16, 1, 17, 2, 18, 3,
+        19, 4, 20, 5, 21, 6, 22, 7, 23);
+    const __m512i second_half = _mm512_setr_epi32 (8, 24, 9, 25, 10, 26,
+        11, 27, 12, 28, 13, 29, 14, 30, 15, 31);
+    const __m512 a = _mm512_permutex2var_ps (o_re, first_half, o_im);
+    const __m512 b = _mm512_permutex2var_ps (o_re, second_half, o_im);
+    if (m >= 16) {
+      _mm512_storeu_ps ((float *) (out + k), a);
+      _mm512_storeu_ps ((float *) (out + k + 8), b);
+    } else {
+      _mm512_mask_storeu_ps ((float *) (out + k), m >= 8 ? 0xffff :
+          (1u << (2 * m)) - 1, a);
+      if (m > 8)
+        _mm512_mask_storeu_ps ((float *) (out + k + 8),
+            (1u << (2 * (m - 8))) - 1, b);
+    }
+  }
+}
+
+AVX512_TARGET static void
+scaled_product_avx512 (SonarComplex * out, const float *r_re,
+    const float *r_im, const float *v_re, const float *v_im, guint n,
+    double x0, double step, double phase0, double dphase, float gain)
+{
+  const double cd = cos (dphase), sd = sin (dphase);
+  double offset_re[SCALED_LANES], offset_im[SCALED_LANES];
+  double seed_re = cos (phase0), seed_im = sin (phase0);
+  double jump_re, jump_im;      /* rotation by RESEED_INTERVAL bins */
+  float excess[SCALED_LANES];
+  __m512 step_re, step_im;
+  ScaledCall c;
+
+  /* The nodes are int32 lanes: a table past 2^30 takes the reference, as
+   * do the steps the float positions do not cover. */
+  if (n == 0)
+    return;
+  if (!(fmax (x0, x0 + (n - 1) * step) < (double) (1 << 30))
+      || !(step >= 0.5 && step <= 2.0)) {
+    scaled_product_generic (out, r_re, r_im, v_re, v_im, n, x0, step, phase0,
+        dphase, gain);
+    return;
+  }
+  c.x0 = x0;
+  c.step = step;
+  c.first = (gssize) floor (x0) - 2;
+  c.last = (gssize) floor (POSITION_UNFUSED (x0, (double) (n - 1),
+          step)) + 3;
+  c.lo = step >= 1.0 ? 0.0f : -1.0f;
+  c.near = fabs (step - 1.0) < 1.0 / 15.0;
+  /* The last lane's node is below node_0 + 1 + 15 step: node_0 + 26 at
+   * most, its tap 5 the window's last float. */
+  c.permute = step < 1.73;
+  for (int l = 0; l < SCALED_LANES; l++)
+    excess[l] = (float) (l * (step - 1.0));
+  c.excess = _mm512_loadu_ps (excess);
+
+  /* exp(i l dphase) in double; exp(i 16 dphase) in float for the steps,
+   * squared in double up to the reseeds' rotation. */
+  offset_re[0] = 1.0;
+  offset_im[0] = 0.0;
+  for (int l = 1; l < SCALED_LANES; l++) {
+    offset_re[l] = offset_re[l - 1] * cd - offset_im[l - 1] * sd;
+    offset_im[l] = offset_re[l - 1] * sd + offset_im[l - 1] * cd;
+  }
+  jump_re = offset_re[SCALED_LANES - 1] * cd - offset_im[SCALED_LANES - 1]
+      * sd;
+  jump_im = offset_re[SCALED_LANES - 1] * sd + offset_im[SCALED_LANES - 1]
+      * cd;
+  step_re = _mm512_set1_ps ((float) jump_re);
+  step_im = _mm512_set1_ps ((float) jump_im);
+  for (int k = SCALED_LANES; k < RESEED_INTERVAL; k *= 2) {
+    const double re = jump_re * jump_re - jump_im * jump_im;
+    jump_im = 2.0 * jump_re * jump_im;
+    jump_re = re;
+  }
+
+  for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
+    const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
+    float seeded_re[SCALED_LANES], seeded_im[SCALED_LANES];
+    float fraction[RESEED_INTERVAL / SCALED_LANES];
+    int node[RESEED_INTERVAL / SCALED_LANES];
+    __m512 phasor_re, phasor_im;
+    double next_re;
+    guint v = 0;
+
+    for (int l = 0; l < SCALED_LANES; l++) {
+      seeded_re[l] = (float) (gain * (seed_re * offset_re[l] - seed_im *
+              offset_im[l]));
+      seeded_im[l] = (float) (gain * (seed_re * offset_im[l] + seed_im *
+              offset_re[l]));
+    }
+    next_re = seed_re * jump_re - seed_im * jump_im;
+    seed_im = seed_re * jump_im + seed_im * jump_re;
+    seed_re = next_re;
+    phasor_re = _mm512_loadu_ps (seeded_re);
+    phasor_im = _mm512_loadu_ps (seeded_im);
+    /* The interval's vectors' first positions at once, as the reference
+     * computes them (the scalar work of one took a few percent). */
+    {
+      const __m256d x = POSITION_UNFUSED (_mm256_set1_pd (x0),
+          _mm256_add_pd (_mm256_set1_pd ((double) k0), _mm256_setr_pd (0.0,
+                  SCALED_LANES, 2 * SCALED_LANES, 3 * SCALED_LANES)),
+          _mm256_set1_pd (step));
+      const __m256d floor_x = _mm256_floor_pd (x);
+      G_STATIC_ASSERT (RESEED_INTERVAL == 4 * SCALED_LANES);
+      _mm_storeu_ps (fraction, _mm256_cvtpd_ps (_mm256_sub_pd (x,
+                  floor_x)));
+      _mm_storeu_si128 ((__m128i *) node, _mm256_cvttpd_epi32 (floor_x));
+    }
+    for (guint k = k0; k < k1; k += SCALED_LANES, v++) {
+      __m512 rotated;
+      if (k1 - k >= SCALED_LANES)
+        scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, SCALED_LANES,
+            node[v], fraction[v], &c, &phasor_re, &phasor_im);
+      else
+        scaled_vector_avx512 (out, r_re, r_im, v_re, v_im, k, k1 - k,
+            node[v], fraction[v], &c, &phasor_re, &phasor_im);
+      rotated = _mm512_fmsub_ps (phasor_re, step_re, _mm512_mul_ps
+          (phasor_im, step_im));
+      phasor_im = _mm512_fmadd_ps (phasor_re, step_im, _mm512_mul_ps
+          (phasor_im, step_re));
+      phasor_re = rotated;
+    }
+  }
+}
+
+#undef SCALED_LANES
+
 #endif /* HAVE_AVX2_KERNELS */
 
 /* ORC versions -----------------------------------------------------------*/
@@ -1351,6 +1654,7 @@ const SonarScaledProductImpl sonar_kernel_scaled_product_impls[] = {
   {"generic", scaled_product_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
   {"avx2", scaled_product_avx2, cpu_has_avx2_fma},
+  {"avx512", scaled_product_avx512, cpu_has_avx512f},
 #endif
   {NULL, NULL, NULL}
 };

@@ -156,7 +156,11 @@ extern const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[];
  * a rotation per bin, re-seeded every 64 bins. The fast version reads a
  * vector's taps from contiguous loads when |step - 1| < 1/8 (over 8
  * bins the nodes then step by one a bin but once at most, by 0 or 2),
- * and gathers them otherwise (about 1.6 times as long). */
+ * and gathers them otherwise (about 1.6 times as long). The AVX-512
+ * version does 16 bins a vector, from loads (|step - 1| < 1/15), from
+ * permutes of a 32-float window (step < 1.73) or gathers (up to 2; other
+ * steps take the reference); its positions are float offsets from an
+ * exact node (within 1e-6). */
 void sonar_kernel_scaled_product (SonarComplex * out, const float *r_re,
     const float *r_im, const float *v_re, const float *v_im, guint n,
     double x0, double step, double phase0, double dphase, float gain);

@@ -9,6 +9,11 @@
 #include "sonar-kernels.h"
 #include "sonar-rng.h"
 
+#ifdef G_OS_UNIX
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
+
 static const guint lengths[] = { 0, 1, 7, 8, 9, 63, 64, 65, 200, 2882 };
 
 static void
@@ -429,6 +434,17 @@ static const ScaledCase scaled_cases[] = {
   {2.0, 1.3, 0.6, 0.02, 1.0f},
   {2.1, 0.6, 0.6, 2.0, 1.0f},
   {4000.75, 1.7, 0.6, 0.2, 0.25f},
+  /* The AVX-512 version's bounds: its loads' way (every lane's node
+   * within one of node_0 + l over 16 bins: |step - 1| < 1/15), its
+   * permutes' (step < 1.73) and its gathers (up to 2). */
+  {2.93, 1.0 + 1.0 / 15.0 - 1e-6, 0.2, 0.4, 1.0f},
+  {2.01, 1.0 + 1.0 / 15.0 + 1e-6, 0.2, -0.4, 1.0f},
+  {2.99, 1.0 - 1.0 / 15.0 + 1e-6, 0.2, 0.1, 1.0f},
+  {2.0, 1.0 - 1.0 / 15.0 - 1e-6, 0.2, 0.1, 1.0f},
+  {2.7, 1.729, 0.0, 0.3, 1.0f},
+  {2.2, 1.731, 0.0, 0.3, 1.0f},
+  {2.0, 2.0, 0.5, 0.5, 1.0f},
+  {2.5, 0.5, 0.5, 0.5, 1.0f},
 };
 
 /* floor (x0 + k step) as the kernels compute it: the table holds the
@@ -448,7 +464,8 @@ test_scaled_product (gconstpointer data)
 {
   enum { N = 2883 };
   static const guint scaled_lengths[] = { 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
-    12, 13, 14, 15, 16, 17, 63, 64, 65, 72, 200, N
+    12, 13, 14, 15, 16, 17, 18, 23, 24, 25, 31, 32, 33, 47, 48, 49, 63, 64,
+    65, 72, 79, 80, 81, 200, N
   };
   const SonarScaledProductImpl *impl = data;
   const SonarScaledProductFn reference =
@@ -595,6 +612,96 @@ test_scaled_product_exact (gconstpointer data)
     }
   }
 }
+
+#ifdef G_OS_UNIX
+/* @length floats with an inaccessible page right after them (@after) or
+ * right before them: a read past the table's end (start) faults even
+ * from a masked load's lanes that are not masked, which AddressSanitizer
+ * does not follow. Freed by guarded_free (). */
+static float *
+guarded_new (gsize length, gboolean after, gpointer * mapping, gsize * size)
+{
+  const gsize page = (gsize) sysconf (_SC_PAGESIZE);
+  const gsize data = (length * sizeof (float) + page - 1) / page * page;
+  guint8 *base;
+
+  *size = data + page;
+  base = mmap (NULL, *size, PROT_READ | PROT_WRITE, MAP_PRIVATE |
+      MAP_ANONYMOUS, -1, 0);
+  g_assert_true (base != MAP_FAILED);
+  *mapping = base;
+  if (after) {
+    g_assert_cmpint (mprotect (base + data, page, PROT_NONE), ==, 0);
+    return (float *) (base + data) - length;
+  }
+  g_assert_cmpint (mprotect (base, page, PROT_NONE), ==, 0);
+  return (float *) (base + page);
+}
+
+/* Every implementation on tables of exactly the taps' length, their end
+ * (their start) against an inaccessible page: none reads a float outside
+ * them, masked loads included. */
+static void
+test_scaled_product_guarded (gconstpointer data)
+{
+  enum { N = 700 };
+  static const guint guarded_lengths[] = { 1, 5, 15, 16, 17, 31, 32, 33,
+    64, 65, 79, 80, 81, N
+  };
+  const SonarScaledProductImpl *impl = data;
+  const SonarScaledProductFn reference =
+      sonar_kernel_scaled_product_impls[0].fn;
+  SonarRng rng;
+  float r_re[N], r_im[N];
+  SonarComplex fast[N], ref[N];
+  double r_max = 0.0;
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 47, 0);
+  for (guint k = 0; k < N; k++) {
+    r_re[k] = (float) sonar_rng_gaussian (&rng);
+    r_im[k] = (float) sonar_rng_gaussian (&rng);
+    r_max = MAX (r_max, hypot (r_re[k], r_im[k]));
+  }
+  for (guint c = 0; c < G_N_ELEMENTS (scaled_cases); c++) {
+    ScaledCase sc = scaled_cases[c];
+    /* Near the table's start, where its first tap is v[0]. */
+    sc.x0 = 2.0 + fmod (sc.x0, 1.0);
+    for (guint t = 0; t < G_N_ELEMENTS (guarded_lengths); t++) {
+      for (int after = 0; after < 2; after++) {
+        const guint n = guarded_lengths[t];
+        const gsize length = scaled_table_length (&sc, n);
+        gpointer map_re, map_im;
+        gsize size_re, size_im;
+        float *v_re = guarded_new (length, after, &map_re, &size_re);
+        float *v_im = guarded_new (length, after, &map_im, &size_im);
+        double v_max = 0.0, scale;
+
+        for (gsize m = 0; m < length; m++) {
+          v_re[m] = (float) sonar_rng_gaussian (&rng);
+          v_im[m] = (float) sonar_rng_gaussian (&rng);
+          v_max = MAX (v_max, hypot (v_re[m], v_im[m]));
+        }
+        scale = r_max * v_max * sc.gain;
+        impl->fn (fast, r_re, r_im, v_re, v_im, n, sc.x0, sc.step,
+            sc.phase0, sc.dphase, sc.gain);
+        reference (ref, r_re, r_im, v_re, v_im, n, sc.x0, sc.step,
+            sc.phase0, sc.dphase, sc.gain);
+        munmap (map_re, size_re);
+        munmap (map_im, size_im);
+        for (guint k = 0; k < n; k++)
+          if (!(cabsf (fast[k] - ref[k]) <= 1e-5 * scale)) {
+            g_test_fail_printf ("x0 %g step %.10g n %u: bin %u is "
+                "%g%+gi, the reference's %g%+gi", sc.x0, sc.step, n, k,
+                crealf (fast[k]), cimagf (fast[k]), crealf (ref[k]),
+                cimagf (ref[k]));
+            return;
+          }
+      }
+    }
+  }
+}
+#endif
 
 static void
 test_envelope (gconstpointer data)
@@ -1129,6 +1236,10 @@ main (int argc, char **argv)
       test_scaled_product);
   ADD_IMPL_TESTS ("scaled-product-exact", sonar_kernel_scaled_product_impls,
       test_scaled_product_exact);
+#ifdef G_OS_UNIX
+  ADD_IMPL_TESTS ("scaled-product-guarded", sonar_kernel_scaled_product_impls,
+      test_scaled_product_guarded);
+#endif
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);
   ADD_IMPL_TESTS ("peak", sonar_kernel_peak_impls, test_peak);
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);

@@ -17,10 +17,12 @@ G_BEGIN_DECLS
  * FFTW_PATIENT by tools/fftw-wisdom for the default set-up's transforms),
  * and FFTW's estimate planner takes wisdom of any rigour for a problem it
  * has. The plan is then fixed by that text, not by timings measured at run
- * time. Problems without wisdom are estimated as before. A CPU whose FFTW
- * has other SIMD codelets than the generator's (say, no AVX-512) refuses
- * the whole wisdom (its configuration signature differs): every plan is
- * then estimated, as before the wisdom, still the same on every run.
+ * time. Problems without wisdom are estimated as before. FFTW registers
+ * its SIMD codelets by what the CPU has (the wisdom here names SSE2 and
+ * AVX ones), so on a CPU without them, or with another FFTW, its
+ * configuration signature differs and it refuses the whole wisdom: every
+ * plan is then estimated, as before the wisdom, still the same on every
+ * run.
  *
  * Every plan of the core must be made under sonar_fftw_lock (): the wisdom
  * must be in before the first plan, or FFTW keeps that plan's estimate. */

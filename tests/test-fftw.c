@@ -193,7 +193,7 @@ test_same_bits (void)
 }
 
 /* Wisdom FFTW cannot take (another configuration's signature; a codelet
- * this FFTW lacks, as AVX-512 ones on a CPU without it) is refused whole,
+ * this FFTW lacks, as a SIMD one on a CPU without it) is refused whole,
  * the wisdom held is kept, and planning works on. */
 static void
 test_foreign_refused (void)

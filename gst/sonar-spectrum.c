@@ -7,20 +7,6 @@
 #include <math.h>
 #include <string.h>
 
-static GMutex fftw_planner_lock;
-
-void
-sonar_fftw_lock (void)
-{
-  g_mutex_lock (&fftw_planner_lock);
-}
-
-void
-sonar_fftw_unlock (void)
-{
-  g_mutex_unlock (&fftw_planner_lock);
-}
-
 guint
 sonar_fft_good_size (guint n)
 {

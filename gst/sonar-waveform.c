@@ -15,6 +15,7 @@
  */
 #include "sonar-waveform.h"
 #include "sonar-error.h"
+#include "sonar-fftw.h"
 #include "sonar-rng.h"
 #include "sonar-setup.h"
 
@@ -221,17 +222,21 @@ band_filter_init (BandFilter * filter, guint length)
   filter->length = length;
   filter->time = fftwf_alloc_real (length);
   filter->freq = fftwf_alloc_complex (length / 2 + 1);
+  sonar_fftw_lock ();
   filter->forward = fftwf_plan_dft_r2c_1d (length, filter->time,
       filter->freq, FFTW_ESTIMATE);
   filter->inverse = fftwf_plan_dft_c2r_1d (length, filter->freq,
       filter->time, FFTW_ESTIMATE);
+  sonar_fftw_unlock ();
 }
 
 static void
 band_filter_clear (BandFilter * filter)
 {
+  sonar_fftw_lock ();
   fftwf_destroy_plan (filter->forward);
   fftwf_destroy_plan (filter->inverse);
+  sonar_fftw_unlock ();
   fftwf_free (filter->time);
   fftwf_free (filter->freq);
 }
@@ -303,6 +308,7 @@ correlator_init (Correlator * c, const SonarWaveformParams * p,
   c->energies = g_new (double, c->n);
   c->radial = g_new (double, c->n);
   c->lags = fftwf_alloc_complex (c->fft_size);
+  sonar_fftw_lock ();
   c->forward = fftwf_plan_dft_r2c_1d (c->fft_size, c->padded, c->spectra[0],
       FFTW_ESTIMATE);
   c->inverse = fftwf_plan_dft_c2r_1d (c->fft_size, c->gradients[0],
@@ -311,6 +317,7 @@ correlator_init (Correlator * c, const SonarWaveformParams * p,
       FFTW_BACKWARD, FFTW_ESTIMATE);
   c->lags_to_freq = fftwf_plan_dft_1d (c->fft_size, c->lags, c->lags,
       FFTW_FORWARD, FFTW_ESTIMATE);
+  sonar_fftw_unlock ();
 }
 
 static void
@@ -324,10 +331,12 @@ correlator_clear (Correlator * c)
   g_free (c->gradients);
   g_free (c->energies);
   g_free (c->radial);
+  sonar_fftw_lock ();
   fftwf_destroy_plan (c->forward);
   fftwf_destroy_plan (c->inverse);
   fftwf_destroy_plan (c->lags_to_time);
   fftwf_destroy_plan (c->lags_to_freq);
+  sonar_fftw_unlock ();
   fftwf_free (c->padded);
   fftwf_free (c->lags);
 }

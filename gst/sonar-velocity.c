@@ -2270,11 +2270,13 @@ echo_model (EchoWorker * ew, const SonarVelocityEstimate * e,
 /* subtract_model () on the @lanes (at most MODEL_LANES) microphones from
  * @j on: each one's phasor turns a bin at a time, a chain of dependent
  * products that waits on each step alone; a core runs the lanes' chains
- * side by side. Each lane's arithmetic is one microphone's as it was. */
+ * side by side. Each lane's arithmetic is one microphone's as it was.
+ * With @from_zero, the output is subtracted from zero, not read: what
+ * cleared buffers would hold, bit for bit, without clearing them. */
 static inline __attribute__ ((always_inline)) void
 subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
     const float *t_re, const float *t_im, float *re_out, float *im_out,
-    guint j, guint lanes)
+    guint j, guint lanes, gboolean from_zero)
 {
   const SonarSteering *st = &ew->est->steering;
   const guint nb = ew->est->band.n_bins;
@@ -2300,12 +2302,31 @@ subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
 #pragma GCC unroll 4
     for (guint l = 0; l < lanes; l++) {
       const float q = pr[l] * sr[l] - pi[l] * si[l];
-      re[l][k] -= pr[l] * tr - pi[l] * ti;
-      im[l][k] -= pr[l] * ti + pi[l] * tr;
+      const float r0 = from_zero ? 0.0f : re[l][k];
+      const float i0 = from_zero ? 0.0f : im[l][k];
+      re[l][k] = r0 - (pr[l] * tr - pi[l] * ti);
+      im[l][k] = i0 - (pr[l] * ti + pi[l] * tr);
       pi[l] = pr[l] * si[l] + pi[l] * sr[l];
       pr[l] = q;
     }
   }
+}
+
+/* subtract_model () and model_into () over every microphone. */
+static inline __attribute__ ((always_inline)) void
+subtract_model_mics (EchoWorker * ew, double range, double complex a,
+    const float *t_re, const float *t_im, float *re_out, float *im_out,
+    gboolean from_zero)
+{
+  const guint n_mics = ew->est->setup->geometry.n_microphones;
+  guint j = 0;
+
+  for (; j + MODEL_LANES <= n_mics; j += MODEL_LANES)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j,
+        MODEL_LANES, from_zero);
+  for (; j < n_mics; j++)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j, 1,
+        from_zero);
 }
 
 /* Subtracts @a times the model of transmit sum @t_re, @t_im (of an echo at
@@ -2314,14 +2335,17 @@ static void
 subtract_model (EchoWorker * ew, double range, double complex a,
     const float *t_re, const float *t_im, float *re_out, float *im_out)
 {
-  const guint n_mics = ew->est->setup->geometry.n_microphones;
-  guint j = 0;
+  subtract_model_mics (ew, range, a, t_re, t_im, re_out, im_out, FALSE);
+}
 
-  for (; j + MODEL_LANES <= n_mics; j += MODEL_LANES)
-    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j,
-        MODEL_LANES);
-  for (; j < n_mics; j++)
-    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j, 1);
+/* The model of transmit sum @t_re, @t_im (of an echo at @range m,
+ * ew->mic_legs its legs) into @re_out, @im_out: subtract_model () of -1
+ * times it from zeroed spectra, in one pass over them instead of two. */
+static void
+model_into (EchoWorker * ew, double range, const float *t_re,
+    const float *t_im, float *re_out, float *im_out)
+{
+  subtract_model_mics (ew, range, -1.0, t_re, t_im, re_out, im_out, TRUE);
 }
 
 /* <model, X> over every microphone and bin, for the model of transmit sum
@@ -2467,8 +2491,6 @@ echo_shape (EchoWorker * ew, const SonarCentroid * centroid,
     const SonarVelocityEstimate * e, guint * half_width)
 {
   SonarVelocityEstimator *est = ew->est;
-  const gsize size = (gsize) est->setup->geometry.n_microphones *
-      est->band.n_bins;
   const SonarSplitSpectra model = { ew->model_re, ew->model_im };
   const double step = est->grid.azimuth_step;
   guint v = e->bank_index;
@@ -2481,11 +2503,9 @@ echo_shape (EchoWorker * ew, const SonarCentroid * centroid,
   if (!(step > 0.0) || est->grid.n_azimuth < 2)
     return ECHO_LONE;
   set_window_lags (est, centroid);
-  memset (ew->model_re, 0, size * sizeof (float));
-  memset (ew->model_im, 0, size * sizeof (float));
   echo_model (ew, e, e->bank_index, ew->transmit_re, ew->transmit_im);
-  subtract_model (ew, e->range, -1.0, ew->transmit_re, ew->transmit_im,
-      ew->model_re, ew->model_im);
+  model_into (ew, e->range, ew->transmit_re, ew->transmit_im, ew->model_re,
+      ew->model_im);
   est->focused = FALSE;
   coherence_over (est, &model, e->range, e->azimuth, e->elevation, &v, 1,
       &model_top, NULL, NULL, NULL);
@@ -2583,14 +2603,11 @@ candidate_grams (EchoWorker * ew, double range, int b,
   const SonarSteering *st = &est->steering;
   const guint n_mics = est->setup->geometry.n_microphones;
   const guint nb = est->band.n_bins;
-  const gsize size = (gsize) n_mics * nb;
   const SonarSplitSpectra model = { ew->split_re, ew->split_im };
 
-  memset (ew->split_re, 0, size * sizeof (float));
-  memset (ew->split_im, 0, size * sizeof (float));
   memcpy (ew->mic_legs, ew->split_legs + (gsize) b * n_mics,
       n_mics * sizeof (double));
-  subtract_model (ew, range, -1.0, ew->split_t_re + (gsize) b * nb,
+  model_into (ew, range, ew->split_t_re + (gsize) b * nb,
       ew->split_t_im + (gsize) b * nb, ew->split_re, ew->split_im);
   for (guint i = 0; i < n_as; i++) {
     double power;

@@ -2266,15 +2266,19 @@ echo_model (EchoWorker * ew, const SonarVelocityEstimate * e,
       sonar_steering_stretch (st, v), 0, n_emitters, t_re, t_im);
 }
 
-/* Microphones whose models subtract_model () makes together. */
+/* Microphones whose models subtract_model () makes together: one vector
+ * of each value, a lane a microphone. */
 #define MODEL_LANES 4
+typedef float ModelLanes __attribute__ ((vector_size (MODEL_LANES *
+            sizeof (float))));
 
 /* subtract_model () on the @lanes (at most MODEL_LANES) microphones from
  * @j on: each one's phasor turns a bin at a time, a chain of dependent
- * products that waits on each step alone; a core runs the lanes' chains
- * side by side. Each lane's arithmetic is one microphone's as it was.
- * With @from_zero, the output is subtracted from zero, not read: what
- * cleared buffers would hold, bit for bit, without clearing them. */
+ * products that waits on each step alone; the lanes' chains run side by
+ * side in vectors. Each lane's arithmetic is one microphone's as it was
+ * (the same float operations, element by element). With @from_zero, the
+ * output is subtracted from zero, not read: what cleared buffers would
+ * hold, bit for bit, without clearing them. */
 static inline __attribute__ ((always_inline)) void
 subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
     const float *t_re, const float *t_im, float *re_out, float *im_out,
@@ -2282,7 +2286,7 @@ subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
 {
   const SonarSteering *st = &ew->est->steering;
   const guint nb = ew->est->band.n_bins;
-  float sr[MODEL_LANES], si[MODEL_LANES], pr[MODEL_LANES], pi[MODEL_LANES];
+  ModelLanes sr = { 0.0f }, si = { 0.0f }, pr = { 0.0f }, pi = { 0.0f };
   float *re[MODEL_LANES], *im[MODEL_LANES];
 
   for (guint l = 0; l < lanes; l++) {
@@ -2299,17 +2303,15 @@ subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
   }
   for (guint k = 0; k < nb; k++) {
     const float tr = t_re[k], ti = -t_im[k];
-    /* MODEL_LANES (the pragma takes no macro): unrolled, the lanes'
-     * phasors stay in registers, not in their arrays. */
+    const ModelLanes m_re = pr * tr - pi * ti, m_im = pr * ti + pi * tr;
+    const ModelLanes q = pr * sr - pi * si;
+    pi = pr * si + pi * sr;
+    pr = q;
+    /* MODEL_LANES (the pragma takes no macro). */
 #pragma GCC unroll 4
     for (guint l = 0; l < lanes; l++) {
-      const float q = pr[l] * sr[l] - pi[l] * si[l];
-      const float r0 = from_zero ? 0.0f : re[l][k];
-      const float i0 = from_zero ? 0.0f : im[l][k];
-      re[l][k] = r0 - (pr[l] * tr - pi[l] * ti);
-      im[l][k] = i0 - (pr[l] * ti + pi[l] * tr);
-      pi[l] = pr[l] * si[l] + pi[l] * sr[l];
-      pr[l] = q;
+      re[l][k] = (from_zero ? 0.0f : re[l][k]) - m_re[l];
+      im[l][k] = (from_zero ? 0.0f : im[l][k]) - m_im[l];
     }
   }
 }

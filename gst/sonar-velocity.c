@@ -2019,6 +2019,8 @@ typedef struct
   float *split_re, *split_im;   /* split_blend ()'s, from the first use */
   float *split_t_re, *split_t_im;       /* its candidates' transmit sums */
   double *split_legs;           /* and their microphone legs */
+  guint models_reused;          /* by split_blend (), this ping */
+  gboolean check_models;        /* made again to compare (tests) */
   float *transmit_re, *transmit_im, *transmit2_re, *transmit2_im;
   float *receive_re, *receive_im;
   double *mic_legs, *emitter_legs;
@@ -2264,21 +2266,27 @@ echo_model (EchoWorker * ew, const SonarVelocityEstimate * e,
       sonar_steering_stretch (st, v), 0, n_emitters, t_re, t_im);
 }
 
-/* Microphones whose models subtract_model () makes together. */
+/* Microphones whose models subtract_model () makes together: one vector
+ * of each value, a lane a microphone. */
 #define MODEL_LANES 4
+typedef float ModelLanes __attribute__ ((vector_size (MODEL_LANES *
+            sizeof (float))));
 
 /* subtract_model () on the @lanes (at most MODEL_LANES) microphones from
  * @j on: each one's phasor turns a bin at a time, a chain of dependent
- * products that waits on each step alone; a core runs the lanes' chains
- * side by side. Each lane's arithmetic is one microphone's as it was. */
+ * products that waits on each step alone; the lanes' chains run side by
+ * side in vectors. Each lane's arithmetic is one microphone's as it was
+ * (the same float operations, element by element). With @from_zero, the
+ * output is subtracted from zero, not read: what cleared buffers would
+ * hold, bit for bit, without clearing them. */
 static inline __attribute__ ((always_inline)) void
 subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
     const float *t_re, const float *t_im, float *re_out, float *im_out,
-    guint j, guint lanes)
+    guint j, guint lanes, gboolean from_zero)
 {
   const SonarSteering *st = &ew->est->steering;
   const guint nb = ew->est->band.n_bins;
-  float sr[MODEL_LANES], si[MODEL_LANES], pr[MODEL_LANES], pi[MODEL_LANES];
+  ModelLanes sr = { 0.0f }, si = { 0.0f }, pr = { 0.0f }, pi = { 0.0f };
   float *re[MODEL_LANES], *im[MODEL_LANES];
 
   for (guint l = 0; l < lanes; l++) {
@@ -2295,17 +2303,34 @@ subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
   }
   for (guint k = 0; k < nb; k++) {
     const float tr = t_re[k], ti = -t_im[k];
-    /* MODEL_LANES (the pragma takes no macro): unrolled, the lanes'
-     * phasors stay in registers, not in their arrays. */
+    const ModelLanes m_re = pr * tr - pi * ti, m_im = pr * ti + pi * tr;
+    const ModelLanes q = pr * sr - pi * si;
+    pi = pr * si + pi * sr;
+    pr = q;
+    /* MODEL_LANES (the pragma takes no macro). */
 #pragma GCC unroll 4
     for (guint l = 0; l < lanes; l++) {
-      const float q = pr[l] * sr[l] - pi[l] * si[l];
-      re[l][k] -= pr[l] * tr - pi[l] * ti;
-      im[l][k] -= pr[l] * ti + pi[l] * tr;
-      pi[l] = pr[l] * si[l] + pi[l] * sr[l];
-      pr[l] = q;
+      re[l][k] = (from_zero ? 0.0f : re[l][k]) - m_re[l];
+      im[l][k] = (from_zero ? 0.0f : im[l][k]) - m_im[l];
     }
   }
+}
+
+/* subtract_model () and model_into () over every microphone. */
+static inline __attribute__ ((always_inline)) void
+subtract_model_mics (EchoWorker * ew, double range, double complex a,
+    const float *t_re, const float *t_im, float *re_out, float *im_out,
+    gboolean from_zero)
+{
+  const guint n_mics = ew->est->setup->geometry.n_microphones;
+  guint j = 0;
+
+  for (; j + MODEL_LANES <= n_mics; j += MODEL_LANES)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j,
+        MODEL_LANES, from_zero);
+  for (; j < n_mics; j++)
+    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j, 1,
+        from_zero);
 }
 
 /* Subtracts @a times the model of transmit sum @t_re, @t_im (of an echo at
@@ -2314,14 +2339,17 @@ static void
 subtract_model (EchoWorker * ew, double range, double complex a,
     const float *t_re, const float *t_im, float *re_out, float *im_out)
 {
-  const guint n_mics = ew->est->setup->geometry.n_microphones;
-  guint j = 0;
+  subtract_model_mics (ew, range, a, t_re, t_im, re_out, im_out, FALSE);
+}
 
-  for (; j + MODEL_LANES <= n_mics; j += MODEL_LANES)
-    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j,
-        MODEL_LANES);
-  for (; j < n_mics; j++)
-    subtract_model_lanes (ew, range, a, t_re, t_im, re_out, im_out, j, 1);
+/* The model of transmit sum @t_re, @t_im (of an echo at @range m,
+ * ew->mic_legs its legs) into @re_out, @im_out: subtract_model () of -1
+ * times it from zeroed spectra, in one pass over them instead of two. */
+static void
+model_into (EchoWorker * ew, double range, const float *t_re,
+    const float *t_im, float *re_out, float *im_out)
+{
+  subtract_model_mics (ew, range, -1.0, t_re, t_im, re_out, im_out, TRUE);
 }
 
 /* <model, X> over every microphone and bin, for the model of transmit sum
@@ -2467,8 +2495,6 @@ echo_shape (EchoWorker * ew, const SonarCentroid * centroid,
     const SonarVelocityEstimate * e, guint * half_width)
 {
   SonarVelocityEstimator *est = ew->est;
-  const gsize size = (gsize) est->setup->geometry.n_microphones *
-      est->band.n_bins;
   const SonarSplitSpectra model = { ew->model_re, ew->model_im };
   const double step = est->grid.azimuth_step;
   guint v = e->bank_index;
@@ -2481,11 +2507,9 @@ echo_shape (EchoWorker * ew, const SonarCentroid * centroid,
   if (!(step > 0.0) || est->grid.n_azimuth < 2)
     return ECHO_LONE;
   set_window_lags (est, centroid);
-  memset (ew->model_re, 0, size * sizeof (float));
-  memset (ew->model_im, 0, size * sizeof (float));
   echo_model (ew, e, e->bank_index, ew->transmit_re, ew->transmit_im);
-  subtract_model (ew, e->range, -1.0, ew->transmit_re, ew->transmit_im,
-      ew->model_re, ew->model_im);
+  model_into (ew, e->range, ew->transmit_re, ew->transmit_im, ew->model_re,
+      ew->model_im);
   est->focused = FALSE;
   coherence_over (est, &model, e->range, e->azimuth, e->elevation, &v, 1,
       &model_top, NULL, NULL, NULL);
@@ -2571,27 +2595,27 @@ typedef struct
 } PairFit;
 
 /* <m_a, m_b> of split_blend ()'s candidate @b with each of @n_as
- * candidates @as into @grams: the model of @b built once into
- * ew->split_re, _im, then its receive sum at each a's legs dotted with
- * a's transmit sum (the steering kernels, as model_dot () does on the
- * spectra). */
+ * candidates @as into @grams: the model of @b in @model_re, @model_im
+ * (made there unless @made says they hold it), then its receive sum at
+ * each a's legs dotted with a's transmit sum (the steering kernels, as
+ * model_dot () does on the spectra). */
 static void
-candidate_grams (EchoWorker * ew, double range, int b,
-    const int *as, guint n_as, double complex *grams)
+candidate_grams (EchoWorker * ew, double range, int b, float *model_re,
+    float *model_im, gboolean made, const int *as, guint n_as,
+    double complex *grams)
 {
   const SonarVelocityEstimator *est = ew->est;
   const SonarSteering *st = &est->steering;
   const guint n_mics = est->setup->geometry.n_microphones;
   const guint nb = est->band.n_bins;
-  const gsize size = (gsize) n_mics * nb;
-  const SonarSplitSpectra model = { ew->split_re, ew->split_im };
+  const SonarSplitSpectra model = { model_re, model_im };
 
-  memset (ew->split_re, 0, size * sizeof (float));
-  memset (ew->split_im, 0, size * sizeof (float));
-  memcpy (ew->mic_legs, ew->split_legs + (gsize) b * n_mics,
-      n_mics * sizeof (double));
-  subtract_model (ew, range, -1.0, ew->split_t_re + (gsize) b * nb,
-      ew->split_t_im + (gsize) b * nb, ew->split_re, ew->split_im);
+  if (!made) {
+    memcpy (ew->mic_legs, ew->split_legs + (gsize) b * n_mics,
+        n_mics * sizeof (double));
+    model_into (ew, range, ew->split_t_re + (gsize) b * nb,
+        ew->split_t_im + (gsize) b * nb, model_re, model_im);
+  }
   for (guint i = 0; i < n_as; i++) {
     double power;
     sonar_steering_receive_sum (st, &model, ew->split_legs +
@@ -2599,6 +2623,21 @@ candidate_grams (EchoWorker * ew, double range, int b,
     grams[i] = model_dot (ew, range, ew->split_t_re +
         (gsize) as[i] * nb, ew->split_t_im + (gsize) as[i] * nb, &power);
   }
+}
+
+/* Tests (ew->check_models): whether candidate @b's model kept in buffer
+ * @kept of @models_re, @models_im is the one made anew in the other. */
+static gboolean
+kept_model_same (EchoWorker * ew, double range, int b,
+    float *const models_re[2], float *const models_im[2], int kept)
+{
+  const gsize size = (gsize) ew->est->setup->geometry.n_microphones *
+      ew->est->band.n_bins;
+
+  candidate_grams (ew, range, b, models_re[1 - kept], models_im[1 - kept],
+      FALSE, NULL, 0, NULL);
+  return !memcmp (models_re[0], models_re[1], size * sizeof (float))
+      && !memcmp (models_im[0], models_im[1], size * sizeof (float));
 }
 
 /* Fits candidates @a and @b (<m_a, X> @dots, |m|^2 @norms, <m_a, m_b>
@@ -2657,6 +2696,12 @@ split_blend (EchoWorker * ew, const SonarCentroid * centroid,
   double complex grams[SHAPE_STEPS + 1];
   int as[SHAPE_STEPS + 1];
   PairFit best = { -1, -1, 0.0, {0.0, 0.0} };
+  /* The candidates' models: the best pair's b's kept for the half steps,
+   * the next one's made in the other buffer (echo_shape ()'s, free until
+   * the halves are examined). */
+  float *const models_re[2] = { ew->split_re, ew->model_re };
+  float *const models_im[2] = { ew->split_im, ew->model_im };
+  int kept = 1;
   SonarVelocityEstimate found[2];
   double one = 0.0;
   guint n_as = 0;
@@ -2691,9 +2736,12 @@ split_blend (EchoWorker * ew, const SonarCentroid * centroid,
   for (int b = reach + SPLIT_SUBSTEPS; b < n_candidates; b += SPLIT_SUBSTEPS) {
     if (!(norms[b] > 0.0))
       continue;
-    candidate_grams (ew, blend->range, b, as, n_as, grams);
+    candidate_grams (ew, blend->range, b, models_re[1 - kept],
+        models_im[1 - kept], FALSE, as, n_as, grams);
     for (guint i = 0; i < n_as; i++)
       fit_pair (dots, norms, as[i], b, grams[i], &best);
+    if (best.b == b)
+      kept = 1 - kept;
   }
   /* Half steps around the best. */
   if (best.a >= 0) {
@@ -2704,12 +2752,24 @@ split_blend (EchoWorker * ew, const SonarCentroid * centroid,
         as[n_as++] = a;
     for (int b = MAX (b0 - 1, reach + 1); b <= MIN (b0 + 1, n_candidates - 1);
         b++) {
+      /* b0's model is kept from the whole steps, its pair with a0 fitted
+       * there. */
+      const int in = b == b0 ? kept : 1 - kept;
+      int others[3];
+      guint n_others = 0;
       if (!(norms[b] > 0.0))
         continue;
-      candidate_grams (ew, blend->range, b, as, n_as, grams);
       for (guint i = 0; i < n_as; i++)
         if (as[i] != a0 || b != b0)
-          fit_pair (dots, norms, as[i], b, grams[i], &best);
+          others[n_others++] = as[i];
+      if (b == b0)
+        ew->models_reused += !ew->check_models
+            || kept_model_same (ew, blend->range, b, models_re, models_im,
+            kept);
+      candidate_grams (ew, blend->range, b, models_re[in], models_im[in],
+          b == b0, others, n_others, grams);
+      for (guint i = 0; i < n_others; i++)
+        fit_pair (dots, norms, others[i], b, grams[i], &best);
     }
   }
   if (best.a < 0 || !(best.explained > SPLIT_GAIN * one))
@@ -2718,7 +2778,8 @@ split_blend (EchoWorker * ew, const SonarCentroid * centroid,
     /* What the pair leaves at the blend's own direction: <m_0, X - fit>. */
     const int pair[2] = { best.a, best.b };
     double complex g[2], left;
-    candidate_grams (ew, blend->range, reach, pair, 2, g);
+    candidate_grams (ew, blend->range, reach, models_re[0], models_im[0],
+        FALSE, pair, 2, g);
     left = dots[reach] - conj (g[0]) * best.x[0] - conj (g[1]) * best.x[1];
     if (!(cabs2 (left) <= SPLIT_LEFT * cabs2 (dots[reach])))
       return FALSE;
@@ -3005,6 +3066,8 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
   }
   pool->screens = pool->screen_snr;
   pool->n_examined = 0;
+  for (guint w = 0; w < sonar_workers_count (pool->workers); w++)
+    pool->echo[w].models_reused = 0;
   g_atomic_int_set (&pool->next_centroid, 0);
   sonar_workers_run (pool->workers, estimate_share, pool);
   pool->screens = NULL;
@@ -3042,6 +3105,23 @@ guint
 sonar_velocity_pool_last_examined (const SonarVelocityPool * pool)
 {
   return (guint) g_atomic_int_get (&pool->n_examined);
+}
+
+guint
+sonar_velocity_pool_last_reused (const SonarVelocityPool * pool)
+{
+  guint n = 0;
+
+  for (guint w = 0; w < sonar_workers_count (pool->workers); w++)
+    n += pool->echo[w].models_reused;
+  return n;
+}
+
+void
+sonar_velocity_pool_check_models (SonarVelocityPool * pool, gboolean check)
+{
+  for (guint w = 0; w < SONAR_MAX_WORKERS; w++)
+    pool->echo[w].check_models = check;
 }
 
 double

@@ -279,6 +279,14 @@ void sonar_velocity_pool_work (const SonarVelocityPool * pool,
  * the workers share as they share the centroids. */
 guint sonar_velocity_pool_last_examined (const SonarVelocityPool * pool);
 
+/* The echo models the last sonar_velocity_pool_estimate ()'s checks for
+ * blends of two echoes reused instead of making them again. Tests: with
+ * sonar_velocity_pool_check_models (), each is also made again, and
+ * counted only when the one reused is the same bit for bit. */
+guint sonar_velocity_pool_last_reused (const SonarVelocityPool * pool);
+void sonar_velocity_pool_check_models (SonarVelocityPool * pool,
+    gboolean check);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityEstimator,
     sonar_velocity_estimator_free)
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityPool, sonar_velocity_pool_free)

@@ -738,6 +738,58 @@ test_crowd_examined_by_workers (void)
   g_string_free (json, TRUE);
 }
 
+/* The checks for blends keep a candidate's echo model for the next pass
+ * instead of making it again: on a crowd where several models are
+ * reused, each is the one made anew bit for bit, and the estimates are
+ * the same as without checking. */
+static void
+test_blend_models_reused (void)
+{
+  GString *json = g_string_new ("{\"dimensions\": 2, \"reflectors\": [");
+  g_autoptr (GRand) rand = g_rand_new_with_seed (11);
+  SonarTruth truths[40];
+  SonarVelocityEstimate found[2][128];
+  guint n_centroids[2], n[2], reused;
+  SonarClusterParams cp;
+  Fixture f;
+  Chain reusing, checking;
+
+  for (guint i = 0; i < G_N_ELEMENTS (truths); i++)
+    g_string_append_printf (json, "%s{\"range\": %.3f, \"azimuth\": %.1f, "
+        "\"radial-velocity\": %.2f}", i ? ", " : "", g_rand_double_range
+        (rand, 1.0, 4.0), g_rand_double_range (rand, -60.0, 60.0),
+        g_rand_double_range (rand, -0.8, 0.8));
+  g_string_append (json, "]}");
+  fixture_init (&f, -1.0, 1.0, 0.05);
+  sonar_cluster_params_init_default (&cp);
+  chain_init (&reusing, &f, &cp, 1);
+  chain_init (&checking, &f, &cp, 1);
+  sonar_velocity_pool_check_models (checking.pool, TRUE);
+  n[0] = chain_run (&reusing, &f, json->str, truths, found[0],
+      &n_centroids[0]);
+  reused = sonar_velocity_pool_last_reused (reusing.pool);
+  n[1] = chain_run (&checking, &f, json->str, truths, found[1],
+      &n_centroids[1]);
+  g_test_message ("%u centroids, %u echoes examined, %u models reused",
+      n_centroids[0], sonar_velocity_pool_last_examined (reusing.pool),
+      reused);
+  g_assert_cmpuint (reused, >=, 2);
+  g_assert_cmpuint (sonar_velocity_pool_last_reused (checking.pool), ==,
+      reused);
+  g_assert_cmpuint (n_centroids[1], ==, n_centroids[0]);
+  g_assert_cmpuint (n[1], ==, n[0]);
+  for (guint k = 0; k < n_centroids[0]; k++) {
+    g_assert_cmpuint (checking.counts[k], ==, reusing.counts[k]);
+    for (guint i = 0; i < reusing.counts[k]; i++)
+      assert_same_estimate (&checking.results[2 * k + i],
+          &reusing.results[2 * k + i]);
+  }
+  chain_clear (&reusing);
+  chain_clear (&checking);
+  fixture_clear (&f);
+  g_string_free (json, TRUE);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -752,6 +804,8 @@ main (int argc, char **argv)
       test_split_not_duplicated);
   g_test_add_func ("/velocity/independent-of-order",
       test_independent_of_order);
+  g_test_add_func ("/velocity/blend-models-reused",
+      test_blend_models_reused);
   g_test_add_func ("/velocity/crowd-examined-by-workers",
       test_crowd_examined_by_workers);
   return g_test_run ();

@@ -169,14 +169,6 @@ steer_sums_phasors_generic (SonarComplex * out, const SonarComplex * x,
     out[t] = steer_sum_phasors_generic (x, re[t], im[t], n);
 }
 
-static void
-multiply_split_generic (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n)
-{
-  for (guint k = 0; k < n; k++)
-    out[k] = (a_re[k] + I * a_im[k]) * (b_re[k] + I * b_im[k]);
-}
-
 /* The weights of 6-point Lagrange interpolation at @f in [0, 1) through
  * the nodes -2 .. 3: w[t] = prod over m != t of (f - m) / (t - m), from
  * the products of the factors before and after each node. */
@@ -1539,17 +1531,6 @@ orc_ready (void)
 }
 
 static void
-multiply_split_orc (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n)
-{
-  FLOAT_MODE_SAVE ();
-
-  orc_ready ();
-  sonar_orc_multiply_split ((float *) out, a_re, a_im, b_re, b_im, (int) n);
-  FLOAT_MODE_RESTORE ();
-}
-
-static void
 envelope_orc (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate)
 {
@@ -1644,12 +1625,6 @@ const SonarSteerSumsPhasorsImpl sonar_kernel_steer_sums_phasors_impls[] = {
 
 /* ORC compiles for the running CPU, or runs its C backup where it cannot:
  * always available. */
-const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[] = {
-  {"generic", multiply_split_generic, always_available},
-  {"orc", multiply_split_orc, always_available},
-  {NULL, NULL, NULL}
-};
-
 const SonarScaledProductImpl sonar_kernel_scaled_product_impls[] = {
   {"generic", scaled_product_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
@@ -1699,7 +1674,6 @@ static struct
   SonarSteerSumFn steer_sum;
   SonarSteerPhasorsFn steer_phasors;
   SonarSteerSumsPhasorsFn steer_sums_phasors;
-  SonarMultiplySplitFn multiply_split;
   SonarScaledProductFn scaled_product;
   SonarEnvelopeFn envelope;
   SonarPeakFn peak;
@@ -1730,8 +1704,6 @@ choose (void)
     LAST_AVAILABLE (sonar_kernel_steer_phasors_impls, chosen.steer_phasors);
     LAST_AVAILABLE (sonar_kernel_steer_sums_phasors_impls,
         chosen.steer_sums_phasors);
-    LAST_AVAILABLE (sonar_kernel_multiply_split_impls,
-        chosen.multiply_split);
     LAST_AVAILABLE (sonar_kernel_scaled_product_impls,
         chosen.scaled_product);
     LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
@@ -1795,14 +1767,6 @@ sonar_kernel_steer_sums_phasors (SonarComplex * out, const SonarComplex * x,
 {
   choose ();
   chosen.steer_sums_phasors (out, x, re, im, n_tables, n);
-}
-
-void
-sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n)
-{
-  choose ();
-  chosen.multiply_split (out, a_re, a_im, b_re, b_im, n);
 }
 
 void

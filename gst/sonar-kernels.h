@@ -137,15 +137,6 @@ typedef SONAR_KERNEL_IMPL (SonarSteerSumsPhasorsFn)
 extern const SonarSteerSumsPhasorsImpl
     sonar_kernel_steer_sums_phasors_impls[];
 
-/* out[k] = (a_re[k] + i a_im[k]) (b_re[k] + i b_im[k]): split operands,
- * interleaved product. */
-void sonar_kernel_multiply_split (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n);
-typedef void (*SonarMultiplySplitFn) (SonarComplex * out, const float *a_re,
-    const float *a_im, const float *b_re, const float *b_im, guint n);
-typedef SONAR_KERNEL_IMPL (SonarMultiplySplitFn) SonarMultiplySplitImpl;
-extern const SonarMultiplySplitImpl sonar_kernel_multiply_split_impls[];
-
 /* out[k] = gain * exp(i (phase0 + k * dphase)) * (r_re[k] + i r_im[k]) *
  * V(x0 + k * step), k < n: V the 6-point Lagrange interpolation of the
  * split table (v_re, v_im) through v[floor (x) - 2 .. floor (x) + 3], all

@@ -4,26 +4,6 @@
 # element, imaginary in the high half. sonar-kernels.c has the plain C
 # reference of each; tests/test-kernels.c compares them.
 
-# out = (ar + i ai) (br + i bi): split operands, an interleaved product.
-.function sonar_orc_multiply_split
-.dest 8 out float
-.source 4 ar float
-.source 4 ai float
-.source 4 br float
-.source 4 bi float
-.temp 4 t1
-.temp 4 t2
-.temp 4 re
-.temp 4 im
-
-mulf t1, ar, br
-mulf t2, ai, bi
-subf re, t1, t2
-mulf t1, ar, bi
-mulf t2, ai, br
-addf im, t1, t2
-mergelq out, re, im
-
 # out = scale * |x|.
 .function sonar_orc_envelope
 .dest 4 out float

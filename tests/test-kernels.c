@@ -377,39 +377,6 @@ test_block_sums_at_lag_offsets (void)
   g_assert_cmpfloat (worst / peak, <, 2e-3);
 }
 
-/* The complex product and the envelope against their references: the
- * same float operations, so equal to a rounding (ORC's sqrt and fused
- * forms may differ in the last bit). tools/test runs the suite under
- * ORC_CODE=backup too, so ORC's C backup is checked as well. */
-static void
-test_multiply_split (gconstpointer data)
-{
-  const SonarMultiplySplitImpl *impl = data;
-  const SonarMultiplySplitFn reference =
-      sonar_kernel_multiply_split_impls[0].fn;
-  SonarRng rng;
-  SonarComplex a[2882], b[2882], out[2882], ref[2882];
-  float a_re[2882], a_im[2882], b_re[2882], b_im[2882];
-
-  SKIP_UNLESS_AVAILABLE (impl);
-  sonar_rng_init (&rng, 17, 0);
-  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
-    const guint n = lengths[t];
-    random_spectrum (&rng, a, n);
-    random_spectrum (&rng, b, n);
-    sonar_kernel_split (a_re, a_im, a, n);
-    sonar_kernel_split (b_re, b_im, b, n);
-    impl->fn (out, a_re, a_im, b_re, b_im, n);
-    reference (ref, a_re, a_im, b_re, b_im, n);
-    for (guint k = 0; k < n; k++) {
-      g_assert_cmpfloat (cabsf (out[k] - ref[k]), <=,
-          1e-6f * cabsf (a[k]) * cabsf (b[k]));
-      g_assert_cmpfloat (cabs ((double complex) out[k] - (double complex)
-              a[k] * b[k]), <=, 1e-6 * cabsf (a[k]) * cabsf (b[k]));
-    }
-  }
-}
-
 /* The cases of the scaled product: Doppler stretches near 1 (the vector
  * code's loads), at its bounds (|step - 1| just under 1/8), exactly 1,
  * and far from it (0.6, 1.7: gathers); positions at the table's start
@@ -703,6 +670,10 @@ test_scaled_product_guarded (gconstpointer data)
 }
 #endif
 
+/* The envelope against its reference: the same float operations, so
+ * equal to a rounding (ORC's sqrt may differ in the last bit).
+ * tools/test runs the suite under ORC_CODE=backup too, so ORC's C backup
+ * is checked as well. */
 static void
 test_envelope (gconstpointer data)
 {
@@ -1141,11 +1112,6 @@ test_upper_clean (gconstpointer data)
               sonar_kernel_steer_sums_phasors_impls[i].fn (out, x,
                   re_tables, im_tables, t, n));
         break;
-      case 7:
-        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
-            sonar_kernel_multiply_split_impls[i].fn (out, a, a + stride, b,
-                b + stride, n));
-        break;
       case 8:
         for (int acc = 0; acc < 2; acc++)
           ASSERT_UPPER_CLEAN_AFTER (u->kernel,
@@ -1230,8 +1196,6 @@ main (int argc, char **argv)
       test_steer_phasors);
   ADD_IMPL_TESTS ("steer-sums-phasors",
       sonar_kernel_steer_sums_phasors_impls, test_steer_sums_phasors);
-  ADD_IMPL_TESTS ("multiply-split", sonar_kernel_multiply_split_impls,
-      test_multiply_split);
   ADD_IMPL_TESTS ("scaled-product", sonar_kernel_scaled_product_impls,
       test_scaled_product);
   ADD_IMPL_TESTS ("scaled-product-exact", sonar_kernel_scaled_product_impls,
@@ -1255,7 +1219,6 @@ main (int argc, char **argv)
       5);
   ADD_UPPER_TESTS ("steer-sums-phasors",
       sonar_kernel_steer_sums_phasors_impls, 6);
-  ADD_UPPER_TESTS ("multiply-split", sonar_kernel_multiply_split_impls, 7);
   ADD_UPPER_TESTS ("envelope", sonar_kernel_envelope_impls, 8);
   ADD_UPPER_TESTS ("peak", sonar_kernel_peak_impls, 9);
   ADD_UPPER_TESTS ("max", sonar_kernel_max_impls, 10);

@@ -267,10 +267,14 @@ fft_flops (double n)
  *   spectra     a real transform per microphone (2.5 N log2 N), the
  *               microphones shared by the cores;
  *   imaging     per unit the receive sum (8 flops per microphone and bin:
- *               a complex multiply-add, the phasor's rotation shared),
- *               per pass the transmit sum (8 per emitter and bin), the
- *               product (6 per bin), the inverse transform and the
- *               envelope (3 per range bin);
+ *               a complex multiply-add, the phasor's rotation shared) and
+ *               the zero-velocity transmit table (8 per emitter and bin,
+ *               over the band's bins at least), per pass the transmit
+ *               product read from it (sonar_kernel_scaled_product (): 24
+ *               per bin for the six taps' multiply-adds, 6 for their
+ *               weights, 12 for the products with the receive sum and
+ *               the phasor), the inverse transform and the envelope (3
+ *               per range bin);
  *   clustering  two reads of the image at the measured read rate (its
  *               passes over the image are shared by the cores);
  *   velocity    per centroid and direction the prescreen searches
@@ -306,8 +310,8 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   SonarVelocityWork work;
 
   flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
-  flops[STAGE_IMAGING] = units * 8.0 * J * K + passes * (8.0 * N * K +
-      6.0 * K + fft_flops (M) + 3.0 * R);
+  flops[STAGE_IMAGING] = units * 8.0 * (J + N) * K + passes * (42.0 * K +
+      fft_flops (M) + 3.0 * R);
   flops[STAGE_CLUSTERING] = 0.0;
   sonar_velocity_pool_work (ch->workers, &work);
   focus = 8.0 * J * K + (work.gate_inverse ? fft_flops (work.gate_inverse) +

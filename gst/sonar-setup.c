@@ -5,6 +5,7 @@
 #include "sonar-interp.h"
 #include "sonar-json.h"
 #include "sonar-spectrum.h"
+#include "sonar-waveform.h"
 
 #include <fftw3.h>
 #include <gio/gio.h>
@@ -317,6 +318,32 @@ geometry_extent (const SonarGeometry * g)
   for (guint n = 0; n < g->n_emitters; n++)
     offset = MAX (offset, sonar_vec3_norm (g->emitters[n]));
   return offset;
+}
+
+SonarSetup *
+sonar_setup_new_default (double max_range, GError ** error)
+{
+  g_autofree float *waveforms = NULL;
+  SonarWaveformParams wp;
+  SonarGeometry geometry;
+  SonarSetup *setup = NULL;
+
+  sonar_geometry_init_default (&geometry);
+  sonar_waveform_params_init_default (&wp);
+  wp.n_emitters = geometry.n_emitters;
+  waveforms = g_new (float, (gsize) wp.n_emitters * wp.length);
+  if (sonar_waveform_generate (&wp, waveforms, error))
+    setup = sonar_setup_new (&(SonarSetupParams) {
+          .sample_rate = wp.sample_rate,
+          .speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND,
+          .band_low = wp.band_low, .band_high = wp.band_high,
+          .geometry = &geometry, .waveform_length = wp.length,
+          .waveforms = waveforms,
+          .ping_length = sonar_ping_length_for_range (&geometry,
+              SONAR_DEFAULT_SPEED_OF_SOUND, wp.sample_rate, wp.length,
+              max_range)}, error);
+  sonar_geometry_clear (&geometry);
+  return setup;
 }
 
 guint

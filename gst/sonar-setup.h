@@ -176,6 +176,12 @@ guint sonar_ping_length_for_range (const SonarGeometry * geometry,
     double speed_of_sound, double sample_rate, guint waveform_length,
     double max_range);
 
+/* sonarsrc's default sensor, without geometry or waveforms files: the
+ * built-in array, the default waveforms, c = 343 m/s, a window holding
+ * the whole echo of an object at @max_range m (the benchmark's and the
+ * FFTW wisdom's set-up). */
+SonarSetup *sonar_setup_new_default (double max_range, GError ** error);
+
 /* The set-up of a recording made elsewhere: the geometry file (NULL: the
  * built-in array), the waveforms file, the speed of sound and the samples
  * per ping; pings back to back from sample 0, the fan (the properties

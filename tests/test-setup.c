@@ -488,6 +488,29 @@ test_setup_check (void)
   }
 }
 
+/* The default sensor the benchmark and the FFTW wisdom use: sonarsrc's
+ * without files, its 5 m window the 17,262 samples the benchmark prints,
+ * its waveforms the default ones (seed 1). */
+static void
+test_default_setup (void)
+{
+  GError *error = NULL;
+  g_autoptr (SonarSetup) setup = sonar_setup_new_default (5.0, &error);
+  g_autoptr (SonarSetup) longer = sonar_setup_new_default (12.7, &error);
+  g_autoptr (SonarSetup) reference = sonar_test_default_setup (17262);
+
+  g_assert_no_error (error);
+  g_assert_cmpuint (setup->geometry.n_microphones, ==, 32);
+  g_assert_cmpuint (setup->geometry.n_emitters, ==, 8);
+  g_assert_cmpuint (setup->ping_length, ==, 17262);
+  g_assert_cmpuint (longer->ping_length, >, setup->ping_length);
+  g_assert_cmpfloat (setup->speed_of_sound, ==, 343.0);
+  g_assert_cmpuint (setup->waveform_length, ==, reference->waveform_length);
+  g_assert_cmpmem (sonar_setup_waveform (setup, 7), sizeof (float) *
+      setup->waveform_length, sonar_setup_waveform (reference, 7),
+      sizeof (float) * reference->waveform_length);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -495,6 +518,7 @@ main (int argc, char **argv)
   g_test_add_func ("/setup/default-geometry-is-ertis",
       test_default_geometry_is_ertis);
   g_test_add_func ("/setup/geometry-file", test_geometry_file);
+  g_test_add_func ("/setup/default", test_default_setup);
   g_test_add_func ("/setup/geometry-file-errors", test_geometry_file_errors);
   g_test_add_func ("/setup/waveforms-file", test_waveforms_file);
   g_test_add_func ("/setup/validation", test_setup_validation);

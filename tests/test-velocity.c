@@ -690,6 +690,38 @@ test_independent_of_order (void)
   fixture_clear (&f);
 }
 
+/* 40 random still-ish objects at 1-4 m and +-60 degrees (seed 11): a
+ * crowd in which several echoes are examined as possible blends. */
+static GString *
+crowd_of_40 (void)
+{
+  GString *json = g_string_new ("{\"dimensions\": 2, \"reflectors\": [");
+  g_autoptr (GRand) rand = g_rand_new_with_seed (11);
+
+  for (guint i = 0; i < 40; i++)
+    g_string_append_printf (json, "%s{\"range\": %.3f, \"azimuth\": %.1f, "
+        "\"radial-velocity\": %.2f}", i ? ", " : "", g_rand_double_range
+        (rand, 1.0, 4.0), g_rand_double_range (rand, -60.0, 60.0),
+        g_rand_double_range (rand, -0.8, 0.8));
+  g_string_append (json, "]}");
+  return json;
+}
+
+/* Two chains' estimates of the same ping, centroid by centroid, bit for
+ * bit. */
+static void
+assert_same_chain_results (const Chain * got, const Chain * want,
+    guint n_got, guint n_want)
+{
+  g_assert_cmpuint (n_got, ==, n_want);
+  for (guint k = 0; k < n_want; k++) {
+    g_assert_cmpuint (got->counts[k], ==, want->counts[k]);
+    for (guint i = 0; i < want->counts[k]; i++)
+      assert_same_estimate (&got->results[2 * k + i],
+          &want->results[2 * k + i]);
+  }
+}
+
 /* A crowd's echoes that may be blends of two (split_first ()) are
  * examined by the pool's workers side by side, each on its own buffers
  * and estimator: the same estimates, bit for bit, as one worker's, on a
@@ -697,8 +729,7 @@ test_independent_of_order (void)
 static void
 test_crowd_examined_by_workers (void)
 {
-  GString *json = g_string_new ("{\"dimensions\": 2, \"reflectors\": [");
-  g_autoptr (GRand) rand = g_rand_new_with_seed (11);
+  GString *json = crowd_of_40 ();
   SonarTruth truths[40];
   SonarVelocityEstimate found[2][128];
   guint n_centroids[2], n[2], examined;
@@ -706,12 +737,6 @@ test_crowd_examined_by_workers (void)
   Fixture f;
   Chain one, three;
 
-  for (guint i = 0; i < G_N_ELEMENTS (truths); i++)
-    g_string_append_printf (json, "%s{\"range\": %.3f, \"azimuth\": %.1f, "
-        "\"radial-velocity\": %.2f}", i ? ", " : "", g_rand_double_range
-        (rand, 1.0, 4.0), g_rand_double_range (rand, -60.0, 60.0),
-        g_rand_double_range (rand, -0.8, 0.8));
-  g_string_append (json, "]}");
   fixture_init (&f, -1.0, 1.0, 0.05);
   sonar_cluster_params_init_default (&cp);
   chain_init (&one, &f, &cp, 1);
@@ -724,14 +749,8 @@ test_crowd_examined_by_workers (void)
   g_assert_cmpuint (examined, >=, 3);
   g_assert_cmpuint (sonar_velocity_pool_last_examined (three.pool), ==,
       examined);
-  g_assert_cmpuint (n_centroids[1], ==, n_centroids[0]);
   g_assert_cmpuint (n[1], ==, n[0]);
-  for (guint k = 0; k < n_centroids[0]; k++) {
-    g_assert_cmpuint (three.counts[k], ==, one.counts[k]);
-    for (guint i = 0; i < one.counts[k]; i++)
-      assert_same_estimate (&three.results[2 * k + i],
-          &one.results[2 * k + i]);
-  }
+  assert_same_chain_results (&three, &one, n_centroids[1], n_centroids[0]);
   chain_clear (&one);
   chain_clear (&three);
   fixture_clear (&f);
@@ -745,8 +764,7 @@ test_crowd_examined_by_workers (void)
 static void
 test_blend_models_reused (void)
 {
-  GString *json = g_string_new ("{\"dimensions\": 2, \"reflectors\": [");
-  g_autoptr (GRand) rand = g_rand_new_with_seed (11);
+  GString *json = crowd_of_40 ();
   SonarTruth truths[40];
   SonarVelocityEstimate found[2][128];
   guint n_centroids[2], n[2], reused;
@@ -754,12 +772,6 @@ test_blend_models_reused (void)
   Fixture f;
   Chain reusing, checking;
 
-  for (guint i = 0; i < G_N_ELEMENTS (truths); i++)
-    g_string_append_printf (json, "%s{\"range\": %.3f, \"azimuth\": %.1f, "
-        "\"radial-velocity\": %.2f}", i ? ", " : "", g_rand_double_range
-        (rand, 1.0, 4.0), g_rand_double_range (rand, -60.0, 60.0),
-        g_rand_double_range (rand, -0.8, 0.8));
-  g_string_append (json, "]}");
   fixture_init (&f, -1.0, 1.0, 0.05);
   sonar_cluster_params_init_default (&cp);
   chain_init (&reusing, &f, &cp, 1);
@@ -776,14 +788,9 @@ test_blend_models_reused (void)
   g_assert_cmpuint (reused, >=, 2);
   g_assert_cmpuint (sonar_velocity_pool_last_reused (checking.pool), ==,
       reused);
-  g_assert_cmpuint (n_centroids[1], ==, n_centroids[0]);
   g_assert_cmpuint (n[1], ==, n[0]);
-  for (guint k = 0; k < n_centroids[0]; k++) {
-    g_assert_cmpuint (checking.counts[k], ==, reusing.counts[k]);
-    for (guint i = 0; i < reusing.counts[k]; i++)
-      assert_same_estimate (&checking.results[2 * k + i],
-          &reusing.results[2 * k + i]);
-  }
+  assert_same_chain_results (&checking, &reusing, n_centroids[1],
+      n_centroids[0]);
   chain_clear (&reusing);
   chain_clear (&checking);
   fixture_clear (&f);

@@ -40,33 +40,6 @@ static const BankRange bank_ranges[] = {
 /* 1: the whole band; the sub-bands of sonar-bench's coarse-band sweep. */
 static const double coarse_bands[] = { 1.0, 0.5, 1.0 / 3.0 };
 
-/* sonarsrc's default sensor recording to @max_range (as its make_setup). */
-static SonarSetup *
-make_setup (double max_range, GError ** error)
-{
-  g_autofree float *waveforms = NULL;
-  SonarWaveformParams wp;
-  SonarGeometry geometry;
-  SonarSetup *setup = NULL;
-
-  sonar_geometry_init_default (&geometry);
-  sonar_waveform_params_init_default (&wp);
-  wp.n_emitters = geometry.n_emitters;
-  waveforms = g_new (float, (gsize) wp.n_emitters * wp.length);
-  if (sonar_waveform_generate (&wp, waveforms, error))
-    setup = sonar_setup_new (&(SonarSetupParams) {
-          .sample_rate = wp.sample_rate,
-          .speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND,
-          .band_low = wp.band_low,.band_high = wp.band_high,
-          .geometry = &geometry,.waveform_length = wp.length,
-          .waveforms = waveforms,
-          .ping_length = sonar_ping_length_for_range (&geometry,
-              SONAR_DEFAULT_SPEED_OF_SOUND, wp.sample_rate, wp.length,
-              max_range)}, error);
-  sonar_geometry_clear (&geometry);
-  return setup;
-}
-
 /* Every view and sub-band's imager, and its velocity stage, on @bank. */
 static gboolean
 plan_imaging (SonarSetup * setup, SonarDopplerBank * bank, GError ** error)
@@ -104,7 +77,7 @@ plan_imaging (SonarSetup * setup, SonarDopplerBank * bank, GError ** error)
 static gboolean
 plan_setup (double max_range, GError ** error)
 {
-  g_autoptr (SonarSetup) setup = make_setup (max_range, error);
+  g_autoptr (SonarSetup) setup = sonar_setup_new_default (max_range, error);
 
   if (!setup)
     return FALSE;

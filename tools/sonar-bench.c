@@ -349,7 +349,7 @@ main (int argc, char **argv)
     }
   }
 
-  b.setup = make_setup (MAX_RANGE, &error);
+  b.setup = sonar_setup_new_default (MAX_RANGE, &error);
   if (!b.setup || !render_scenes (selected, b.setup, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);
     return 1;

@@ -37,7 +37,6 @@ G_BEGIN_DECLS
 /* sonarsrc's defaults. */
 #define MAX_RANGE 5.0
 #define PING_RATE 12.0
-#define WAVEFORM_SEED 1
 #define NOISE_AMPLITUDE 0.01
 #define NOISE_SEED 0
 
@@ -236,7 +235,6 @@ typedef struct
 extern BenchScene scenes[N_SCENES];
 extern const char *const template_interp_names[];
 
-SonarSetup *make_setup (double max_range, GError ** error);
 void random_scene_init (SonarScene * scene, guint n);
 /* A simulator of @setup at the bench's noise seed, its white noise
  * @noise_amplitude (NOISE_AMPLITUDE; 0 for noise-free recordings). */

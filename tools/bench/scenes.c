@@ -3,8 +3,7 @@
  * sensor; the Doppler banks, made once per velocity grid and shared by
  * the configurations.
  *
- * The sensor is sonarsrc's default, built by a copy of its make_setup ()
- * logic. */
+ * The sensor is sonarsrc's default (sonar_setup_new_default ()). */
 #include <complex.h>
 #include <math.h>
 
@@ -34,37 +33,6 @@ BenchScene scenes[N_SCENES] = {
   {"rand20", SONAR_SCENE_PRESET_EMPTY, 20, -0.4, 0.4, 0.02, 2},
   {"rand50", SONAR_SCENE_PRESET_EMPTY, 50, -0.4, 0.4, 0.02, 2},
 };
-
-/* sonarsrc's default sensor, built as its make_setup () does without
- * geometry or waveforms files: the built-in array, the noise waveforms of
- * seed 1, a window holding the whole echo of an object at max-range seen
- * from the farthest element. */
-SonarSetup *
-make_setup (double max_range, GError ** error)
-{
-  g_autofree float *waveforms = NULL;
-  SonarWaveformParams wp;
-  SonarGeometry geometry;
-  SonarSetup *setup = NULL;
-
-  sonar_geometry_init_default (&geometry);
-  sonar_waveform_params_init_default (&wp);
-  wp.n_emitters = geometry.n_emitters;
-  wp.seed = WAVEFORM_SEED;
-  waveforms = g_new (float, (gsize) wp.n_emitters * wp.length);
-  if (sonar_waveform_generate (&wp, waveforms, error))
-    setup = sonar_setup_new (&(SonarSetupParams) {
-          .sample_rate = wp.sample_rate,
-          .speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND,
-          .band_low = wp.band_low, .band_high = wp.band_high,
-          .geometry = &geometry, .waveform_length = wp.length,
-          .waveforms = waveforms,
-          .ping_length = sonar_ping_length_for_range (&geometry,
-              SONAR_DEFAULT_SPEED_OF_SOUND, wp.sample_rate, wp.length,
-              max_range)}, error);
-  sonar_geometry_clear (&geometry);
-  return setup;
-}
 
 /* @n seeded point reflectors in the y = 0 plane, moving radially. */
 void

@@ -320,7 +320,7 @@ gboolean
 run_detection (Bench * b)
 {
   g_autoptr (GError) error = NULL;
-  g_autoptr (SonarSetup) setup = make_setup (SENSITIVITY_MAX_RANGE, &error);
+  g_autoptr (SonarSetup) setup = sonar_setup_new_default (SENSITIVITY_MAX_RANGE, &error);
   g_autoptr (SonarSimulator) sim = NULL;
   g_autofree Chain *ch = g_new0 (Chain, 1);
   g_autofree double *times = g_new (double, MAX (GOAL_PINGS, 1));
@@ -867,7 +867,7 @@ run_uncertainty (Bench * b)
   static const char *const names[3] = { "range", "azimuth", "velocity" };
   static const char *const units[3] = { "mm", "mdeg", "mm/s" };
   g_autoptr (GError) error = NULL;
-  g_autoptr (SonarSetup) setup = make_setup (MAX_RANGE, &error);
+  g_autoptr (SonarSetup) setup = sonar_setup_new_default (MAX_RANGE, &error);
   g_autoptr (SonarSimulator) sim = NULL;
   g_autofree Chain *ch = g_new0 (Chain, 1);
   SonarSetup *saved = b->setup;

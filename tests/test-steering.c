@@ -347,6 +347,60 @@ test_scaled_transmit (void)
   g_free (out);
 }
 
+/* A window reaching below bin 0 or past Nyquist (a band near either edge,
+ * a fast stretch) holds zeros there, as the emissions' band-limited
+ * templates do, and the same values as a window inside it elsewhere. */
+static void
+test_scaled_transmit_edges (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17262);
+  const SonarBand ping_band = { 450000.0, 21600, 960, 2883 };
+  const guint n_spectrum = ping_band.fft_size / 2 + 1;
+  const int first = -70, inside = 128;
+  const guint n = n_spectrum + 140;
+  g_autoptr (SonarScaledTransmit) transmit = NULL;
+  SonarSteering steering;
+  double emitter[SONAR_MAX_EMITTERS];
+  float *v_re = g_new (float, n), *v_im = g_new (float, n);
+  float *w_re = g_new (float, 512), *w_im = g_new (float, 512);
+
+  sonar_steering_init (&steering, setup, &ping_band);
+  transmit = sonar_scaled_transmit_new (&steering, setup, &ping_band);
+  sonar_steering_legs (&steering, sonar_vec3_from_direction (20.0, -5.0),
+      1.2, NULL, emitter);
+  sonar_scaled_transmit_table (transmit, emitter, 0,
+      setup->geometry.n_emitters, first, n, v_re, v_im);
+  for (int j = first; j < first + (int) n; j++) {
+    const float re = v_re[j - first], im = v_im[j - first];
+    g_assert_true (isfinite (re) && isfinite (im));
+    if (j < 0 || j >= (int) n_spectrum) {
+      g_assert_cmpfloat (re, ==, 0.0f);
+      g_assert_cmpfloat (im, ==, 0.0f);
+    }
+  }
+  /* Inside, the band's bins hold the emissions' energy. */
+  {
+    double energy = 0.0;
+    for (guint j = ping_band.first_bin; j < ping_band.first_bin + ping_band.n_bins; j++)
+      energy += v_re[j - first] * v_re[j - first] + v_im[j - first] *
+          v_im[j - first];
+    g_assert_cmpfloat (energy, >, 0.0);
+  }
+  /* The interior of a window from bin 0 against one from bin 128: equal
+   * to float rounding (their ramps start at different bins). */
+  sonar_scaled_transmit_table (transmit, emitter, 0,
+      setup->geometry.n_emitters, inside, 512, w_re, w_im);
+  for (guint k = 0; k < 512; k++) {
+    const float scale = 1e-5f * (1.0f + fabsf (w_re[k]) + fabsf (w_im[k]));
+    g_assert_cmpfloat (fabsf (w_re[k] - v_re[inside - first + k]), <=, scale);
+    g_assert_cmpfloat (fabsf (w_im[k] - v_im[inside - first + k]), <=, scale);
+  }
+  g_free (v_re);
+  g_free (v_im);
+  g_free (w_re);
+  g_free (w_im);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -354,6 +408,8 @@ main (int argc, char **argv)
   g_test_add_func ("/steering/legs-and-stretch", test_legs_and_stretch);
   g_test_add_func ("/steering/factored-sum", test_factored_sum);
   g_test_add_func ("/steering/scaled-transmit", test_scaled_transmit);
+  g_test_add_func ("/steering/scaled-transmit-edges",
+      test_scaled_transmit_edges);
   g_test_add_func ("/steering/factored-sum-part", test_factored_sum_part);
   g_test_add_func ("/steering/emitter-output-at-lag",
       test_emitter_output_at_lag);

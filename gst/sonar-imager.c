@@ -88,6 +88,7 @@ typedef struct
                                  * FFTW's in-place transforms allocate on
                                  * every call) */
   float *envelope;              /* one hypothesis's, over the grid's ranges */
+  float *block_top;             /* its peak per block of HYPOTHESIS_BLOCK */
   guint passes;                 /* unit x hypothesis passes of this call */
   /* The noise gate's range floors: [FLOOR_BLOCK x coarse direction]
    * gathered values, and one bin's scratch (2 x coarse directions). */
@@ -566,6 +567,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     memset (im->scratch[w].baseband, 0, sizeof (SonarComplex) *
         im->ifft_size);
     im->scratch[w].envelope = g_new (float, grid->n_range);
+    im->scratch[w].block_top = g_new (float, im->n_hypothesis_blocks);
     im->scratch[w].floor_values = g_new (float, (gsize) FLOOR_BLOCK *
         im->n_coarse);
     im->scratch[w].floor_scratch = g_new (float, 2 * (gsize) im->n_coarse);
@@ -648,6 +650,7 @@ sonar_imager_free (SonarImager * im)
     g_free (im->scratch[w].sub_max);
     g_free (im->scratch[w].confirm_max);
     g_free (im->scratch[w].confirm_value);
+    g_free (im->scratch[w].block_top);
     g_free (im->scratch[w].confirm_hypothesis);
   }
   sonar_workers_free (im->workers);
@@ -887,11 +890,11 @@ image_confirm_unit (SonarImager * im, guint w, guint u, guint d,
     }
     if (!first)
       sonar_kernel_max (scratch->confirm_max, envelope, n_range);
-    for (guint i0 = 0, b = 0; i0 < n_range; i0 += HYPOTHESIS_BLOCK, b++) {
-      const float t = sonar_kernel_peak (envelope + i0, NULL,
-          MIN (HYPOTHESIS_BLOCK, n_range - i0));
-      if (first || t > top[b]) {
-        top[b] = t;
+    sonar_kernel_block_peaks (scratch->block_top, envelope, n_range,
+        HYPOTHESIS_BLOCK);
+    for (guint b = 0; b < n_blocks; b++) {
+      if (first || scratch->block_top[b] > top[b]) {
+        top[b] = scratch->block_top[b];
         which[b] = (guint16) h;
       }
     }
@@ -989,12 +992,11 @@ image_units (gpointer data, guint w, guint n_workers)
         /* Which hypothesis is strongest, per block of range bins: a
          * branch per block, not per bin (on noise every other
          * comparison would mispredict). */
+        sonar_kernel_block_peaks (scratch->block_top, scratch->envelope,
+            count, HYPOTHESIS_BLOCK);
         for (guint b = 0; b * HYPOTHESIS_BLOCK < count; b++) {
-          const guint i0 = b * HYPOTHESIS_BLOCK;
-          const float top = sonar_kernel_peak (scratch->envelope + i0, NULL,
-              MIN (HYPOTHESIS_BLOCK, count - i0));
-          if (overwrite || top > best_value[b]) {
-            best_value[b] = top;
+          if (overwrite || scratch->block_top[b] > best_value[b]) {
+            best_value[b] = scratch->block_top[b];
             best[b] = (guint16) h;
           }
         }

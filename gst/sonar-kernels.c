@@ -241,6 +241,14 @@ peak_generic (const float *x, const float *w, guint n)
 }
 
 static void
+block_peaks_generic (float *out, const float *x, guint n, guint block)
+{
+  for (guint b = 0; (gsize) b * block < n; b++)
+    out[b] = peak_generic (x + (gsize) b * block, NULL, MIN (block,
+            n - b * block));
+}
+
+static void
 max_generic (float *out, const float *x, guint n)
 {
   for (guint k = 0; k < n; k++)
@@ -1079,6 +1087,55 @@ peak_avx2 (const float *x, const float *w, guint n)
   return top;
 }
 
+/* Each block's lanes, then across them: after the first maximum with 0
+ * no NaN is left, and a maximum is exact in any order. */
+AVX2_TARGET static void
+block_peaks_avx2 (float *out, const float *x, guint n, guint block)
+{
+  guint b = 0;
+
+  if (block % LANES == 0) {
+    for (; (gsize) (b + 1) * block <= n; b++) {
+      __m256 top = _mm256_setzero_ps ();
+      for (guint k = b * block; k < (b + 1) * block; k += LANES)
+        top = _mm256_max_ps (_mm256_loadu_ps (x + k), top);
+      top = _mm256_max_ps (top, _mm256_permute2f128_ps (top, top, 1));
+      top = _mm256_max_ps (top, _mm256_shuffle_ps (top, top,
+              _MM_SHUFFLE (1, 0, 3, 2)));
+      top = _mm256_max_ps (top, _mm256_shuffle_ps (top, top,
+              _MM_SHUFFLE (2, 3, 0, 1)));
+      out[b] = _mm_cvtss_f32 (_mm256_castps256_ps128 (top));
+    }
+  }
+  block_peaks_generic (out + b, x + (gsize) b * block, n - b * block, block);
+}
+
+/* LANES bins from two vectors of interleaved pairs: hadd sums each pair
+ * (im^2 + re^2: the reference's sum, unfused, which IEEE addition gives
+ * alike in either order) two pairs per half, and a permute puts the
+ * halves' pairs back in bin order. */
+AVX2_TARGET static void
+envelope_avx2 (float *out, const SonarComplex * x, guint n, float scale,
+    gboolean accumulate)
+{
+  const float *f = (const float *) x;
+  const __m256 s = _mm256_set1_ps (scale);
+  const guint whole = n - n % LANES;
+
+  for (guint k = 0; k < whole; k += LANES) {
+    const __m256 a = _mm256_loadu_ps (f + 2 * k);
+    const __m256 b = _mm256_loadu_ps (f + 2 * k + LANES);
+    __m256 m = _mm256_hadd_ps (_mm256_mul_ps (a, a), _mm256_mul_ps (b, b));
+    m = _mm256_castpd_ps (_mm256_permute4x64_pd (_mm256_castps_pd (m),
+            _MM_SHUFFLE (3, 1, 2, 0)));
+    m = _mm256_mul_ps (s, _mm256_sqrt_ps (m));
+    if (accumulate)
+      m = _mm256_max_ps (_mm256_loadu_ps (out + k), m);
+    _mm256_storeu_ps (out + k, m);
+  }
+  envelope_generic (out + whole, x + whole, n - whole, scale, accumulate);
+}
+
 AVX2_TARGET static void
 max_avx2 (float *out, const float *x, guint n)
 {
@@ -1637,6 +1694,9 @@ const SonarScaledProductImpl sonar_kernel_scaled_product_impls[] = {
 const SonarEnvelopeImpl sonar_kernel_envelope_impls[] = {
   {"generic", envelope_generic, always_available},
   {"orc", envelope_orc, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", envelope_avx2, cpu_has_avx2_fma},
+#endif
   {NULL, NULL, NULL}
 };
 
@@ -1644,6 +1704,14 @@ const SonarPeakImpl sonar_kernel_peak_impls[] = {
   {"generic", peak_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
   {"avx2", peak_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+const SonarBlockPeaksImpl sonar_kernel_block_peaks_impls[] = {
+  {"generic", block_peaks_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", block_peaks_avx2, cpu_has_avx2_fma},
 #endif
   {NULL, NULL, NULL}
 };
@@ -1677,6 +1745,7 @@ static struct
   SonarScaledProductFn scaled_product;
   SonarEnvelopeFn envelope;
   SonarPeakFn peak;
+  SonarBlockPeaksFn block_peaks;
   SonarMaxFn max;
   SonarRankPassFn rank_pass;
 } chosen;
@@ -1708,6 +1777,7 @@ choose (void)
         chosen.scaled_product);
     LAST_AVAILABLE (sonar_kernel_envelope_impls, chosen.envelope);
     LAST_AVAILABLE (sonar_kernel_peak_impls, chosen.peak);
+    LAST_AVAILABLE (sonar_kernel_block_peaks_impls, chosen.block_peaks);
     LAST_AVAILABLE (sonar_kernel_max_impls, chosen.max);
     LAST_AVAILABLE (sonar_kernel_rank_pass_impls, chosen.rank_pass);
     g_once_init_leave (&done, 1);
@@ -1792,6 +1862,13 @@ sonar_kernel_peak (const float *x, const float *w, guint n)
 {
   choose ();
   return chosen.peak (x, w, n);
+}
+
+void
+sonar_kernel_block_peaks (float *out, const float *x, guint n, guint block)
+{
+  choose ();
+  chosen.block_peaks (out, x, n, block);
 }
 
 void

@@ -178,6 +178,17 @@ typedef float (*SonarPeakFn) (const float *x, const float *w, guint n);
 typedef SONAR_KERNEL_IMPL (SonarPeakFn) SonarPeakImpl;
 extern const SonarPeakImpl sonar_kernel_peak_impls[];
 
+/* out[b] = sonar_kernel_peak (x + b * block, NULL, the block's length)
+ * for the ceil (n / block) blocks of @block values (the last takes what
+ * is left): the coarse image's strongest hypothesis is kept per block of
+ * range bins (sonar-imager.c), a hundred blocks a pass. */
+void sonar_kernel_block_peaks (float *out, const float *x, guint n,
+    guint block);
+typedef void (*SonarBlockPeaksFn) (float *out, const float *x, guint n,
+    guint block);
+typedef SONAR_KERNEL_IMPL (SonarBlockPeaksFn) SonarBlockPeaksImpl;
+extern const SonarBlockPeaksImpl sonar_kernel_block_peaks_impls[];
+
 /* out[k] = max (out[k], x[k]) (out[k] > x[k] ? out[k] : x[k]), k < n. */
 void sonar_kernel_max (float *out, const float *x, guint n);
 typedef void (*SonarMaxFn) (float *out, const float *x, guint n);

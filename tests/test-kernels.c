@@ -671,7 +671,8 @@ test_scaled_product_guarded (gconstpointer data)
 #endif
 
 /* The envelope against its reference: the same float operations, so
- * equal to a rounding (ORC's sqrt may differ in the last bit).
+ * equal to a rounding (ORC's sqrt may differ in the last bit), and bit for
+ * bit for the others (their squares summed unfused, as the reference's).
  * tools/test runs the suite under ORC_CODE=backup too, so ORC's C backup
  * is checked as well. */
 static void
@@ -698,6 +699,8 @@ test_envelope (gconstpointer data)
             0.75f * cabsf (a[k])) : 0.75f * cabsf (a[k]);
         g_assert_cmpfloat (fabsf (env[k] - ref[k]), <=, 1e-6f * ref[k]);
         g_assert_cmpfloat (fabsf (env[k] - want), <=, 1e-6f * want);
+        if (strcmp (impl->name, "orc") != 0)
+          g_assert_cmpmem (&env[k], sizeof (float), &ref[k], sizeof (float));
       }
     }
   }
@@ -828,6 +831,38 @@ test_peak (gconstpointer data)
       x[top] = want - 2.0f;
     }
     g_assert_cmpfloat (impl->fn (x, NULL, 0), ==, 0.0f);
+  }
+}
+
+/* Each block's peak, the reference's peak of it bit for bit, for blocks
+ * of whole vectors and not, every length's tail included: a NaN never
+ * wins, -0 gives +0, a block of negatives 0. */
+static void
+test_block_peaks (gconstpointer data)
+{
+  const SonarBlockPeaksImpl *impl = data;
+  const guint blocks[] = { 16, 8, 32, 12, 1 };
+  SonarRng rng;
+  float x[2882], out[2882];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 29, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    for (guint k = 0; k < n; k++)
+      x[k] = (float) (sonar_rng_uniform (&rng) - 0.25);
+    for (guint k = 0; k < n; k += 7)
+      x[k] = k % 3 ? NAN : -0.0f;
+    for (guint c = 0; c < G_N_ELEMENTS (blocks); c++) {
+      const guint block = blocks[c];
+      impl->fn (out, x, n, block);
+      for (guint b = 0; b * block < n; b++) {
+        const float want = sonar_kernel_peak_impls[0].fn (x + b * block,
+            NULL, MIN (block, n - b * block));
+        g_assert_false (isnan (out[b]));
+        g_assert_cmpmem (&out[b], sizeof (float), &want, sizeof (float));
+      }
+    }
   }
 }
 
@@ -1127,6 +1162,10 @@ test_upper_clean (gconstpointer data)
         ASSERT_UPPER_CLEAN_AFTER (u->kernel,
             sonar_kernel_max_impls[i].fn (f, f + stride, n));
         break;
+      case 13:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_block_peaks_impls[i].fn (f + stride, f, n, 16));
+        break;
       case 11:
         for (int with_finite = 0; with_finite < 2; with_finite++)
           ASSERT_UPPER_CLEAN_AFTER (u->kernel,
@@ -1206,6 +1245,8 @@ main (int argc, char **argv)
 #endif
   ADD_IMPL_TESTS ("envelope", sonar_kernel_envelope_impls, test_envelope);
   ADD_IMPL_TESTS ("peak", sonar_kernel_peak_impls, test_peak);
+  ADD_IMPL_TESTS ("block-peaks", sonar_kernel_block_peaks_impls,
+      test_block_peaks);
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
   ADD_IMPL_TESTS ("rank-pass", sonar_kernel_rank_pass_impls,
       test_rank_pass);
@@ -1221,6 +1262,7 @@ main (int argc, char **argv)
       sonar_kernel_steer_sums_phasors_impls, 6);
   ADD_UPPER_TESTS ("envelope", sonar_kernel_envelope_impls, 8);
   ADD_UPPER_TESTS ("peak", sonar_kernel_peak_impls, 9);
+  ADD_UPPER_TESTS ("block-peaks", sonar_kernel_block_peaks_impls, 13);
   ADD_UPPER_TESTS ("max", sonar_kernel_max_impls, 10);
   ADD_UPPER_TESTS ("rank-pass", sonar_kernel_rank_pass_impls, 11);
   ADD_UPPER_TESTS ("scaled-product", sonar_kernel_scaled_product_impls, 12);

@@ -470,6 +470,37 @@ def bench_near_far():
 
 
 @test
+def bench_scalloping():
+    """sonar-bench --sweep scalloping: a noise-free point halfway between
+    coarse directions loses more the farther apart they are, more in 3-D
+    (a cell's centre) than in 2-D, less off to the side (a degree is a
+    smaller step there); about 5 dB at the 2-D default's 3 degrees, under
+    1 dB at 1 degree, over 15 dB at the 3-D default's 6 degrees"""
+    result = run(BENCH, "--sweep", "scalloping")
+    lines = result.stdout.splitlines()
+    start = next(i for i, line in enumerate(lines)
+                 if line.split()[:2] == ["S", "deg"])
+    table = {}
+    for line in lines[start + 1:]:
+        fields = line.split()
+        if len(fields) != 5:
+            break
+        table[float(fields[0])] = [float(x) for x in fields[1:]]
+    assert sorted(table) == [1, 2, 3, 4, 6, 8], result.stdout
+    spacings = sorted(table)
+    for column in range(4):
+        losses = [table[s][column] for s in spacings]
+        assert all(a > b for a, b in zip(losses, losses[1:])), losses
+    for s in spacings:
+        flat_on, flat_off, cell_on, cell_off = table[s]
+        assert cell_on < flat_on <= 0 and flat_on < flat_off, table[s]
+        assert cell_on < cell_off, table[s]
+    assert table[1][0] > -1.0 and table[1][2] > -1.5, table[1]
+    assert -7.0 < table[3][0] < -3.5, table[3]
+    assert table[6][2] < -15.0, table[6]
+
+
+@test
 def plot_bench_sensitivity():
     """plot-bench.py: the detection and split sweeps' rows (as sonar-bench
     writes them, timing columns empty) give a Pd-against-SNR figure and a

@@ -237,7 +237,12 @@ parse_options (Options * o, int *argc, char ***argv)
       "a normal one at\n"
       "                            1.5-3.5 m: the normal one found, false "
       "objects; the dynamic\n"
-      "                            range (--near-far-pings)\n");
+      "                            range (--near-far-pings)\n"
+      "  scalloping                (seconds) a noise-free point halfway "
+      "between coarse\n"
+      "                            directions 1-8 degrees apart, 2-D and "
+      "3-D: dB the coarse\n"
+      "                            directions see of its peak\n");
   g_option_context_add_main_entries (context, entries, NULL);
   if (!g_option_context_parse (context, argc, argv, &error)) {
     g_printerr ("sonar-bench: %s\n", error->message);

@@ -15,6 +15,7 @@
  *                  objects against an oracle bound;
  *   nearfar.c      the near-far sweep: the dynamic range between a strong
  *                  near object and a normal one;
+ *   scalloping.c   what a coarse grid of directions loses between them;
  *   output.c       the tables and the CSV;
  *   ../sonar-bench.c  the options and main ().
  */
@@ -308,6 +309,9 @@ double oracle_margin_db (Chain * ch, SonarSimulator * quiet,
 extern guint near_far_pings;
 
 gboolean run_near_far (Bench * b);
+
+/* scalloping.c */
+gboolean run_scalloping (Bench * b);
 
 /* output.c */
 FILE *open_csv (const char *path, GError ** error);

@@ -322,6 +322,7 @@ const Sweep sweeps[] = {
   {"uncertainty", SCENE_FIG9, 0, NULL, run_uncertainty},
   {"crowded", SCENE_FIG9, 0, NULL, run_crowded},
   {"near-far", SCENE_FIG9, 0, NULL, run_near_far},
+  {"scalloping", SCENE_FIG10, 0, NULL, run_scalloping},
 };
 
 const guint n_sweeps = G_N_ELEMENTS (sweeps);

@@ -1,6 +1,7 @@
 /* sonar-spectrum.c: see sonar-spectrum.h. */
 #include "sonar-spectrum.h"
 #include "sonar-fftw.h"
+#include "sonar-kernels.h"
 #include "sonar-workers.h"
 
 #include <fftw3.h>
@@ -90,18 +91,9 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
-  guint bad = 0;
+  const guint bad = sonar_kernel_deinterleave (&s->input, 1, signal, stride,
+      used);
 
-  for (gsize i = 0; i < used; i++) {
-    const float x = signal[i * stride];
-    /* One NaN would spread over every bin of the spectrum. */
-    if (G_LIKELY (isfinite (x)))
-      s->input[i] = x;
-    else {
-      s->input[i] = 0.0f;
-      bad++;
-    }
-  }
   memset (s->input + used, 0, sizeof (float) * (n - used));
   fftwf_execute (s->plan);
   memcpy (out, s->output + s->band.first_bin,
@@ -130,21 +122,9 @@ spectrum_process_group (SonarSpectrum * s, float *const *inputs,
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
-  guint bad = 0;
+  const guint bad = sonar_kernel_deinterleave (inputs, count,
+      samples + first, stride, used);
 
-  for (gsize i = 0; i < used; i++) {
-    const float *frame = samples + i * stride + first;
-    for (guint k = 0; k < count; k++) {
-      const float x = frame[k];
-      /* One NaN would spread over every bin of the spectrum. */
-      if (G_LIKELY (isfinite (x)))
-        inputs[k][i] = x;
-      else {
-        inputs[k][i] = 0.0f;
-        bad++;
-      }
-    }
-  }
   for (guint k = 0; k < count; k++) {
     memset (inputs[k] + used, 0, sizeof (float) * (n - used));
     fftwf_execute_dft_r2c (s->plan, inputs[k], s->output);

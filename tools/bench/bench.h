@@ -245,6 +245,12 @@ SonarSimulator *bench_simulator_new (SonarSetup * setup,
  * sonarsrc emits it. */
 void interleave (const float *planar, guint n_mics, gsize length,
     float *out);
+/* The spectra (into ch->spectra) of @object alone in @scene (NULL: an
+ * empty one), rendered by @quiet, a noise-free simulator of @setup: what
+ * the oracle, the cancellation bound and the scalloping sweep image. */
+void render_alone (Chain * ch, SonarSimulator * quiet,
+    const SonarSetup * setup, const SonarScene * scene,
+    const SonarReflector * object);
 gboolean render_scene (BenchScene * s, SonarSetup * setup, GError ** error);
 void bank_entry_free (gpointer data);
 BankEntry *get_bank (Bench * b, const Config * c, GError ** error);

@@ -108,18 +108,14 @@ oracle_margin_db (Chain * ch, SonarSimulator * quiet,
     SonarSetup * setup, const SonarReflector * object,
     const SonarTruth * truth, const SonarComplex * whole, GError ** error)
 {
-  const guint n_mics = setup->geometry.n_microphones;
-  const gsize length = setup->ping_length;
-  const gsize n_spectra = (gsize) n_mics * ch->band->n_bins;
+  const gsize n_spectra = (gsize) setup->geometry.n_microphones *
+      ch->band->n_bins;
   g_autoptr (SonarImager) imager = oracle_imager (setup,
       ch->band, &ch->config->imager, ch->grid, truth->range, truth->azimuth,
       error);
-  g_autofree float *planar = g_new (float, length * n_mics);
-  g_autofree float *samples = g_new (float, length * n_mics);
   g_autofree SonarComplex *own = g_new (SonarComplex, n_spectra);
   g_autofree SonarComplex *others = g_new (SonarComplex, n_spectra);
   g_autofree float *image = NULL;
-  SonarScene one;
   const SonarImageGrid *g;
   double level;
   gsize p;
@@ -128,15 +124,7 @@ oracle_margin_db (Chain * ch, SonarSimulator * quiet,
     return NAN;
   g = sonar_imager_grid (imager);
   image = g_new (float, sonar_image_grid_size (g));
-  sonar_scene_init_preset (&one, SONAR_SCENE_PRESET_EMPTY);
-  one.reflectors = (SonarReflector *) object;
-  one.n_reflectors = 1;
-  sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
-  one.reflectors = NULL;
-  one.n_reflectors = 0;
-  sonar_scene_clear (&one);
-  interleave (planar, n_mics, length, samples);
-  chain_spectra (ch, samples, length);
+  render_alone (ch, quiet, setup, NULL, object);
   memcpy (own, ch->spectra, n_spectra * sizeof (SonarComplex));
   sonar_imager_process (imager, own, ch->n_templates, ch->hypotheses, -1,
       image);
@@ -175,12 +163,9 @@ cancel_bound (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
     const gboolean * detectable, const gboolean * found, guint n_centroids,
     const char *name, CrowdRow * row)
 {
-  const guint n_mics = setup->geometry.n_microphones;
-  const gsize length = setup->ping_length;
   const guint n = scene->n_reflectors;
-  const gsize n_spectra = (gsize) n_mics * ch->band->n_bins;
-  g_autofree float *planar = g_new (float, length * n_mics);
-  g_autofree float *samples = g_new (float, length * n_mics);
+  const gsize n_spectra = (gsize) setup->geometry.n_microphones *
+      ch->band->n_bins;
   g_autofree SonarComplex *residual = g_memdup2 (whole, n_spectra *
       sizeof (SonarComplex));
   g_autofree SonarCentroid *failed = g_new (SonarCentroid, n_centroids + 1);
@@ -192,9 +177,7 @@ cancel_bound (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
       sizeof (gboolean));
   g_autofree gboolean *cancelled = g_new0 (gboolean, MAX (n, 1));
   g_autofree gboolean *done = g_new0 (gboolean, n_centroids + 1);
-  SonarScene one = *scene;
 
-  one.n_reflectors = 1;
   for (guint c = 0; c < n_centroids; c++)
     for (guint i = 0; i < ch->counts[c]; i++)
       done[c] |= ch->results[2 * c + i].valid;
@@ -204,10 +187,7 @@ cancel_bound (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
       if (!known[k] || cancelled[k])
         continue;
       cancelled[k] = TRUE;
-      one.reflectors = &scene->reflectors[k];
-      sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
-      interleave (planar, n_mics, length, samples);
-      chain_spectra (ch, samples, length);
+      render_alone (ch, quiet, setup, scene, &scene->reflectors[k]);
       for (gsize b = 0; b < n_spectra; b++)
         residual[b] -= ch->spectra[b];
     }

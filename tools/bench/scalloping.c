@@ -44,16 +44,11 @@ static double
 coarse_loss_db (Chain * ch, SonarSimulator * quiet, SonarSetup * setup,
     double azimuth, double spacing, gboolean cell, GError ** error)
 {
-  const guint n_mics = setup->geometry.n_microphones;
-  const gsize length = setup->ping_length;
   SonarImagerParams p = ch->config->imager;
   g_autoptr (SonarImager) imager = NULL;
-  g_autofree float *planar = g_new (float, length * n_mics);
-  g_autofree float *samples = g_new (float, length * n_mics);
   g_autofree float *image = NULL;
   const SonarImageGrid *g;
   SonarReflector point = { 0 };
-  SonarScene one;
   static const guint corners[] = { 0, 2, 6, 8 };
   float centre, corner = 0.0f;
 
@@ -77,15 +72,7 @@ coarse_loss_db (Chain * ch, SonarSimulator * quiet, SonarSetup * setup,
   point.strength = 1.0;
   point.position = sonar_vec3_scale (sonar_vec3_from_direction (azimuth +
           0.5 * spacing, cell ? 0.5 * spacing : 0.0), POINT_RANGE);
-  sonar_scene_init_preset (&one, SONAR_SCENE_PRESET_EMPTY);
-  one.reflectors = &point;
-  one.n_reflectors = 1;
-  sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
-  one.reflectors = NULL;
-  one.n_reflectors = 0;
-  sonar_scene_clear (&one);
-  interleave (planar, n_mics, length, samples);
-  chain_spectra (ch, samples, length);
+  render_alone (ch, quiet, setup, NULL, &point);
   sonar_imager_process (imager, ch->spectra, ch->n_templates, ch->hypotheses,
       -1, image);
 

@@ -73,6 +73,32 @@ interleave (const float *planar, guint n_mics, gsize length, float *out)
       out[i * n_mics + j] = planar[j * length + i];
 }
 
+void
+render_alone (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
+    const SonarScene * scene, const SonarReflector * object)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  g_autofree float *planar = g_new (float, length * n_mics);
+  g_autofree float *samples = g_new (float, length * n_mics);
+  SonarScene one;
+
+  if (scene)
+    one = *scene;
+  else
+    sonar_scene_init_preset (&one, SONAR_SCENE_PRESET_EMPTY);
+  one.reflectors = (SonarReflector *) object;
+  one.n_reflectors = 1;
+  sonar_simulator_render (quiet, &one, 0, 0.0, planar, NULL);
+  if (!scene) {
+    one.reflectors = NULL;
+    one.n_reflectors = 0;
+    sonar_scene_clear (&one);
+  }
+  interleave (planar, n_mics, length, samples);
+  chain_spectra (ch, samples, length);
+}
+
 SonarSimulator *
 bench_simulator_new (SonarSetup * setup, double noise_amplitude,
     GError ** error)

@@ -687,6 +687,13 @@ typedef struct
   guint steps;
   double density;               /* see LANE_DENSITY; measured once known */
   float q;
+  /* The elements of ranks known_first to known_first + 3 (G_MAXUINT:
+   * none), read by the last pass that found a quartile (lane_found ()):
+   * a censoring round's next quartile, most often a rank or two from the
+   * last, is often among them. Order statistics of all the lane's
+   * values, and those kept are the lowest: they hold for every round. */
+  guint known_first;
+  float known[4];
 } Lane;
 
 /* The next level a searching lane @l of @n values counts below: between
@@ -734,7 +741,8 @@ lane_round (Lane * l, float gain, float *level)
 
 /* Whether a pass that counted @count of lane @l's values below its level
  * found its target: the elements of ranks count - 2 to count + 1 are the
- * two values either side of the level (sonar_kernel_rank_pass ()). */
+ * two values either side of the level (sonar_kernel_rank_pass ()), kept
+ * as the lane's known ones when found. */
 static gboolean
 lane_found (Lane * l, guint count, const float *under, const float *over)
 {
@@ -750,6 +758,13 @@ lane_found (Lane * l, guint count, const float *under, const float *over)
     l->q = over[SONAR_RANK_LANES];
   else
     return FALSE;
+  if (count >= 2 && count + 1 < l->kept) {
+    l->known_first = count - 2;
+    l->known[0] = under[SONAR_RANK_LANES];
+    l->known[1] = under[0];
+    l->known[2] = over[0];
+    l->known[3] = over[SONAR_RANK_LANES];
+  }
   return TRUE;
 }
 
@@ -808,6 +823,7 @@ sonar_cluster_censored_quartiles (const float *x, gsize stride, guint n,
     l->target = n / 4;
     l->kept = n;
     l->density = LANE_DENSITY;
+    l->known_first = G_MAXUINT;
     level[j] = guess;
   }
   for (pass = 0; pass < LANE_PASSES; pass++) {
@@ -854,6 +870,15 @@ sonar_cluster_censored_quartiles (const float *x, gsize stride, guint n,
         if (next == l->rank) {
           /* The same quartile, so the same level and count: done. */
           l->stage = LANE_DONE;
+          continue;
+        }
+        if (next >= l->known_first && next - l->known_first < 4) {
+          /* Read already: the round's quartile, and its count next. */
+          l->q = l->known[next - l->known_first];
+          l->round++;
+          l->rank = l->target = next;
+          lane_round (l, gain, &level[j]);
+          searching |= l->stage != LANE_DONE;
           continue;
         }
         /* The next quartile lies on q's side that its rank says: a

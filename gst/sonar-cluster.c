@@ -383,8 +383,8 @@ sonar_select_kth (float *v, gsize n, gsize k)
 /* Share of noise's values censored_quartile () sets aside. */
 #define CENSOR_SHARE SONAR_CLUSTER_CENSOR_SHARE
 
-/* The brackets around a guess of censored_quartile () and
- * select_bracketed (), relative half-widths: a range bin's quartile over
+/* The brackets around a guess of censored_quartile (), relative
+ * half-widths: a range bin's quartile over
  * about 180 directions is a sample of the level the bins around it
  * share, about 10 % off it (neighbouring bins are nearly independent at
  * the band's range resolution; measured on a Fig. 10 image, against the
@@ -481,38 +481,68 @@ select_within (float *set, gsize m, gsize k, float lo, float hi)
   return select_set (set, m, k);
 }
 
-/* Element @k of the @n @values in ascending order, as sonar_select_kth ()
- * (the same value: an order statistic does not depend on how it is
- * found). When a bracket about @guess holds it (a narrow one, else a wide
- * one), only the values within are selected from (select_within ());
- * else (or with a NaN guess) all of them are, reordering @values only
- * then.
- * Why: Hoare's selection over random values mispredicts about every
- * other comparison, and the floors make two per range bin (clustering
- * was 56-84x its arithmetic floor); a pass without branches over them
- * costs a few of its comparisons each. @lo_share and @hi_share scale the
- * brackets' lower and upper halves (0: the value is known to lie on the
- * other side of the guess). @scratch holds @n floats. */
-static float
-select_bracketed (float *values, gsize n, gsize k, float guess,
-    float lo_share, float hi_share, float *scratch)
-{
-  gsize below, inside = 0;
-  float width = BRACKET_NARROW;
+/* Share of a lane's values per unit of relative value about its
+ * quartile, before one is measured: a Fig. 10 image's (a Rayleigh
+ * amplitude's is 0.43; the image's maximum over hypotheses is steeper). */
+#define LANE_DENSITY 0.9
 
-  if (!isfinite (guess))
-    return sonar_select_kth (values, n, k);
-  inside = keep_within (values, n, guess * (1.0f - lo_share * width),
-      guess * (1.0f + hi_share * width), scratch, &below);
-  if (!(k >= below && k - below < inside)) {
-    width = BRACKET_WIDE;
-    inside = keep_within (values, n, guess * (1.0f - lo_share * width),
-        guess * (1.0f + hi_share * width), scratch, &below);
-    if (!(k >= below && k - below < inside))
-      return sonar_select_kth (values, n, k);
+/* Where a lane of sonar_cluster_censored_quartiles () stands. */
+enum
+{
+  LANE_SEARCH,                  /* for the element of rank target */
+  LANE_COUNT,                   /* for how many lie below level */
+  LANE_DONE,
+};
+
+typedef struct
+{
+  int stage;
+  gboolean first;               /* searching for the first quartile */
+  guint target, rank, kept, round;
+  /* The search's bracket: the element of rank target lies in [lo, hi];
+   * c_lo values lie below lo, c_hi at or below hi (about: interpolation
+   * reads them); each end known or not; one-sided steps taken. */
+  float lo, hi;
+  guint c_lo, c_hi;
+  gboolean has_lo, has_hi;
+  guint steps;
+  double density;               /* see LANE_DENSITY; measured once known */
+  float q;
+  /* The elements of ranks known_first to known_first + 3 (G_MAXUINT:
+   * none), read by the last pass that found a quartile (lane_found ()):
+   * a censoring round's next quartile, most often a rank or two from the
+   * last, is often among them. Order statistics of all the lane's
+   * values, and those kept are the lowest: they hold for every round. */
+  guint known_first;
+  float known[4];
+} Lane;
+
+/* The next level a searching lane @l of @n values counts below: between
+ * its bracket's ends, where the ranks interpolate (strictly above lo, at
+ * most hi, so that each pass narrows it); with one end known, a step
+ * from it to where the lane's density puts the target, and after three
+ * such steps the infinite end (every value on one side). */
+static float
+lane_level (const Lane * l, guint n)
+{
+  const double t = l->target + 0.5;
+
+  if (l->has_lo && l->has_hi) {
+    float m = l->lo + (l->hi - l->lo) * (float) ((t - l->c_lo) /
+        ((double) l->c_hi - l->c_lo));
+    if (!(m > l->lo && m <= l->hi))
+      m = l->lo + 0.5f * (l->hi - l->lo);
+    if (!(m > l->lo && m <= l->hi))
+      m = l->hi;
+    return m;
   }
-  return select_within (scratch, inside, k - below,
-      guess * (1.0f - lo_share * width), guess * (1.0f + hi_share * width));
+  if (l->has_hi)
+    return l->steps >= 3 || !(l->hi > 0.0f) ? -INFINITY :
+        l->hi * (float) (1.0 - MIN (0.5, (l->c_hi - t) / n / l->density *
+            (1.0 + 0.5 * l->steps)));
+  return l->steps >= 3 || !(l->lo > 0.0f) ? INFINITY :
+      l->lo * (float) (1.0 + MIN (1.0, (t - l->c_lo) / n / l->density *
+          (1.0 + 0.5 * l->steps)));
 }
 
 /* How many of the @n @values lie below @level: vector code over chunks
@@ -531,6 +561,68 @@ count_below (const float *values, gsize n, float level)
   for (; i < n; i++)
     count += values[i] < level;
   return count;
+}
+
+/* Counts, at most, select_counted () makes before it selects, and the
+ * values it leaves: a count costs about what select_small () does over
+ * six. */
+#define COUNTED_PASSES 6
+#define COUNTED_LEFT 6
+
+/* Element @k of the @n @values (none NaN) in ascending order, as
+ * sonar_select_kth () (the same value; @values are not reordered,
+ * @scratch holds @n floats): counts of the values below levels about
+ * @guess (NaN: none; then a sample's quartile) close a bracket on it, as
+ * a lane's search in sonar_cluster_censored_quartiles () does, until it
+ * holds COUNTED_LEFT values or fewer, which are selected among.
+ * Why: a bracket of fixed width about a guess missed a column block's
+ * quartile two times in three (its guess, the neighbouring block's, is a
+ * sample of 56 values too, a tenth off) and Hoare's selection, with a
+ * misprediction every other comparison, was then its fallback: together
+ * a quarter of the clustering's time. A count is a pass of vector
+ * compares. */
+static float
+select_counted (const float *values, gsize n, gsize k, float guess,
+    float *scratch)
+{
+  Lane l = { .target = k, .density = LANE_DENSITY };
+  /* The element lies in [lo, hi) ([lo, hi] for an infinite hi): c_lo
+   * values lie below lo, c_hi below hi. */
+  float lo = -INFINITY, hi = INFINITY, level = guess;
+  gsize c_lo = 0, c_hi = n, below;
+
+  if (n <= SMALL_SELECT)
+    return select_small (values, n, k);
+  if (!isfinite (level)) {
+    float sample[8];
+    for (guint s = 0; s < 8; s++)
+      sample[s] = values[s * n / 8];
+    level = select_small (sample, 8, 2);
+  }
+  for (guint pass = 0; pass < COUNTED_PASSES && c_hi - c_lo > COUNTED_LEFT;
+      pass++) {
+    gsize count;
+    if (!(level > lo && level < hi))
+      break;
+    count = count_below (values, n, level);
+    if (count <= k) {
+      lo = l.lo = level;
+      c_lo = l.c_lo = count;
+      l.has_lo = TRUE;
+    } else {
+      hi = l.hi = level;
+      c_hi = l.c_hi = count;
+      l.has_hi = TRUE;
+    }
+    if (!(l.has_lo && l.has_hi))
+      l.steps++;
+    level = lane_level (&l, n);
+  }
+  /* [lo, hi) is [lo, the float below hi]. */
+  if (hi < INFINITY)
+    hi = nextafterf (hi, -INFINITY);
+  keep_within (values, n, lo, hi, scratch, &below);
+  return select_within (scratch, c_hi - c_lo, k - c_lo, lo, hi);
 }
 
 /* censored_quartile ()'s result in *@result, when the bracket [@lo, @hi]
@@ -607,8 +699,8 @@ censored_in_bracket (const float *values, gsize n, float gain, float lo,
  * as the Hoare selections it replaced, over 400,000 random rows of ties,
  * zeros and crowds): @guess (near the expected quartile; NaN for none)
  * only speeds it up: in one pass when a bracket about it holds every
- * quartile taken (censored_in_bracket ()), else by the selections'
- * brackets about the last quartile (select_bracketed ()). Reorders
+ * quartile taken (censored_in_bracket ()), else by counts about the
+ * last quartile (select_counted ()). Reorders
  * @values; @scratch holds 2 @n floats. */
 static float
 censored_quartile (float *values, gsize n, float gain, float guess,
@@ -646,11 +738,9 @@ censored_quartile (float *values, gsize n, float gain, float guess,
     kept = end;
     next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
     /* Only values above q were set aside: the element at the old rank is
-     * still q, and the new one lies on its side of it. */
-    if (next < rank)
-      q = select_bracketed (values, kept, next, q, 1.0f, 0.0f, scratch);
-    else if (next > rank)
-      q = select_bracketed (values, kept, next, q, 0.0f, 1.0f, scratch);
+     * still q, and the new one near it. */
+    if (next != rank)
+      q = select_counted (values, kept, next, q, scratch);
     rank = next;
   }
   return q;
@@ -660,70 +750,6 @@ censored_quartile (float *values, gsize n, float gain, float guess,
  * makes at most before it leaves the lanes still searching to
  * censored_quartile (). */
 #define LANE_PASSES 48
-/* Share of a lane's values per unit of relative value about its
- * quartile, before one is measured: a Fig. 10 image's (a Rayleigh
- * amplitude's is 0.43; the image's maximum over hypotheses is steeper). */
-#define LANE_DENSITY 0.9
-
-/* Where a lane of sonar_cluster_censored_quartiles () stands. */
-enum
-{
-  LANE_SEARCH,                  /* for the element of rank target */
-  LANE_COUNT,                   /* for how many lie below level */
-  LANE_DONE,
-};
-
-typedef struct
-{
-  int stage;
-  gboolean first;               /* searching for the first quartile */
-  guint target, rank, kept, round;
-  /* The search's bracket: the element of rank target lies in [lo, hi];
-   * c_lo values lie below lo, c_hi at or below hi (about: interpolation
-   * reads them); each end known or not; one-sided steps taken. */
-  float lo, hi;
-  guint c_lo, c_hi;
-  gboolean has_lo, has_hi;
-  guint steps;
-  double density;               /* see LANE_DENSITY; measured once known */
-  float q;
-  /* The elements of ranks known_first to known_first + 3 (G_MAXUINT:
-   * none), read by the last pass that found a quartile (lane_found ()):
-   * a censoring round's next quartile, most often a rank or two from the
-   * last, is often among them. Order statistics of all the lane's
-   * values, and those kept are the lowest: they hold for every round. */
-  guint known_first;
-  float known[4];
-} Lane;
-
-/* The next level a searching lane @l of @n values counts below: between
- * its bracket's ends, where the ranks interpolate (strictly above lo, at
- * most hi, so that each pass narrows it); with one end known, a step
- * from it to where the lane's density puts the target, and after three
- * such steps the infinite end (every value on one side). */
-static float
-lane_level (const Lane * l, guint n)
-{
-  const double t = l->target + 0.5;
-
-  if (l->has_lo && l->has_hi) {
-    float m = l->lo + (l->hi - l->lo) * (float) ((t - l->c_lo) /
-        ((double) l->c_hi - l->c_lo));
-    if (!(m > l->lo && m <= l->hi))
-      m = l->lo + 0.5f * (l->hi - l->lo);
-    if (!(m > l->lo && m <= l->hi))
-      m = l->hi;
-    return m;
-  }
-  if (l->has_hi)
-    return l->steps >= 3 || !(l->hi > 0.0f) ? -INFINITY :
-        l->hi * (float) (1.0 - MIN (0.5, (l->c_hi - t) / n / l->density *
-            (1.0 + 0.5 * l->steps)));
-  return l->steps >= 3 || !(l->lo > 0.0f) ? INFINITY :
-      l->lo * (float) (1.0 + MIN (1.0, (t - l->c_lo) / n / l->density *
-          (1.0 + 0.5 * l->steps)));
-}
-
 /* The top of censored_quartile ()'s rounds for lane @l, its quartile q
  * known: done, or counting below the next level. */
 static void
@@ -1036,7 +1062,7 @@ noise_floors (SonarClusterer * c, const float *image)
 
 /* The lower quartile of block @b of direction @d's column, computed
  * once per call; a neighbouring block's, when known, the guess of
- * select_bracketed () (a ridge's level changes little from block to
+ * select_counted () (a ridge's level changes little from block to
  * block). */
 static float
 column_quartile (SonarClusterer * c, WorkerScratch * ws, gsize d, guint b)
@@ -1053,8 +1079,8 @@ column_quartile (SonarClusterer * c, WorkerScratch * ws, gsize d, guint b)
     for (guint i = b * c->column_bins; i < i1; i++)
       if (isfinite (column[i]))
         ws->column_values[count++] = column[i];
-    *q = count > 0 ? select_bracketed (ws->column_values, count, count / 4,
-        guess, 1.0f, 1.0f, ws->bracketed) : 0.0f;
+    *q = count > 0 ? select_counted (ws->column_values, count, count / 4,
+        guess, ws->bracketed) : 0.0f;
   }
   return *q;
 }

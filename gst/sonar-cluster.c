@@ -1194,6 +1194,29 @@ range_maximum_mask (const float *pixels)
   return mask;
 }
 
+/* Which of the CHUNK @pixels none of the three pixels about them in the
+ * @next direction's column beats (@next[j - 1] to @next[j + 1] for pixel
+ * j; @earlier: that column comes first in the image, and an equal value
+ * beats): bit j for pixel j. Vector code, as range_maximum_mask (): a
+ * ridge's pixels over the levels mostly lose to a neighbouring
+ * direction's. */
+static inline guint
+direction_maximum_mask (const float *pixels, const float *next, int earlier)
+{
+  guint mask = 0;
+
+  for (int j = 0; j < CHUNK; j++) {
+    const float v = pixels[j];
+    int beaten = 0;
+    for (int di = -1; di <= 1; di++) {
+      const float u = next[j + di];
+      beaten |= ((u > v) | ((u == v) & earlier)) & (fabsf (u) < INFINITY);
+    }
+    mask |= chunk_bit[j] & ((guint) beaten - 1);
+  }
+  return mask;
+}
+
 /* Whether pixel @q, value @u, beats pixel @p, value @v, as a local
  * maximum: finite, and higher, or equal and earlier in the image (a
  * deterministic order). */
@@ -1265,8 +1288,15 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
         continue;
       mask = i1 - i0 == CHUNK ? passing_mask (column + i0, c->passing + i0)
           : (1u << (i1 - i0)) - 1;
-      if (i0 > 0 && i1 < g->n_range)
+      if (i0 > 0 && i1 < g->n_range) {
         mask &= range_maximum_mask (column + i0);
+        if (mask && a > 0)
+          mask &= direction_maximum_mask (column + i0, column + i0 -
+              g->n_range, TRUE);
+        if (mask && a + 1 < g->n_azimuth)
+          mask &= direction_maximum_mask (column + i0, column + i0 +
+              g->n_range, FALSE);
+      }
 
       while (mask) {
         const guint i = i0 + lowest_bit (mask);

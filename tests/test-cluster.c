@@ -978,11 +978,15 @@ test_peak_search (void)
     /* A plateau: one peak, the first pixel. */
     for (guint i = 300; i < 303; i++)
       image[40 * g->n_range + i % g->n_range] = 0.5f;
-    /* Another across the search's chunks of 16 range bins, and an
-     * infinite pixel beside one's first, which beats nothing. */
+    /* Another across the search's chunks of 16 range bins, one across
+     * two directions, and infinite pixels beside a chunk's first and in
+     * a neighbouring direction, which beat nothing. */
     image[50 * g->n_range + 127] = image[50 * g->n_range + 128] = 0.5f;
+    image[70 * g->n_range + 150] = image[71 * g->n_range + 150] = 0.5f;
     image[60 * g->n_range + 143] = INFINITY;
     image[60 * g->n_range + 144] = 0.4f;
+    image[80 * g->n_range + 150] = INFINITY;
+    image[81 * g->n_range + 151] = 0.4f;
     for (guint variant = 0; variant < 24; variant++) {
       SonarClusterParams p;
       g_autoptr (SonarClusterer) c = NULL;

@@ -988,60 +988,70 @@ column_censored_quartile (SonarClusterer * c, guint w, guint i, float censor,
  * out cost as much as the selections. A 3-D image's quartile is taken
  * over every k-th direction, at most FLOOR_DIRECTIONS of them: from a
  * thousand samples a quartile is steady to a few per cent. */
+/* Range bin @i's floor on its own (column_censored_quartile ()), and
+ * the running @guess: the mean of the last bins' quartiles (the level
+ * they share; one bin's own is a sample of it, off by a few per cent:
+ * neighbouring bins are nearly independent at the band's range
+ * resolution). */
+static void
+floor_alone (SonarClusterer * c, guint w, guint i, float censor, float gain,
+    float *guess)
+{
+  const float q = column_censored_quartile (c, w, i, censor, *guess);
+
+  *guess = isfinite (*guess) ? *guess + 0.125f * (q - *guess) : q;
+  c->floor[i] = gain * q;
+}
+
 /* Worker @w's share of the noise floors: a contiguous run of the range
- * bins in blocks of FLOOR_BLOCK; a block's bins SONAR_RANK_LANES at a
- * time, those left (the run's first, before there is a guess; a block
- * with a value not finite; the few the passes leave; the last bins) one
- * at a time. The floors do not depend on the share (an order statistic
- * is exact whatever the guess that speeds it up). */
+ * bins (whole blocks of FLOOR_BLOCK), SONAR_RANK_LANES at a time, the
+ * last lanes ending with the run (overlapping the ones before, whose
+ * floors they take again: one at a time, the 26 bins a Fig. 10 image
+ * leaves cost as much as all the lanes of a share). One at a time too:
+ * the run's first bin (for a guess), a run shorter than the lanes, lanes
+ * with a value not finite, and those the passes leave. The floors do
+ * not depend on the share (an order statistic is exact whatever the
+ * guess that speeds it up). */
 static void
 noise_floors_share (gpointer data, guint w, guint n_workers)
 {
   SonarClusterer *c = data;
   const SonarImageGrid *g = &c->grid;
-  const float *image = c->image;
+  const guint L = SONAR_RANK_LANES;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
   const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
+  const gsize n = (n_dirs + stride - 1) / stride;
   const guint n_blocks = (g->n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
-  const guint first = n_blocks * w / n_workers;
-  const guint end = n_blocks * (w + 1) / n_workers;
+  const guint start = MIN (n_blocks * w / n_workers * FLOOR_BLOCK,
+      g->n_range);
+  const guint stop = MIN (n_blocks * (w + 1) / n_workers * FLOOR_BLOCK,
+      g->n_range);
   const float gain = (float) sonar_cluster_floor_gain (c->params.pfa,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
   const float censor = (float) sonar_cluster_floor_gain (CENSOR_SHARE,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
   float guess = NAN;
 
-  for (guint i0 = first * FLOOR_BLOCK; i0 < MIN (end * FLOOR_BLOCK,
-          g->n_range); i0 += FLOOR_BLOCK) {
-    const guint block = MIN (FLOOR_BLOCK, g->n_range - i0);
-    const gsize n = (n_dirs + stride - 1) / stride;
-    guint b = 0;
+  for (guint i = start; i < stop;) {
+    const guint first = stop - start >= L ? MIN (i, stop - L) : i;
+    float q[SONAR_RANK_LANES];
+    guint8 ok[SONAR_RANK_LANES];
 
-    /* Whole lane blocks, once there is a guess: all at once. */
-    for (; b + SONAR_RANK_LANES <= block && isfinite (guess) && guess > 0.0f;
-        b += SONAR_RANK_LANES) {
-      float q[SONAR_RANK_LANES];
-      guint8 ok[SONAR_RANK_LANES];
-
-      if (!sonar_cluster_censored_quartiles (image + i0 + b, stride * g->n_range, n,
-              censor, guess, q, ok))
-        break;
-      for (guint j = 0; j < SONAR_RANK_LANES; j++) {
-        if (!ok[j])
-          q[j] = column_censored_quartile (c, w, i0 + b + j, censor, guess);
-        guess = guess + 0.125f * (q[j] - guess);
-        c->floor[i0 + b + j] = gain * q[j];
-      }
+    if (stop - start < L || !(isfinite (guess) && guess > 0.0f)) {
+      floor_alone (c, w, i++, censor, gain, &guess);
+      continue;
     }
-    /* The rest one at a time. */
-    for (; b < block; b++) {
-      /* The guess: the running mean of the last bins' quartiles (the
-       * level they share; one bin's own is a sample of it, off by a few
-       * per cent: neighbouring bins are nearly independent at the
-       * band's range resolution). */
-      const float q = column_censored_quartile (c, w, i0 + b, censor, guess);
-      guess = isfinite (guess) ? guess + 0.125f * (q - guess) : q;
-      c->floor[i0 + b] = gain * q;
+    if (!sonar_cluster_censored_quartiles (c->image + first,
+            stride * g->n_range, n, censor, guess, q, ok)) {
+      for (; i < first + L; i++)
+        floor_alone (c, w, i, censor, gain, &guess);
+      continue;
+    }
+    for (; i < first + L; i++) {
+      if (!ok[i - first])
+        q[i - first] = column_censored_quartile (c, w, i, censor, guess);
+      guess = guess + 0.125f * (q[i - first] - guess);
+      c->floor[i] = gain * q[i - first];
     }
   }
 }

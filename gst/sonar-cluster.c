@@ -29,6 +29,32 @@
 #define COLUMN_SPAN 0.15
 #define COLUMN_MIN_BINS 16
 
+/* The image the peak search and the fits read: @values, times the square
+ * of their range (@range[i] for range bin i) as they are read when
+ * @range is not NULL: the range-compensated image without a copy. */
+typedef struct
+{
+  const float *values;
+  const float *range;
+  guint n_range;
+} Pixels;
+
+/* Pixel @p of @im, in range bin @i. The compensation multiplies as
+ * compensate_pixels () does, (v r) r: the same floats. */
+static inline float
+pixel_in_bin (const Pixels * im, gsize p, guint i)
+{
+  const float v = im->values[p];
+
+  return im->range ? v * im->range[i] * im->range[i] : v;
+}
+
+static inline float
+pixel (const Pixels * im, gsize p)
+{
+  return pixel_in_bin (im, p, im->range ? p % im->n_range : 0);
+}
+
 /* The strongest peaks found: a min-heap (weakest on top) of at most
  * max_peaks while scanning. Which are kept depends on the peaks alone
  * (values, ties broken by pixel), not on the order they come in: the
@@ -60,7 +86,6 @@ struct _SonarClusterer
   SonarClusterParams params;
   SonarWorkers *workers;
   WorkerScratch scratch[SONAR_MAX_WORKERS];
-  const float *image;           /* the call's image, for the workers */
   SonarLinkageWork *linkage;    /* the clustering of the peaks */
   /* Peaks kept: the workers' heaps merged, then sorted strongest first. */
   PeakHeap peaks;
@@ -70,7 +95,23 @@ struct _SonarClusterer
   SonarVec3 *peak_direction;    /* unit */
   int *labels;
   int *slot;                    /* per label: output index, or -1 */
-  float *compensated;           /* the image times r^2, with range_compensation */
+  /* With range_compensation, the image times r^2 over the directions the
+   * noise floors take (floor_rows), row after row. The peak search reads
+   * it when it holds every direction (a 2-D image), else the image,
+   * compensating as it goes: a whole copy of a 3-D image was 58 MB held
+   * and written every ping, for a ninth of it read back by the floors
+   * (7-10 % of the clustering's CPU time). */
+  float *compensated;
+  /* The noise floors' rows: every floor_stride-th direction, n_floor_rows
+   * of them, floor_pitch floats apart from floor_rows on (the copy's or
+   * the image's). */
+  gsize floor_stride, n_floor_rows, floor_pitch;
+  const float *floor_rows;
+  Pixels pixels;                /* the call's image, for the peak search */
+  /* Per range bin: a level below which an uncompensated pixel of
+   * pixels.values fails passing (the same as passing when pixels.range is
+   * NULL); the chunks' first test. */
+  float *passing_raw;
   float *range;                 /* per range bin: r, m (the float the
                                  * compensation has always multiplied by) */
   float *floor;                 /* per range bin: threshold over the noise floor */
@@ -187,8 +228,13 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->peak_direction = g_new (SonarVec3, m);
   c->labels = g_new (int, m);
   c->slot = g_new (int, m + 1);
+  c->floor_stride = ((gsize) grid->n_azimuth * grid->n_elevation +
+      FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
+  c->n_floor_rows = ((gsize) grid->n_azimuth * grid->n_elevation +
+      c->floor_stride - 1) / c->floor_stride;
   if (params->range_compensation)
-    c->compensated = g_new (float, sonar_image_grid_size (grid));
+    c->compensated = g_new (float, c->n_floor_rows * grid->n_range);
+  c->passing_raw = g_new (float, grid->n_range);
   c->floor = g_new (float, grid->n_range);
   c->range = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++)
@@ -278,6 +324,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->row_max);
   g_free (c->sidelobe);
   g_free (c->passing);
+  g_free (c->passing_raw);
   g_free (c->column_quartile);
   g_free (c);
 }
@@ -958,19 +1005,16 @@ sonar_cluster_floor_gain (double pfa, double k)
 }
 
 /* censored_quartile () of range bin @i's column (its finite values over
- * every stride-th direction), gathered into worker @w's columns. */
+ * the floors' rows), gathered into worker @w's columns. */
 static float
 column_censored_quartile (SonarClusterer * c, guint w, guint i, float censor,
     float guess)
 {
-  const SonarImageGrid *g = &c->grid;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-  const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
   float *column = c->scratch[w].columns;
   gsize n = 0;
 
-  for (gsize d = 0; d < n_dirs; d += stride) {
-    const float v = c->image[d * g->n_range + i];
+  for (gsize r = 0; r < c->n_floor_rows; r++) {
+    const float v = c->floor_rows[r * c->floor_pitch + i];
     if (isfinite (v))
       column[n++] = v;
   }
@@ -1018,9 +1062,6 @@ noise_floors_share (gpointer data, guint w, guint n_workers)
   SonarClusterer *c = data;
   const SonarImageGrid *g = &c->grid;
   const guint L = SONAR_RANK_LANES;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-  const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
-  const gsize n = (n_dirs + stride - 1) / stride;
   const guint n_blocks = (g->n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
   const guint start = MIN (n_blocks * w / n_workers * FLOOR_BLOCK,
       g->n_range);
@@ -1041,8 +1082,8 @@ noise_floors_share (gpointer data, guint w, guint n_workers)
       floor_alone (c, w, i++, censor, gain, &guess);
       continue;
     }
-    if (!sonar_cluster_censored_quartiles (c->image + first,
-            stride * g->n_range, n, censor, guess, q, ok)) {
+    if (!sonar_cluster_censored_quartiles (c->floor_rows + first,
+            c->floor_pitch, c->n_floor_rows, censor, guess, q, ok)) {
       for (; i < first + L; i++)
         floor_alone (c, w, i, censor, gain, &guess);
       continue;
@@ -1056,9 +1097,10 @@ noise_floors_share (gpointer data, guint w, guint n_workers)
   }
 }
 
-/* Per range bin, the CFAR threshold over its directions' noise floor. */
+/* Per range bin, the CFAR threshold over its directions' noise floor
+ * (over c->floor_rows). */
 static void
-noise_floors (SonarClusterer * c, const float *image)
+noise_floors (SonarClusterer * c)
 {
   if (!(sonar_cluster_floor_gain (c->params.pfa,
               sonar_cluster_effective_hypotheses (c->params.hypotheses)) >
@@ -1066,7 +1108,6 @@ noise_floors (SonarClusterer * c, const float *image)
     memset (c->floor, 0, sizeof (float) * c->grid.n_range);
     return;
   }
-  c->image = image;
   sonar_workers_run (c->workers, noise_floors_share, c);
 }
 
@@ -1241,15 +1282,16 @@ beats (float u, gsize q, float v, gsize p)
  * pixel on an echo's flank loses to one of them), then the other
  * directions'. */
 static inline gboolean
-local_maximum (const SonarImageGrid * g, const float *image, gsize p,
+local_maximum (const SonarImageGrid * g, const Pixels * im, gsize p,
     guint e, guint a, guint i, float v)
 {
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
   const int di_first = i == 0 ? 0 : -1;
   const int di_last = i + 1 == g->n_range ? 0 : 1;
 
-  if ((i > 0 && beats (image[p - 1], p - 1, v, p))
-      || (i + 1 < g->n_range && beats (image[p + 1], p + 1, v, p)))
+  if ((i > 0 && beats (pixel_in_bin (im, p - 1, i - 1), p - 1, v, p))
+      || (i + 1 < g->n_range && beats (pixel_in_bin (im, p + 1, i + 1), p + 1,
+              v, p)))
     return FALSE;
   for (int de = e == 0 ? 0 : -1; de <= (e + 1 == g->n_elevation ? 0 : 1);
       de++)
@@ -1260,10 +1302,26 @@ local_maximum (const SonarImageGrid * g, const float *image, gsize p,
       if (de == 0 && da == 0)
         continue;
       for (int di = di_first; di <= di_last; di++)
-        if (beats (image[centre + di], centre + di, v, p))
+        if (beats (pixel_in_bin (im, centre + di, i + di), centre + di, v,
+                p))
           return FALSE;
     }
   return TRUE;
+}
+
+/* Pixels @i0 - 1 to @i0 + CHUNK of @column (within the image's range
+ * bins) as @im reads them: the column itself when it is not compensated
+ * as it is read, else compensated into @out. Returns where pixel @i0 is. */
+static inline const float *
+chunk_pixels (const Pixels * im, const float *column, guint i0, float *out)
+{
+  if (!im->range)
+    return column + i0;
+  for (guint j = 0; j < CHUNK + 2; j++) {
+    const float r = im->range[i0 - 1 + j];
+    out[j] = column[i0 - 1 + j] * r * r;
+  }
+  return out + 1;
 }
 
 /* Worker @w's share of find_peaks (): the peaks of its run of
@@ -1279,7 +1337,7 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   SonarClusterer *c = data;
   WorkerScratch *ws = &c->scratch[w];
   const SonarImageGrid *g = &c->grid;
-  const float *image = c->image;
+  const Pixels *im = &c->pixels;
   const float threshold = c->threshold;
   const guint capacity = c->params.max_peaks;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
@@ -1288,44 +1346,62 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
       d++) {
     const guint e = d / g->n_azimuth, a = d % g->n_azimuth;
-    const float *column = image + d * g->n_range;
+    const float *column = im->values + d * g->n_range;
     for (guint i0 = 0; i0 < g->n_range; i0 += CHUNK) {
       const guint i1 = MIN (i0 + CHUNK, g->n_range);
       guint mask;
 
       /* Nearly every chunk holds no pixel that reaches its level. */
-      if (i1 - i0 == CHUNK && !any_passing (column + i0, c->passing + i0))
+      if (i1 - i0 == CHUNK && !any_passing (column + i0,
+              c->passing_raw + i0))
         continue;
-      mask = i1 - i0 == CHUNK ? passing_mask (column + i0, c->passing + i0)
-          : (1u << (i1 - i0)) - 1;
-      if (i0 > 0 && i1 < g->n_range) {
-        mask &= range_maximum_mask (column + i0);
+      mask = i1 - i0 == CHUNK ? passing_mask (column + i0,
+          c->passing_raw + i0) : (1u << (i1 - i0)) - 1;
+      if (mask && i0 > 0 && i1 < g->n_range) {
+        /* The chunk and the neighbouring directions' pixels about it,
+         * with one pixel either side, compensated when they are read so. */
+        float chunk[3][CHUNK + 2];
+        const float *here = chunk_pixels (im, column, i0, chunk[0]);
+        mask &= range_maximum_mask (here);
         if (mask && a > 0)
-          mask &= direction_maximum_mask (column + i0, column + i0 -
-              g->n_range, TRUE);
+          mask &= direction_maximum_mask (here, chunk_pixels (im, column -
+                  g->n_range, i0, chunk[1]), TRUE);
         if (mask && a + 1 < g->n_azimuth)
-          mask &= direction_maximum_mask (column + i0, column + i0 +
-              g->n_range, FALSE);
+          mask &= direction_maximum_mask (here, chunk_pixels (im, column +
+                  g->n_range, i0, chunk[2]), FALSE);
       }
 
       while (mask) {
         const guint i = i0 + lowest_bit (mask);
         const gsize p = d * g->n_range + i;
-        const float v = image[p];
+        const float v = pixel_in_bin (im, p, i);
         const float r = c->range[i];
         mask &= mask - 1;
         if (!(v >= c->passing[i]))
           continue;
         if (!(v >= threshold) || !(v >= c->floor[i])
             || !(v >= c->sidelobe[i]) || !isfinite (v)
-            || !local_maximum (g, image, p, e, a, i, v)
+            || !local_maximum (g, im, p, e, a, i, v)
             || !(v >= column_floor (c, ws, d, i) *
-                (c->compensated ? r * r : 1.0f)))
+                (c->params.range_compensation ? r * r : 1.0f)))
           continue;
         keep_peak (&ws->peaks, capacity, v, p);
       }
     }
   }
+}
+
+/* A level below which a pixel v fails (v r) r >= @level: @level / r^2
+ * less a margin over the products' and the quotient's rounding (a few
+ * parts in 10^7, while no product is subnormal); -inf (no pixel fails)
+ * where that does not hold. */
+static float
+raw_level (float level, float r)
+{
+  const float raw = level / (r * r) * (1.0f - 1e-5f);
+
+  return r > 0.0f && isfinite (r * r) && level >= 1e-30f
+      && raw >= 1e-30f && isfinite (raw) ? raw : -INFINITY;
 }
 
 /* The pixels of @image (range-compensated if so set) above @threshold,
@@ -1334,17 +1410,19 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
  * sidelobe threshold that are local maxima, the max_peaks strongest of
  * them into c->peaks, strongest first. */
 static void
-find_peaks (SonarClusterer * c, const float *image, float threshold)
+find_peaks (SonarClusterer * c, float threshold)
 {
   PeakHeap *h = &c->peaks;
   guint found = 0;
 
-  c->image = image;
   c->threshold = threshold;
   /* A pixel below one of them fails that test too (fmaxf () passes a NaN
    * over, leaving the level lower: the tests themselves still apply). */
-  for (guint i = 0; i < c->grid.n_range; i++)
+  for (guint i = 0; i < c->grid.n_range; i++) {
     c->passing[i] = fmaxf (threshold, fmaxf (c->floor[i], c->sidelobe[i]));
+    c->passing_raw[i] = c->pixels.range ? raw_level (c->passing[i],
+        c->range[i]) : c->passing[i];
+  }
   sonar_workers_run (c->workers, find_peaks_share, c);
   h->n = 0;
   for (guint w = 0; w < sonar_workers_count (c->workers); w++) {
@@ -1364,18 +1442,21 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
 /* Sub-step offset (-0.5..0.5) of the maximum of the parabola through the
  * logarithms of three samples, 0 when they do not allow one. */
 static double
-refine (const float *image, gsize p, gsize stride, guint index, guint n)
+refine (const Pixels * im, gsize p, gsize stride, guint index, guint n)
 {
   double lm, l0, lp, curvature;
+  float before, after;
 
   if (index == 0 || index + 1 >= n)
     return 0.0;
-  if (!(image[p - stride] > 0.0f && image[p + stride] > 0.0f
-          && isfinite (image[p - stride]) && isfinite (image[p + stride])))
+  before = pixel (im, p - stride);
+  after = pixel (im, p + stride);
+  if (!(before > 0.0f && after > 0.0f && isfinite (before)
+          && isfinite (after)))
     return 0.0;
-  lm = log (image[p - stride]);
-  l0 = log (image[p]);
-  lp = log (image[p + stride]);
+  lm = log (before);
+  l0 = log (pixel (im, p));
+  lp = log (after);
   curvature = lm - 2.0 * l0 + lp;
   if (!(curvature < 0.0))
     return 0.0;
@@ -1388,7 +1469,7 @@ refine (const float *image, gsize p, gsize stride, guint index, guint n)
  * written) at the grid's edge, where a sample is not a positive number,
  * or where the quadratic has no maximum. */
 static gboolean
-fit_direction (const float *image, gsize p, guint a, guint e,
+fit_direction (const Pixels * im, gsize p, guint a, guint e,
     const SonarImageGrid * g, double *offset_a, double *offset_e)
 {
   const gsize stride_a = g->n_range;
@@ -1399,8 +1480,8 @@ fit_direction (const float *image, gsize p, guint a, guint e,
     return FALSE;
   for (guint row = 0; row < 3; row++)
     for (guint col = 0; col < 3; col++) {
-      const float v = image[p + row * stride_e + col * stride_a - stride_e -
-          stride_a];
+      const float v = pixel (im, p + row * stride_e + col * stride_a -
+          stride_e - stride_a);
       if (!(v > 0.0f && isfinite (v)))
         return FALSE;
       l[row][col] = log (v);
@@ -1447,7 +1528,7 @@ neighbour_weight (double position)
  * pixels share). FALSE where the pixel's own fit does not hold (then the
  * separable parabolas); a neighbour's that does not hold is left out. */
 static gboolean
-refine_direction (const float *image, gsize p, guint a, guint e,
+refine_direction (const Pixels * im, gsize p, guint a, guint e,
     const SonarImageGrid * g, double *offset_a, double *offset_e)
 {
   const gssize stride_a = g->n_range;
@@ -1459,7 +1540,7 @@ refine_direction (const float *image, gsize p, guint a, guint e,
   gboolean held[2][2] = { {FALSE, FALSE}, {FALSE, FALSE} };
   int side_a, side_e;
 
-  if (!fit_direction (image, p, a, e, g, &x[0][0], &y[0][0]))
+  if (!fit_direction (im, p, a, e, g, &x[0][0], &y[0][0]))
     return FALSE;
   held[0][0] = TRUE;
   side_a = x[0][0] >= 0.0 ? 1 : -1;
@@ -1472,7 +1553,7 @@ refine_direction (const float *image, gsize p, guint a, guint e,
           || (int) a + da >= (int) g->n_azimuth || (int) e + de < 0
           || (int) e + de >= (int) g->n_elevation)
         continue;
-      held[row][col] = fit_direction (image, p + da * stride_a +
+      held[row][col] = fit_direction (im, p + da * stride_a +
           de * stride_e, a + da, e + de, g, &u, &v);
       x[row][col] = da + u;
       y[row][col] = de + v;
@@ -1508,9 +1589,10 @@ refine_direction (const float *image, gsize p, guint a, guint e,
 }
 
 static void
-locate_peaks (SonarClusterer * c, const float *image)
+locate_peaks (SonarClusterer * c)
 {
   const SonarImageGrid *g = &c->grid;
+  const Pixels *im = &c->pixels;
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
 
   for (guint k = 0; k < c->peaks.n; k++) {
@@ -1518,13 +1600,13 @@ locate_peaks (SonarClusterer * c, const float *image)
     const guint i = p % g->n_range, a = (p / g->n_range) % g->n_azimuth;
     const guint e = p / stride_e;
     const double r = g->range_first + g->range_step *
-        (i + refine (image, p, 1, i, g->n_range));
+        (i + refine (im, p, 1, i, g->n_range));
     double offset_a, offset_e, az, el;
     SonarVec3 u;
 
-    if (!refine_direction (image, p, a, e, g, &offset_a, &offset_e)) {
-      offset_a = refine (image, p, g->n_range, a, g->n_azimuth);
-      offset_e = refine (image, p, stride_e, e, g->n_elevation);
+    if (!refine_direction (im, p, a, e, g, &offset_a, &offset_e)) {
+      offset_a = refine (im, p, g->n_range, a, g->n_azimuth);
+      offset_e = refine (im, p, stride_e, e, g->n_elevation);
     }
     az = g->azimuth_first + g->azimuth_step * (a + offset_a);
     el = g->elevation_first + g->elevation_step * (e + offset_e);
@@ -1566,18 +1648,23 @@ refuse_links (SonarClusterer * c, const double *Z, guint n)
   }
 }
 
-/* @n pixels @in times @range squared into @compensated (when not NULL),
- * and each finite one into @row_max where it is higher: a select, without
- * branches, and vector code for @n = CHUNK (restrict: none of the arrays
- * overlap). */
+/* @n pixels @in, times @range squared when it is not NULL, each finite
+ * one into @row_max where it is higher (a select, without branches), and
+ * into @compensated when not NULL: vector code for @n = CHUNK (restrict:
+ * none of the arrays overlap). */
 static inline void
 compensate_pixels (float *restrict compensated, float *restrict row_max,
     const float *restrict in, const float *restrict range, guint n)
 {
-  if (compensated) {
+  if (range && compensated) {
     for (guint i = 0; i < n; i++) {
       const float v = in[i] * range[i] * range[i];
       compensated[i] = v;
+      row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+    }
+  } else if (range) {
+    for (guint i = 0; i < n; i++) {
+      const float v = in[i] * range[i] * range[i];
       row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
     }
   } else {
@@ -1588,9 +1675,9 @@ compensate_pixels (float *restrict compensated, float *restrict row_max,
   }
 }
 
-/* Worker @w's share of the first pass: its run of directions compensated
- * (when so set), and their strongest pixel per range bin into its
- * row_max. */
+/* Worker @w's share of the first pass: the strongest pixel per range
+ * bin of its run of directions (compensated when so set) into its
+ * row_max, and the floors' rows among them into c->compensated. */
 static void
 compensate_share (gpointer data, guint w, guint n_workers)
 {
@@ -1602,16 +1689,17 @@ compensate_share (gpointer data, guint w, guint n_workers)
   memset (row_max, 0, sizeof (float) * g->n_range);
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
       d++) {
-    const float *in = c->image + d * g->n_range;
-    float *compensated = c->compensated ? c->compensated + d * g->n_range :
-        NULL;
+    const float *in = c->pixels.values + d * g->n_range;
+    const float *range = c->compensated ? c->range : NULL;
+    float *compensated = c->compensated && d % c->floor_stride == 0 ?
+        c->compensated + d / c->floor_stride * g->n_range : NULL;
     guint i = 0;
 
     for (; i + CHUNK <= g->n_range; i += CHUNK)
       compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
-          in + i, c->range + i, CHUNK);
+          in + i, range ? range + i : NULL, CHUNK);
     compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
-        in + i, c->range + i, g->n_range - i);
+        in + i, range ? range + i : NULL, g->n_range - i);
   }
 }
 
@@ -1630,17 +1718,27 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   g_return_val_if_fail (out || max_centroids == 0, 0);
   g = &c->grid;
   n_pixels = sonar_image_grid_size (g);
-  /* One pass over the image, shared out: compensated (when so set), each
-   * range's strongest pixel over the directions (for the sidelobe
-   * thresholds), and so the image's. */
-  c->image = image;
+  /* One pass over the image, shared out: each range's strongest pixel
+   * over the directions (for the sidelobe thresholds), and so the
+   * image's, compensated when so set, and the floors' rows' copy. */
+  c->pixels.values = image;
+  c->pixels.range = NULL;
+  c->pixels.n_range = g->n_range;
   sonar_workers_run (c->workers, compensate_share, c);
   memcpy (c->row_max, c->scratch[0].row_max, sizeof (float) * g->n_range);
   for (guint w = 1; w < sonar_workers_count (c->workers); w++)
     for (guint i = 0; i < g->n_range; i++)
       c->row_max[i] = MAX (c->row_max[i], c->scratch[w].row_max[i]);
-  if (c->compensated)
-    image = c->compensated;
+  c->floor_rows = image;
+  c->floor_pitch = c->floor_stride * g->n_range;
+  if (c->compensated) {
+    c->floor_rows = c->compensated;
+    c->floor_pitch = g->n_range;
+    if (c->n_floor_rows == n_pixels / g->n_range)
+      c->pixels.values = c->compensated;
+    else
+      c->pixels.range = c->range;
+  }
   for (guint i = 0; i < g->n_range; i++)
     max = MAX (max, c->row_max[i]);
   c->peaks.n_found = c->peaks.n = 0;
@@ -1648,7 +1746,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
     return 0;
   threshold = MAX (max * pow (10.0, c->params.threshold_db / 20.0),
       c->params.absolute_threshold);
-  noise_floors (c, image);
+  noise_floors (c);
   sidelobe_thresholds (c);
   c->raw = raw;
   c->column_gain = (float) (SONAR_CLUSTER_COLUMN_MARGIN * sonar_cluster_floor_gain
@@ -1656,11 +1754,11 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
           (c->params.hypotheses)));
   for (gsize k = 0; k < n_pixels / g->n_range * c->n_column_blocks; k++)
     c->column_quartile[k] = NAN;
-  find_peaks (c, image, threshold);
+  find_peaks (c, threshold);
   n = c->peaks.n;
   if (n == 0)
     return 0;
-  locate_peaks (c, image);
+  locate_peaks (c);
 
   if (n >= 2) {
     Z = sonar_linkage_work_run (c->linkage, c->points, n);

@@ -29,6 +29,32 @@
 #define COLUMN_SPAN 0.15
 #define COLUMN_MIN_BINS 16
 
+/* The image the peak search and the fits read: @values, times the square
+ * of their range (@range[i] for range bin i) as they are read when
+ * @range is not NULL: the range-compensated image without a copy. */
+typedef struct
+{
+  const float *values;
+  const float *range;
+  guint n_range;
+} Pixels;
+
+/* Pixel @p of @im, in range bin @i. The compensation multiplies as
+ * compensate_pixels () does, (v r) r: the same floats. */
+static inline float
+pixel_in_bin (const Pixels * im, gsize p, guint i)
+{
+  const float v = im->values[p];
+
+  return im->range ? v * im->range[i] * im->range[i] : v;
+}
+
+static inline float
+pixel (const Pixels * im, gsize p)
+{
+  return pixel_in_bin (im, p, im->range ? p % im->n_range : 0);
+}
+
 /* The strongest peaks found: a min-heap (weakest on top) of at most
  * max_peaks while scanning. Which are kept depends on the peaks alone
  * (values, ties broken by pixel), not on the order they come in: the
@@ -60,7 +86,6 @@ struct _SonarClusterer
   SonarClusterParams params;
   SonarWorkers *workers;
   WorkerScratch scratch[SONAR_MAX_WORKERS];
-  const float *image;           /* the call's image, for the workers */
   SonarLinkageWork *linkage;    /* the clustering of the peaks */
   /* Peaks kept: the workers' heaps merged, then sorted strongest first. */
   PeakHeap peaks;
@@ -70,7 +95,23 @@ struct _SonarClusterer
   SonarVec3 *peak_direction;    /* unit */
   int *labels;
   int *slot;                    /* per label: output index, or -1 */
-  float *compensated;           /* the image times r^2, with range_compensation */
+  /* With range_compensation, the image times r^2 over the directions the
+   * noise floors take (floor_rows), row after row. The peak search reads
+   * it when it holds every direction (a 2-D image), else the image,
+   * compensating as it goes: a whole copy of a 3-D image was 58 MB held
+   * and written every ping, for a ninth of it read back by the floors
+   * (7-10 % of the clustering's CPU time). */
+  float *compensated;
+  /* The noise floors' rows: every floor_stride-th direction, n_floor_rows
+   * of them, floor_pitch floats apart from floor_rows on (the copy's or
+   * the image's). */
+  gsize floor_stride, n_floor_rows, floor_pitch;
+  const float *floor_rows;
+  Pixels pixels;                /* the call's image, for the peak search */
+  /* Per range bin: a level below which an uncompensated pixel of
+   * pixels.values fails passing (the same as passing when pixels.range is
+   * NULL); the chunks' first test. */
+  float *passing_raw;
   float *range;                 /* per range bin: r, m (the float the
                                  * compensation has always multiplied by) */
   float *floor;                 /* per range bin: threshold over the noise floor */
@@ -187,8 +228,13 @@ sonar_clusterer_new (const SonarImageGrid * grid,
   c->peak_direction = g_new (SonarVec3, m);
   c->labels = g_new (int, m);
   c->slot = g_new (int, m + 1);
+  c->floor_stride = ((gsize) grid->n_azimuth * grid->n_elevation +
+      FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
+  c->n_floor_rows = ((gsize) grid->n_azimuth * grid->n_elevation +
+      c->floor_stride - 1) / c->floor_stride;
   if (params->range_compensation)
-    c->compensated = g_new (float, sonar_image_grid_size (grid));
+    c->compensated = g_new (float, c->n_floor_rows * grid->n_range);
+  c->passing_raw = g_new (float, grid->n_range);
   c->floor = g_new (float, grid->n_range);
   c->range = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++)
@@ -278,6 +324,7 @@ sonar_clusterer_free (SonarClusterer * c)
   g_free (c->row_max);
   g_free (c->sidelobe);
   g_free (c->passing);
+  g_free (c->passing_raw);
   g_free (c->column_quartile);
   g_free (c);
 }
@@ -383,8 +430,8 @@ sonar_select_kth (float *v, gsize n, gsize k)
 /* Share of noise's values censored_quartile () sets aside. */
 #define CENSOR_SHARE SONAR_CLUSTER_CENSOR_SHARE
 
-/* The brackets around a guess of censored_quartile () and
- * select_bracketed (), relative half-widths: a range bin's quartile over
+/* The brackets around a guess of censored_quartile (), relative
+ * half-widths: a range bin's quartile over
  * about 180 directions is a sample of the level the bins around it
  * share, about 10 % off it (neighbouring bins are nearly independent at
  * the band's range resolution; measured on a Fig. 10 image, against the
@@ -481,38 +528,68 @@ select_within (float *set, gsize m, gsize k, float lo, float hi)
   return select_set (set, m, k);
 }
 
-/* Element @k of the @n @values in ascending order, as sonar_select_kth ()
- * (the same value: an order statistic does not depend on how it is
- * found). When a bracket about @guess holds it (a narrow one, else a wide
- * one), only the values within are selected from (select_within ());
- * else (or with a NaN guess) all of them are, reordering @values only
- * then.
- * Why: Hoare's selection over random values mispredicts about every
- * other comparison, and the floors make two per range bin (clustering
- * was 56-84x its arithmetic floor); a pass without branches over them
- * costs a few of its comparisons each. @lo_share and @hi_share scale the
- * brackets' lower and upper halves (0: the value is known to lie on the
- * other side of the guess). @scratch holds @n floats. */
-static float
-select_bracketed (float *values, gsize n, gsize k, float guess,
-    float lo_share, float hi_share, float *scratch)
-{
-  gsize below, inside = 0;
-  float width = BRACKET_NARROW;
+/* Share of a lane's values per unit of relative value about its
+ * quartile, before one is measured: a Fig. 10 image's (a Rayleigh
+ * amplitude's is 0.43; the image's maximum over hypotheses is steeper). */
+#define LANE_DENSITY 0.9
 
-  if (!isfinite (guess))
-    return sonar_select_kth (values, n, k);
-  inside = keep_within (values, n, guess * (1.0f - lo_share * width),
-      guess * (1.0f + hi_share * width), scratch, &below);
-  if (!(k >= below && k - below < inside)) {
-    width = BRACKET_WIDE;
-    inside = keep_within (values, n, guess * (1.0f - lo_share * width),
-        guess * (1.0f + hi_share * width), scratch, &below);
-    if (!(k >= below && k - below < inside))
-      return sonar_select_kth (values, n, k);
+/* Where a lane of sonar_cluster_censored_quartiles () stands. */
+enum
+{
+  LANE_SEARCH,                  /* for the element of rank target */
+  LANE_COUNT,                   /* for how many lie below level */
+  LANE_DONE,
+};
+
+typedef struct
+{
+  int stage;
+  gboolean first;               /* searching for the first quartile */
+  guint target, rank, kept, round;
+  /* The search's bracket: the element of rank target lies in [lo, hi];
+   * c_lo values lie below lo, c_hi at or below hi (about: interpolation
+   * reads them); each end known or not; one-sided steps taken. */
+  float lo, hi;
+  guint c_lo, c_hi;
+  gboolean has_lo, has_hi;
+  guint steps;
+  double density;               /* see LANE_DENSITY; measured once known */
+  float q;
+  /* The elements of ranks known_first to known_first + 3 (G_MAXUINT:
+   * none), read by the last pass that found a quartile (lane_found ()):
+   * a censoring round's next quartile, most often a rank or two from the
+   * last, is often among them. Order statistics of all the lane's
+   * values, and those kept are the lowest: they hold for every round. */
+  guint known_first;
+  float known[4];
+} Lane;
+
+/* The next level a searching lane @l of @n values counts below: between
+ * its bracket's ends, where the ranks interpolate (strictly above lo, at
+ * most hi, so that each pass narrows it); with one end known, a step
+ * from it to where the lane's density puts the target, and after three
+ * such steps the infinite end (every value on one side). */
+static float
+lane_level (const Lane * l, guint n)
+{
+  const double t = l->target + 0.5;
+
+  if (l->has_lo && l->has_hi) {
+    float m = l->lo + (l->hi - l->lo) * (float) ((t - l->c_lo) /
+        ((double) l->c_hi - l->c_lo));
+    if (!(m > l->lo && m <= l->hi))
+      m = l->lo + 0.5f * (l->hi - l->lo);
+    if (!(m > l->lo && m <= l->hi))
+      m = l->hi;
+    return m;
   }
-  return select_within (scratch, inside, k - below,
-      guess * (1.0f - lo_share * width), guess * (1.0f + hi_share * width));
+  if (l->has_hi)
+    return l->steps >= 3 || !(l->hi > 0.0f) ? -INFINITY :
+        l->hi * (float) (1.0 - MIN (0.5, (l->c_hi - t) / n / l->density *
+            (1.0 + 0.5 * l->steps)));
+  return l->steps >= 3 || !(l->lo > 0.0f) ? INFINITY :
+      l->lo * (float) (1.0 + MIN (1.0, (t - l->c_lo) / n / l->density *
+          (1.0 + 0.5 * l->steps)));
 }
 
 /* How many of the @n @values lie below @level: vector code over chunks
@@ -531,6 +608,68 @@ count_below (const float *values, gsize n, float level)
   for (; i < n; i++)
     count += values[i] < level;
   return count;
+}
+
+/* Counts, at most, select_counted () makes before it selects, and the
+ * values it leaves: a count costs about what select_small () does over
+ * six. */
+#define COUNTED_PASSES 6
+#define COUNTED_LEFT 6
+
+/* Element @k of the @n @values (none NaN) in ascending order, as
+ * sonar_select_kth () (the same value; @values are not reordered,
+ * @scratch holds @n floats): counts of the values below levels about
+ * @guess (NaN: none; then a sample's quartile) close a bracket on it, as
+ * a lane's search in sonar_cluster_censored_quartiles () does, until it
+ * holds COUNTED_LEFT values or fewer, which are selected among.
+ * Why: a bracket of fixed width about a guess missed a column block's
+ * quartile two times in three (its guess, the neighbouring block's, is a
+ * sample of 56 values too, a tenth off) and Hoare's selection, with a
+ * misprediction every other comparison, was then its fallback: together
+ * a quarter of the clustering's time. A count is a pass of vector
+ * compares. */
+static float
+select_counted (const float *values, gsize n, gsize k, float guess,
+    float *scratch)
+{
+  Lane l = { .target = k, .density = LANE_DENSITY };
+  /* The element lies in [lo, hi) ([lo, hi] for an infinite hi): c_lo
+   * values lie below lo, c_hi below hi. */
+  float lo = -INFINITY, hi = INFINITY, level = guess;
+  gsize c_lo = 0, c_hi = n, below;
+
+  if (n <= SMALL_SELECT)
+    return select_small (values, n, k);
+  if (!isfinite (level)) {
+    float sample[8];
+    for (guint s = 0; s < 8; s++)
+      sample[s] = values[s * n / 8];
+    level = select_small (sample, 8, 2);
+  }
+  for (guint pass = 0; pass < COUNTED_PASSES && c_hi - c_lo > COUNTED_LEFT;
+      pass++) {
+    gsize count;
+    if (!(level > lo && level < hi))
+      break;
+    count = count_below (values, n, level);
+    if (count <= k) {
+      lo = l.lo = level;
+      c_lo = l.c_lo = count;
+      l.has_lo = TRUE;
+    } else {
+      hi = l.hi = level;
+      c_hi = l.c_hi = count;
+      l.has_hi = TRUE;
+    }
+    if (!(l.has_lo && l.has_hi))
+      l.steps++;
+    level = lane_level (&l, n);
+  }
+  /* [lo, hi) is [lo, the float below hi]. */
+  if (hi < INFINITY)
+    hi = nextafterf (hi, -INFINITY);
+  keep_within (values, n, lo, hi, scratch, &below);
+  return select_within (scratch, c_hi - c_lo, k - c_lo, lo, hi);
 }
 
 /* censored_quartile ()'s result in *@result, when the bracket [@lo, @hi]
@@ -607,8 +746,8 @@ censored_in_bracket (const float *values, gsize n, float gain, float lo,
  * as the Hoare selections it replaced, over 400,000 random rows of ties,
  * zeros and crowds): @guess (near the expected quartile; NaN for none)
  * only speeds it up: in one pass when a bracket about it holds every
- * quartile taken (censored_in_bracket ()), else by the selections'
- * brackets about the last quartile (select_bracketed ()). Reorders
+ * quartile taken (censored_in_bracket ()), else by counts about the
+ * last quartile (select_counted ()). Reorders
  * @values; @scratch holds 2 @n floats. */
 static float
 censored_quartile (float *values, gsize n, float gain, float guess,
@@ -646,11 +785,9 @@ censored_quartile (float *values, gsize n, float gain, float guess,
     kept = end;
     next = MIN (kept - 1, (gsize) (0.25 * kept / (1.0 - CENSOR_SHARE)));
     /* Only values above q were set aside: the element at the old rank is
-     * still q, and the new one lies on its side of it. */
-    if (next < rank)
-      q = select_bracketed (values, kept, next, q, 1.0f, 0.0f, scratch);
-    else if (next > rank)
-      q = select_bracketed (values, kept, next, q, 0.0f, 1.0f, scratch);
+     * still q, and the new one near it. */
+    if (next != rank)
+      q = select_counted (values, kept, next, q, scratch);
     rank = next;
   }
   return q;
@@ -660,63 +797,6 @@ censored_quartile (float *values, gsize n, float gain, float guess,
  * makes at most before it leaves the lanes still searching to
  * censored_quartile (). */
 #define LANE_PASSES 48
-/* Share of a lane's values per unit of relative value about its
- * quartile, before one is measured: a Fig. 10 image's (a Rayleigh
- * amplitude's is 0.43; the image's maximum over hypotheses is steeper). */
-#define LANE_DENSITY 0.9
-
-/* Where a lane of sonar_cluster_censored_quartiles () stands. */
-enum
-{
-  LANE_SEARCH,                  /* for the element of rank target */
-  LANE_COUNT,                   /* for how many lie below level */
-  LANE_DONE,
-};
-
-typedef struct
-{
-  int stage;
-  gboolean first;               /* searching for the first quartile */
-  guint target, rank, kept, round;
-  /* The search's bracket: the element of rank target lies in [lo, hi];
-   * c_lo values lie below lo, c_hi at or below hi (about: interpolation
-   * reads them); each end known or not; one-sided steps taken. */
-  float lo, hi;
-  guint c_lo, c_hi;
-  gboolean has_lo, has_hi;
-  guint steps;
-  double density;               /* see LANE_DENSITY; measured once known */
-  float q;
-} Lane;
-
-/* The next level a searching lane @l of @n values counts below: between
- * its bracket's ends, where the ranks interpolate (strictly above lo, at
- * most hi, so that each pass narrows it); with one end known, a step
- * from it to where the lane's density puts the target, and after three
- * such steps the infinite end (every value on one side). */
-static float
-lane_level (const Lane * l, guint n)
-{
-  const double t = l->target + 0.5;
-
-  if (l->has_lo && l->has_hi) {
-    float m = l->lo + (l->hi - l->lo) * (float) ((t - l->c_lo) /
-        ((double) l->c_hi - l->c_lo));
-    if (!(m > l->lo && m <= l->hi))
-      m = l->lo + 0.5f * (l->hi - l->lo);
-    if (!(m > l->lo && m <= l->hi))
-      m = l->hi;
-    return m;
-  }
-  if (l->has_hi)
-    return l->steps >= 3 || !(l->hi > 0.0f) ? -INFINITY :
-        l->hi * (float) (1.0 - MIN (0.5, (l->c_hi - t) / n / l->density *
-            (1.0 + 0.5 * l->steps)));
-  return l->steps >= 3 || !(l->lo > 0.0f) ? INFINITY :
-      l->lo * (float) (1.0 + MIN (1.0, (t - l->c_lo) / n / l->density *
-          (1.0 + 0.5 * l->steps)));
-}
-
 /* The top of censored_quartile ()'s rounds for lane @l, its quartile q
  * known: done, or counting below the next level. */
 static void
@@ -734,7 +814,8 @@ lane_round (Lane * l, float gain, float *level)
 
 /* Whether a pass that counted @count of lane @l's values below its level
  * found its target: the elements of ranks count - 2 to count + 1 are the
- * two values either side of the level (sonar_kernel_rank_pass ()). */
+ * two values either side of the level (sonar_kernel_rank_pass ()), kept
+ * as the lane's known ones when found. */
 static gboolean
 lane_found (Lane * l, guint count, const float *under, const float *over)
 {
@@ -750,6 +831,13 @@ lane_found (Lane * l, guint count, const float *under, const float *over)
     l->q = over[SONAR_RANK_LANES];
   else
     return FALSE;
+  if (count >= 2 && count + 1 < l->kept) {
+    l->known_first = count - 2;
+    l->known[0] = under[SONAR_RANK_LANES];
+    l->known[1] = under[0];
+    l->known[2] = over[0];
+    l->known[3] = over[SONAR_RANK_LANES];
+  }
   return TRUE;
 }
 
@@ -808,6 +896,7 @@ sonar_cluster_censored_quartiles (const float *x, gsize stride, guint n,
     l->target = n / 4;
     l->kept = n;
     l->density = LANE_DENSITY;
+    l->known_first = G_MAXUINT;
     level[j] = guess;
   }
   for (pass = 0; pass < LANE_PASSES; pass++) {
@@ -854,6 +943,15 @@ sonar_cluster_censored_quartiles (const float *x, gsize stride, guint n,
         if (next == l->rank) {
           /* The same quartile, so the same level and count: done. */
           l->stage = LANE_DONE;
+          continue;
+        }
+        if (next >= l->known_first && next - l->known_first < 4) {
+          /* Read already: the round's quartile, and its count next. */
+          l->q = l->known[next - l->known_first];
+          l->round++;
+          l->rank = l->target = next;
+          lane_round (l, gain, &level[j]);
+          searching |= l->stage != LANE_DONE;
           continue;
         }
         /* The next quartile lies on q's side that its rank says: a
@@ -907,19 +1005,16 @@ sonar_cluster_floor_gain (double pfa, double k)
 }
 
 /* censored_quartile () of range bin @i's column (its finite values over
- * every stride-th direction), gathered into worker @w's columns. */
+ * the floors' rows), gathered into worker @w's columns. */
 static float
 column_censored_quartile (SonarClusterer * c, guint w, guint i, float censor,
     float guess)
 {
-  const SonarImageGrid *g = &c->grid;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-  const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
   float *column = c->scratch[w].columns;
   gsize n = 0;
 
-  for (gsize d = 0; d < n_dirs; d += stride) {
-    const float v = c->image[d * g->n_range + i];
+  for (gsize r = 0; r < c->n_floor_rows; r++) {
+    const float v = c->floor_rows[r * c->floor_pitch + i];
     if (isfinite (v))
       column[n++] = v;
   }
@@ -937,67 +1032,75 @@ column_censored_quartile (SonarClusterer * c, guint w, guint i, float censor,
  * out cost as much as the selections. A 3-D image's quartile is taken
  * over every k-th direction, at most FLOOR_DIRECTIONS of them: from a
  * thousand samples a quartile is steady to a few per cent. */
+/* Range bin @i's floor on its own (column_censored_quartile ()), and
+ * the running @guess: the mean of the last bins' quartiles (the level
+ * they share; one bin's own is a sample of it, off by a few per cent:
+ * neighbouring bins are nearly independent at the band's range
+ * resolution). */
+static void
+floor_alone (SonarClusterer * c, guint w, guint i, float censor, float gain,
+    float *guess)
+{
+  const float q = column_censored_quartile (c, w, i, censor, *guess);
+
+  *guess = isfinite (*guess) ? *guess + 0.125f * (q - *guess) : q;
+  c->floor[i] = gain * q;
+}
+
 /* Worker @w's share of the noise floors: a contiguous run of the range
- * bins in blocks of FLOOR_BLOCK; a block's bins SONAR_RANK_LANES at a
- * time, those left (the run's first, before there is a guess; a block
- * with a value not finite; the few the passes leave; the last bins) one
- * at a time. The floors do not depend on the share (an order statistic
- * is exact whatever the guess that speeds it up). */
+ * bins (whole blocks of FLOOR_BLOCK), SONAR_RANK_LANES at a time, the
+ * last lanes ending with the run (overlapping the ones before, whose
+ * floors they take again: one at a time, the 26 bins a Fig. 10 image
+ * leaves cost as much as all the lanes of a share). One at a time too:
+ * the run's first bin (for a guess), a run shorter than the lanes, lanes
+ * with a value not finite, and those the passes leave. The floors do
+ * not depend on the share (an order statistic is exact whatever the
+ * guess that speeds it up). */
 static void
 noise_floors_share (gpointer data, guint w, guint n_workers)
 {
   SonarClusterer *c = data;
   const SonarImageGrid *g = &c->grid;
-  const float *image = c->image;
-  const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
-  const gsize stride = (n_dirs + FLOOR_DIRECTIONS - 1) / FLOOR_DIRECTIONS;
+  const guint L = SONAR_RANK_LANES;
   const guint n_blocks = (g->n_range + FLOOR_BLOCK - 1) / FLOOR_BLOCK;
-  const guint first = n_blocks * w / n_workers;
-  const guint end = n_blocks * (w + 1) / n_workers;
+  const guint start = MIN (n_blocks * w / n_workers * FLOOR_BLOCK,
+      g->n_range);
+  const guint stop = MIN (n_blocks * (w + 1) / n_workers * FLOOR_BLOCK,
+      g->n_range);
   const float gain = (float) sonar_cluster_floor_gain (c->params.pfa,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
   const float censor = (float) sonar_cluster_floor_gain (CENSOR_SHARE,
       sonar_cluster_effective_hypotheses (c->params.hypotheses));
   float guess = NAN;
 
-  for (guint i0 = first * FLOOR_BLOCK; i0 < MIN (end * FLOOR_BLOCK,
-          g->n_range); i0 += FLOOR_BLOCK) {
-    const guint block = MIN (FLOOR_BLOCK, g->n_range - i0);
-    const gsize n = (n_dirs + stride - 1) / stride;
-    guint b = 0;
+  for (guint i = start; i < stop;) {
+    const guint first = stop - start >= L ? MIN (i, stop - L) : i;
+    float q[SONAR_RANK_LANES];
+    guint8 ok[SONAR_RANK_LANES];
 
-    /* Whole lane blocks, once there is a guess: all at once. */
-    for (; b + SONAR_RANK_LANES <= block && isfinite (guess) && guess > 0.0f;
-        b += SONAR_RANK_LANES) {
-      float q[SONAR_RANK_LANES];
-      guint8 ok[SONAR_RANK_LANES];
-
-      if (!sonar_cluster_censored_quartiles (image + i0 + b, stride * g->n_range, n,
-              censor, guess, q, ok))
-        break;
-      for (guint j = 0; j < SONAR_RANK_LANES; j++) {
-        if (!ok[j])
-          q[j] = column_censored_quartile (c, w, i0 + b + j, censor, guess);
-        guess = guess + 0.125f * (q[j] - guess);
-        c->floor[i0 + b + j] = gain * q[j];
-      }
+    if (stop - start < L || !(isfinite (guess) && guess > 0.0f)) {
+      floor_alone (c, w, i++, censor, gain, &guess);
+      continue;
     }
-    /* The rest one at a time. */
-    for (; b < block; b++) {
-      /* The guess: the running mean of the last bins' quartiles (the
-       * level they share; one bin's own is a sample of it, off by a few
-       * per cent: neighbouring bins are nearly independent at the
-       * band's range resolution). */
-      const float q = column_censored_quartile (c, w, i0 + b, censor, guess);
-      guess = isfinite (guess) ? guess + 0.125f * (q - guess) : q;
-      c->floor[i0 + b] = gain * q;
+    if (!sonar_cluster_censored_quartiles (c->floor_rows + first,
+            c->floor_pitch, c->n_floor_rows, censor, guess, q, ok)) {
+      for (; i < first + L; i++)
+        floor_alone (c, w, i, censor, gain, &guess);
+      continue;
+    }
+    for (; i < first + L; i++) {
+      if (!ok[i - first])
+        q[i - first] = column_censored_quartile (c, w, i, censor, guess);
+      guess = guess + 0.125f * (q[i - first] - guess);
+      c->floor[i] = gain * q[i - first];
     }
   }
 }
 
-/* Per range bin, the CFAR threshold over its directions' noise floor. */
+/* Per range bin, the CFAR threshold over its directions' noise floor
+ * (over c->floor_rows). */
 static void
-noise_floors (SonarClusterer * c, const float *image)
+noise_floors (SonarClusterer * c)
 {
   if (!(sonar_cluster_floor_gain (c->params.pfa,
               sonar_cluster_effective_hypotheses (c->params.hypotheses)) >
@@ -1005,13 +1108,12 @@ noise_floors (SonarClusterer * c, const float *image)
     memset (c->floor, 0, sizeof (float) * c->grid.n_range);
     return;
   }
-  c->image = image;
   sonar_workers_run (c->workers, noise_floors_share, c);
 }
 
 /* The lower quartile of block @b of direction @d's column, computed
  * once per call; a neighbouring block's, when known, the guess of
- * select_bracketed () (a ridge's level changes little from block to
+ * select_counted () (a ridge's level changes little from block to
  * block). */
 static float
 column_quartile (SonarClusterer * c, WorkerScratch * ws, gsize d, guint b)
@@ -1028,8 +1130,8 @@ column_quartile (SonarClusterer * c, WorkerScratch * ws, gsize d, guint b)
     for (guint i = b * c->column_bins; i < i1; i++)
       if (isfinite (column[i]))
         ws->column_values[count++] = column[i];
-    *q = count > 0 ? select_bracketed (ws->column_values, count, count / 4,
-        guess, 1.0f, 1.0f, ws->bracketed) : 0.0f;
+    *q = count > 0 ? select_counted (ws->column_values, count, count / 4,
+        guess, ws->bracketed) : 0.0f;
   }
   return *q;
 }
@@ -1103,6 +1205,14 @@ lowest_bit (guint mask)
 #endif
 }
 
+/* Bit j of a chunk's masks, from a table: a shift by the loop's index
+ * keeps the compiler from vector code (SSE2 has no per-lane shifts). */
+static const guint chunk_bit[CHUNK] = {
+  1u << 0, 1u << 1, 1u << 2, 1u << 3, 1u << 4, 1u << 5, 1u << 6, 1u << 7,
+  1u << 8, 1u << 9, 1u << 10, 1u << 11, 1u << 12, 1u << 13, 1u << 14,
+  1u << 15,
+};
+
 /* Which of the CHUNK @pixels reach their @passing level: bit j for
  * pixel j. */
 static inline guint
@@ -1111,7 +1221,50 @@ passing_mask (const float *pixels, const float *passing)
   guint mask = 0;
 
   for (guint j = 0; j < CHUNK; j++)
-    mask |= (guint) (pixels[j] >= passing[j]) << j;
+    mask |= chunk_bit[j] & -(guint) (pixels[j] >= passing[j]);
+  return mask;
+}
+
+/* Which of the CHUNK @pixels neither range neighbour beats (beats ()
+ * below, local_maximum ()'s first test), @pixels[-1] and @pixels[CHUNK]
+ * being theirs: bit j for pixel j. Vector code: along an echo's flank
+ * most pixels over the levels lose to one (half of find_peaks ()'s time
+ * went to testing them one at a time). */
+static inline guint
+range_maximum_mask (const float *pixels)
+{
+  guint mask = 0;
+
+  for (int j = 0; j < CHUNK; j++) {
+    const float v = pixels[j], before = pixels[j - 1], after = pixels[j + 1];
+    /* The earlier one beats an equal value, the later one does not. */
+    const int beaten = ((before >= v) & (fabsf (before) < INFINITY))
+        | ((after > v) & (fabsf (after) < INFINITY));
+    mask |= chunk_bit[j] & ((guint) beaten - 1);
+  }
+  return mask;
+}
+
+/* Which of the CHUNK @pixels none of the three pixels about them in the
+ * @next direction's column beats (@next[j - 1] to @next[j + 1] for pixel
+ * j; @earlier: that column comes first in the image, and an equal value
+ * beats): bit j for pixel j. Vector code, as range_maximum_mask (): a
+ * ridge's pixels over the levels mostly lose to a neighbouring
+ * direction's. */
+static inline guint
+direction_maximum_mask (const float *pixels, const float *next, int earlier)
+{
+  guint mask = 0;
+
+  for (int j = 0; j < CHUNK; j++) {
+    const float v = pixels[j];
+    int beaten = 0;
+    for (int di = -1; di <= 1; di++) {
+      const float u = next[j + di];
+      beaten |= ((u > v) | ((u == v) & earlier)) & (fabsf (u) < INFINITY);
+    }
+    mask |= chunk_bit[j] & ((guint) beaten - 1);
+  }
   return mask;
 }
 
@@ -1129,15 +1282,16 @@ beats (float u, gsize q, float v, gsize p)
  * pixel on an echo's flank loses to one of them), then the other
  * directions'. */
 static inline gboolean
-local_maximum (const SonarImageGrid * g, const float *image, gsize p,
+local_maximum (const SonarImageGrid * g, const Pixels * im, gsize p,
     guint e, guint a, guint i, float v)
 {
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
   const int di_first = i == 0 ? 0 : -1;
   const int di_last = i + 1 == g->n_range ? 0 : 1;
 
-  if ((i > 0 && beats (image[p - 1], p - 1, v, p))
-      || (i + 1 < g->n_range && beats (image[p + 1], p + 1, v, p)))
+  if ((i > 0 && beats (pixel_in_bin (im, p - 1, i - 1), p - 1, v, p))
+      || (i + 1 < g->n_range && beats (pixel_in_bin (im, p + 1, i + 1), p + 1,
+              v, p)))
     return FALSE;
   for (int de = e == 0 ? 0 : -1; de <= (e + 1 == g->n_elevation ? 0 : 1);
       de++)
@@ -1148,10 +1302,26 @@ local_maximum (const SonarImageGrid * g, const float *image, gsize p,
       if (de == 0 && da == 0)
         continue;
       for (int di = di_first; di <= di_last; di++)
-        if (beats (image[centre + di], centre + di, v, p))
+        if (beats (pixel_in_bin (im, centre + di, i + di), centre + di, v,
+                p))
           return FALSE;
     }
   return TRUE;
+}
+
+/* Pixels @i0 - 1 to @i0 + CHUNK of @column (within the image's range
+ * bins) as @im reads them: the column itself when it is not compensated
+ * as it is read, else compensated into @out. Returns where pixel @i0 is. */
+static inline const float *
+chunk_pixels (const Pixels * im, const float *column, guint i0, float *out)
+{
+  if (!im->range)
+    return column + i0;
+  for (guint j = 0; j < CHUNK + 2; j++) {
+    const float r = im->range[i0 - 1 + j];
+    out[j] = column[i0 - 1 + j] * r * r;
+  }
+  return out + 1;
 }
 
 /* Worker @w's share of find_peaks (): the peaks of its run of
@@ -1167,7 +1337,7 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   SonarClusterer *c = data;
   WorkerScratch *ws = &c->scratch[w];
   const SonarImageGrid *g = &c->grid;
-  const float *image = c->image;
+  const Pixels *im = &c->pixels;
   const float threshold = c->threshold;
   const guint capacity = c->params.max_peaks;
   const gsize n_dirs = (gsize) g->n_azimuth * g->n_elevation;
@@ -1176,35 +1346,62 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
       d++) {
     const guint e = d / g->n_azimuth, a = d % g->n_azimuth;
-    const float *column = image + d * g->n_range;
+    const float *column = im->values + d * g->n_range;
     for (guint i0 = 0; i0 < g->n_range; i0 += CHUNK) {
       const guint i1 = MIN (i0 + CHUNK, g->n_range);
       guint mask;
 
       /* Nearly every chunk holds no pixel that reaches its level. */
-      if (i1 - i0 == CHUNK && !any_passing (column + i0, c->passing + i0))
+      if (i1 - i0 == CHUNK && !any_passing (column + i0,
+              c->passing_raw + i0))
         continue;
-      mask = i1 - i0 == CHUNK ? passing_mask (column + i0, c->passing + i0)
-          : (1u << (i1 - i0)) - 1;
+      mask = i1 - i0 == CHUNK ? passing_mask (column + i0,
+          c->passing_raw + i0) : (1u << (i1 - i0)) - 1;
+      if (mask && i0 > 0 && i1 < g->n_range) {
+        /* The chunk and the neighbouring directions' pixels about it,
+         * with one pixel either side, compensated when they are read so. */
+        float chunk[3][CHUNK + 2];
+        const float *here = chunk_pixels (im, column, i0, chunk[0]);
+        mask &= range_maximum_mask (here);
+        if (mask && a > 0)
+          mask &= direction_maximum_mask (here, chunk_pixels (im, column -
+                  g->n_range, i0, chunk[1]), TRUE);
+        if (mask && a + 1 < g->n_azimuth)
+          mask &= direction_maximum_mask (here, chunk_pixels (im, column +
+                  g->n_range, i0, chunk[2]), FALSE);
+      }
 
       while (mask) {
         const guint i = i0 + lowest_bit (mask);
         const gsize p = d * g->n_range + i;
-        const float v = image[p];
+        const float v = pixel_in_bin (im, p, i);
         const float r = c->range[i];
         mask &= mask - 1;
         if (!(v >= c->passing[i]))
           continue;
         if (!(v >= threshold) || !(v >= c->floor[i])
             || !(v >= c->sidelobe[i]) || !isfinite (v)
-            || !local_maximum (g, image, p, e, a, i, v)
+            || !local_maximum (g, im, p, e, a, i, v)
             || !(v >= column_floor (c, ws, d, i) *
-                (c->compensated ? r * r : 1.0f)))
+                (c->params.range_compensation ? r * r : 1.0f)))
           continue;
         keep_peak (&ws->peaks, capacity, v, p);
       }
     }
   }
+}
+
+/* A level below which a pixel v fails (v r) r >= @level: @level / r^2
+ * less a margin over the products' and the quotient's rounding (a few
+ * parts in 10^7, while no product is subnormal); -inf (no pixel fails)
+ * where that does not hold. */
+static float
+raw_level (float level, float r)
+{
+  const float raw = level / (r * r) * (1.0f - 1e-5f);
+
+  return r > 0.0f && isfinite (r * r) && level >= 1e-30f
+      && raw >= 1e-30f && isfinite (raw) ? raw : -INFINITY;
 }
 
 /* The pixels of @image (range-compensated if so set) above @threshold,
@@ -1213,17 +1410,19 @@ find_peaks_share (gpointer data, guint w, guint n_workers)
  * sidelobe threshold that are local maxima, the max_peaks strongest of
  * them into c->peaks, strongest first. */
 static void
-find_peaks (SonarClusterer * c, const float *image, float threshold)
+find_peaks (SonarClusterer * c, float threshold)
 {
   PeakHeap *h = &c->peaks;
   guint found = 0;
 
-  c->image = image;
   c->threshold = threshold;
   /* A pixel below one of them fails that test too (fmaxf () passes a NaN
    * over, leaving the level lower: the tests themselves still apply). */
-  for (guint i = 0; i < c->grid.n_range; i++)
+  for (guint i = 0; i < c->grid.n_range; i++) {
     c->passing[i] = fmaxf (threshold, fmaxf (c->floor[i], c->sidelobe[i]));
+    c->passing_raw[i] = c->pixels.range ? raw_level (c->passing[i],
+        c->range[i]) : c->passing[i];
+  }
   sonar_workers_run (c->workers, find_peaks_share, c);
   h->n = 0;
   for (guint w = 0; w < sonar_workers_count (c->workers); w++) {
@@ -1243,18 +1442,21 @@ find_peaks (SonarClusterer * c, const float *image, float threshold)
 /* Sub-step offset (-0.5..0.5) of the maximum of the parabola through the
  * logarithms of three samples, 0 when they do not allow one. */
 static double
-refine (const float *image, gsize p, gsize stride, guint index, guint n)
+refine (const Pixels * im, gsize p, gsize stride, guint index, guint n)
 {
   double lm, l0, lp, curvature;
+  float before, after;
 
   if (index == 0 || index + 1 >= n)
     return 0.0;
-  if (!(image[p - stride] > 0.0f && image[p + stride] > 0.0f
-          && isfinite (image[p - stride]) && isfinite (image[p + stride])))
+  before = pixel (im, p - stride);
+  after = pixel (im, p + stride);
+  if (!(before > 0.0f && after > 0.0f && isfinite (before)
+          && isfinite (after)))
     return 0.0;
-  lm = log (image[p - stride]);
-  l0 = log (image[p]);
-  lp = log (image[p + stride]);
+  lm = log (before);
+  l0 = log (pixel (im, p));
+  lp = log (after);
   curvature = lm - 2.0 * l0 + lp;
   if (!(curvature < 0.0))
     return 0.0;
@@ -1267,7 +1469,7 @@ refine (const float *image, gsize p, gsize stride, guint index, guint n)
  * written) at the grid's edge, where a sample is not a positive number,
  * or where the quadratic has no maximum. */
 static gboolean
-fit_direction (const float *image, gsize p, guint a, guint e,
+fit_direction (const Pixels * im, gsize p, guint a, guint e,
     const SonarImageGrid * g, double *offset_a, double *offset_e)
 {
   const gsize stride_a = g->n_range;
@@ -1278,8 +1480,8 @@ fit_direction (const float *image, gsize p, guint a, guint e,
     return FALSE;
   for (guint row = 0; row < 3; row++)
     for (guint col = 0; col < 3; col++) {
-      const float v = image[p + row * stride_e + col * stride_a - stride_e -
-          stride_a];
+      const float v = pixel (im, p + row * stride_e + col * stride_a -
+          stride_e - stride_a);
       if (!(v > 0.0f && isfinite (v)))
         return FALSE;
       l[row][col] = log (v);
@@ -1326,7 +1528,7 @@ neighbour_weight (double position)
  * pixels share). FALSE where the pixel's own fit does not hold (then the
  * separable parabolas); a neighbour's that does not hold is left out. */
 static gboolean
-refine_direction (const float *image, gsize p, guint a, guint e,
+refine_direction (const Pixels * im, gsize p, guint a, guint e,
     const SonarImageGrid * g, double *offset_a, double *offset_e)
 {
   const gssize stride_a = g->n_range;
@@ -1338,7 +1540,7 @@ refine_direction (const float *image, gsize p, guint a, guint e,
   gboolean held[2][2] = { {FALSE, FALSE}, {FALSE, FALSE} };
   int side_a, side_e;
 
-  if (!fit_direction (image, p, a, e, g, &x[0][0], &y[0][0]))
+  if (!fit_direction (im, p, a, e, g, &x[0][0], &y[0][0]))
     return FALSE;
   held[0][0] = TRUE;
   side_a = x[0][0] >= 0.0 ? 1 : -1;
@@ -1351,7 +1553,7 @@ refine_direction (const float *image, gsize p, guint a, guint e,
           || (int) a + da >= (int) g->n_azimuth || (int) e + de < 0
           || (int) e + de >= (int) g->n_elevation)
         continue;
-      held[row][col] = fit_direction (image, p + da * stride_a +
+      held[row][col] = fit_direction (im, p + da * stride_a +
           de * stride_e, a + da, e + de, g, &u, &v);
       x[row][col] = da + u;
       y[row][col] = de + v;
@@ -1387,9 +1589,10 @@ refine_direction (const float *image, gsize p, guint a, guint e,
 }
 
 static void
-locate_peaks (SonarClusterer * c, const float *image)
+locate_peaks (SonarClusterer * c)
 {
   const SonarImageGrid *g = &c->grid;
+  const Pixels *im = &c->pixels;
   const gsize stride_e = (gsize) g->n_azimuth * g->n_range;
 
   for (guint k = 0; k < c->peaks.n; k++) {
@@ -1397,13 +1600,13 @@ locate_peaks (SonarClusterer * c, const float *image)
     const guint i = p % g->n_range, a = (p / g->n_range) % g->n_azimuth;
     const guint e = p / stride_e;
     const double r = g->range_first + g->range_step *
-        (i + refine (image, p, 1, i, g->n_range));
+        (i + refine (im, p, 1, i, g->n_range));
     double offset_a, offset_e, az, el;
     SonarVec3 u;
 
-    if (!refine_direction (image, p, a, e, g, &offset_a, &offset_e)) {
-      offset_a = refine (image, p, g->n_range, a, g->n_azimuth);
-      offset_e = refine (image, p, stride_e, e, g->n_elevation);
+    if (!refine_direction (im, p, a, e, g, &offset_a, &offset_e)) {
+      offset_a = refine (im, p, g->n_range, a, g->n_azimuth);
+      offset_e = refine (im, p, stride_e, e, g->n_elevation);
     }
     az = g->azimuth_first + g->azimuth_step * (a + offset_a);
     el = g->elevation_first + g->elevation_step * (e + offset_e);
@@ -1445,18 +1648,23 @@ refuse_links (SonarClusterer * c, const double *Z, guint n)
   }
 }
 
-/* @n pixels @in times @range squared into @compensated (when not NULL),
- * and each finite one into @row_max where it is higher: a select, without
- * branches, and vector code for @n = CHUNK (restrict: none of the arrays
- * overlap). */
+/* @n pixels @in, times @range squared when it is not NULL, each finite
+ * one into @row_max where it is higher (a select, without branches), and
+ * into @compensated when not NULL: vector code for @n = CHUNK (restrict:
+ * none of the arrays overlap). */
 static inline void
 compensate_pixels (float *restrict compensated, float *restrict row_max,
     const float *restrict in, const float *restrict range, guint n)
 {
-  if (compensated) {
+  if (range && compensated) {
     for (guint i = 0; i < n; i++) {
       const float v = in[i] * range[i] * range[i];
       compensated[i] = v;
+      row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
+    }
+  } else if (range) {
+    for (guint i = 0; i < n; i++) {
+      const float v = in[i] * range[i] * range[i];
       row_max[i] = v > row_max[i] && isfinite (v) ? v : row_max[i];
     }
   } else {
@@ -1467,9 +1675,9 @@ compensate_pixels (float *restrict compensated, float *restrict row_max,
   }
 }
 
-/* Worker @w's share of the first pass: its run of directions compensated
- * (when so set), and their strongest pixel per range bin into its
- * row_max. */
+/* Worker @w's share of the first pass: the strongest pixel per range
+ * bin of its run of directions (compensated when so set) into its
+ * row_max, and the floors' rows among them into c->compensated. */
 static void
 compensate_share (gpointer data, guint w, guint n_workers)
 {
@@ -1481,16 +1689,17 @@ compensate_share (gpointer data, guint w, guint n_workers)
   memset (row_max, 0, sizeof (float) * g->n_range);
   for (gsize d = n_dirs * w / n_workers; d < n_dirs * (w + 1) / n_workers;
       d++) {
-    const float *in = c->image + d * g->n_range;
-    float *compensated = c->compensated ? c->compensated + d * g->n_range :
-        NULL;
+    const float *in = c->pixels.values + d * g->n_range;
+    const float *range = c->compensated ? c->range : NULL;
+    float *compensated = c->compensated && d % c->floor_stride == 0 ?
+        c->compensated + d / c->floor_stride * g->n_range : NULL;
     guint i = 0;
 
     for (; i + CHUNK <= g->n_range; i += CHUNK)
       compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
-          in + i, c->range + i, CHUNK);
+          in + i, range ? range + i : NULL, CHUNK);
     compensate_pixels (compensated ? compensated + i : NULL, row_max + i,
-        in + i, c->range + i, g->n_range - i);
+        in + i, range ? range + i : NULL, g->n_range - i);
   }
 }
 
@@ -1509,17 +1718,27 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
   g_return_val_if_fail (out || max_centroids == 0, 0);
   g = &c->grid;
   n_pixels = sonar_image_grid_size (g);
-  /* One pass over the image, shared out: compensated (when so set), each
-   * range's strongest pixel over the directions (for the sidelobe
-   * thresholds), and so the image's. */
-  c->image = image;
+  /* One pass over the image, shared out: each range's strongest pixel
+   * over the directions (for the sidelobe thresholds), and so the
+   * image's, compensated when so set, and the floors' rows' copy. */
+  c->pixels.values = image;
+  c->pixels.range = NULL;
+  c->pixels.n_range = g->n_range;
   sonar_workers_run (c->workers, compensate_share, c);
   memcpy (c->row_max, c->scratch[0].row_max, sizeof (float) * g->n_range);
   for (guint w = 1; w < sonar_workers_count (c->workers); w++)
     for (guint i = 0; i < g->n_range; i++)
       c->row_max[i] = MAX (c->row_max[i], c->scratch[w].row_max[i]);
-  if (c->compensated)
-    image = c->compensated;
+  c->floor_rows = image;
+  c->floor_pitch = c->floor_stride * g->n_range;
+  if (c->compensated) {
+    c->floor_rows = c->compensated;
+    c->floor_pitch = g->n_range;
+    if (c->n_floor_rows == n_pixels / g->n_range)
+      c->pixels.values = c->compensated;
+    else
+      c->pixels.range = c->range;
+  }
   for (guint i = 0; i < g->n_range; i++)
     max = MAX (max, c->row_max[i]);
   c->peaks.n_found = c->peaks.n = 0;
@@ -1527,7 +1746,7 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
     return 0;
   threshold = MAX (max * pow (10.0, c->params.threshold_db / 20.0),
       c->params.absolute_threshold);
-  noise_floors (c, image);
+  noise_floors (c);
   sidelobe_thresholds (c);
   c->raw = raw;
   c->column_gain = (float) (SONAR_CLUSTER_COLUMN_MARGIN * sonar_cluster_floor_gain
@@ -1535,11 +1754,11 @@ sonar_clusterer_process (SonarClusterer * c, const float *image,
           (c->params.hypotheses)));
   for (gsize k = 0; k < n_pixels / g->n_range * c->n_column_blocks; k++)
     c->column_quartile[k] = NAN;
-  find_peaks (c, image, threshold);
+  find_peaks (c, threshold);
   n = c->peaks.n;
   if (n == 0)
     return 0;
-  locate_peaks (c, image);
+  locate_peaks (c);
 
   if (n >= 2) {
     Z = sonar_linkage_work_run (c->linkage, c->points, n);

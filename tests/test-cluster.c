@@ -978,6 +978,15 @@ test_peak_search (void)
     /* A plateau: one peak, the first pixel. */
     for (guint i = 300; i < 303; i++)
       image[40 * g->n_range + i % g->n_range] = 0.5f;
+    /* Another across the search's chunks of 16 range bins, one across
+     * two directions, and infinite pixels beside a chunk's first and in
+     * a neighbouring direction, which beat nothing. */
+    image[50 * g->n_range + 127] = image[50 * g->n_range + 128] = 0.5f;
+    image[70 * g->n_range + 150] = image[71 * g->n_range + 150] = 0.5f;
+    image[60 * g->n_range + 143] = INFINITY;
+    image[60 * g->n_range + 144] = 0.4f;
+    image[80 * g->n_range + 150] = INFINITY;
+    image[81 * g->n_range + 151] = 0.4f;
     for (guint variant = 0; variant < 24; variant++) {
       SonarClusterParams p;
       g_autoptr (SonarClusterer) c = NULL;
@@ -1290,18 +1299,43 @@ censored_quartile_reference (const float *values, gsize n, float gain)
   return q;
 }
 
-/* wardcluster's noise floor selects among the values within a bracket
- * about a guess: whatever the guess (none, right, a little or far off,
- * zero, negative, infinite), the same value as the definition, bit for
- * bit, on rows of noise, of noise with a crowd, of ties, with zeros, with
- * a plateau. */
+/* sonar_cluster_censored_quartile () of the @n @values against the
+ * definition, bit for bit, whatever the guess (none, right, a little or
+ * far off, zero, negative, infinite). */
 static void
-test_censored_quartile (void)
+check_censored_quartile (const float *values, gsize n, float gain, int row,
+    int kind)
 {
   const float offsets[] = { NAN, 1.0f, 1.02f, 0.97f, 1.1f, 0.8f, 1.5f,
     0.3f, 0.0f, -1.0f, INFINITY
   };
-  float values[1100], copy[1100], scratch[2 * 1100];
+  const float want = censored_quartile_reference (values, n, gain);
+  float copy[1100], scratch[2 * 1100];
+
+  for (guint g = 0; g < G_N_ELEMENTS (offsets); g++) {
+    float got;
+    memcpy (copy, values, sizeof (float) * n);
+    /* NaN in the scratch: a selection that read past what it wrote
+     * would find no value of the row's (the last row's ties hid one). */
+    for (gsize k = 0; k < 2 * n; k++)
+      scratch[k] = NAN;
+    got = sonar_cluster_censored_quartile (copy, n, gain, want *
+        offsets[g], scratch);
+    if (memcmp (&got, &want, sizeof (float)) != 0)
+      g_error ("row %d (n %" G_GSIZE_FORMAT ", kind %d), guess x %g: "
+          "%.9g, want %.9g", row, n, kind, offsets[g], got, want);
+  }
+}
+
+/* wardcluster's noise floor selects among the values within a bracket
+ * about a guess, or counted below levels about it: the same value as the
+ * definition on rows of noise, of noise with a crowd, of ties, with
+ * zeros, with a plateau, and with infinite values up to most of the
+ * row. */
+static void
+test_censored_quartile (void)
+{
+  float values[1100];
   SonarRng rng;
 
   sonar_rng_init (&rng, 13, 0);
@@ -1310,7 +1344,6 @@ test_censored_quartile (void)
         : 181;
     const int kind = row % 5;
     const float gain = 1.0f + 3.0f * (float) sonar_rng_uniform (&rng);
-    float want;
 
     for (gsize i = 0; i < n; i++) {
       const double a = sonar_rng_gaussian (&rng), b =
@@ -1327,20 +1360,13 @@ test_censored_quartile (void)
         v = sonar_rng_uniform (&rng) < 0.4 ? 1.0f : 1.0f + v;
       values[i] = v;
     }
-    want = censored_quartile_reference (values, n, gain);
-    for (guint g = 0; g < G_N_ELEMENTS (offsets); g++) {
-      float got;
-      memcpy (copy, values, sizeof (float) * n);
-      /* NaN in the scratch: a selection that read past what it wrote
-       * would find no value of the row's (the last row's ties hid one). */
-      for (gsize k = 0; k < 2 * n; k++)
-        scratch[k] = NAN;
-      got = sonar_cluster_censored_quartile (copy, n, gain, want *
-          offsets[g], scratch);
-      if (memcmp (&got, &want, sizeof (float)) != 0)
-        g_error ("row %d (n %" G_GSIZE_FORMAT ", kind %d), guess x %g: "
-            "%.9g, want %.9g", row, n, kind, offsets[g], got, want);
-    }
+    check_censored_quartile (values, n, gain, row, kind);
+  }
+  for (int row = 0; row < 200; row++) {
+    for (gsize i = 0; i < 181; i++)
+      values[i] = sonar_rng_uniform (&rng) < row / 200.0 ? INFINITY :
+          (float) hypot (sonar_rng_gaussian (&rng), sonar_rng_gaussian (&rng));
+    check_censored_quartile (values, 181, 2.0f, row, 5);
   }
 }
 

@@ -338,7 +338,7 @@ main (int argc, char **argv)
   if (!parse_options (&options, &argc, &argv))
     return 2;
   b.timed_pings = (guint) options.timed_pings;
-  b.peak_gflops = measure_peak_gflops ();
+  b.peak_gflops = measure_peak_gflops (&b.peak_isa);
   b.read_gbs = measure_read_gbs ();
   b.n_threads = CLAMP (options.threads ? (guint) options.threads :
       g_get_num_processors (), 1, SONAR_VELOCITY_MAX_THREADS);

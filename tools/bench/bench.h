@@ -187,8 +187,10 @@ typedef struct _Bench
    * rendered ones again when it has fewer (each scored once). */
   guint timed_pings;
   /* This CPU, measured at start: fused multiply-adds per core (GFLOP/s)
-   * and the rate one core reads memory at (GB/s). */
+   * on its widest vectors (peak_isa names them) and the rate one core
+   * reads memory at (GB/s). */
   double peak_gflops, read_gbs;
+  const char *peak_isa;
   GHashTable *banks;            /* "min/max/step/interp" -> BankEntry */
   GHashTable *results;          /* configuration key -> Result */
   FILE *csv;
@@ -260,7 +262,7 @@ double now_ms (void);
 double heap_mb (void);
 double peak_rss_mb (void);
 double median (double *v, guint n);
-double measure_peak_gflops (void);
+double measure_peak_gflops (const char **isa);
 double measure_read_gbs (void);
 
 /* chain.c: the chain */

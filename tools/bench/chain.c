@@ -169,57 +169,109 @@ score_ping (Result * r, const SonarTruth * truths, guint n_truths,
 
 /* The arithmetic floor ---------------------------------------------------*/
 
-/* Independent chains of fused multiply-adds, enough of them to fill the
- * pipelines: the core's peak. Where AVX2 and FMA are missing, the same
- * loop as the compiler makes it for the baseline. */
+/* Independent chains of fused multiply-adds in registers, enough of them
+ * to fill the pipelines (two ports, four cycles each: eight in flight),
+ * on the widest vectors the CPU has: the chain's AVX-512 kernels use
+ * them. Every lane converges to b / (1 - a), about 1e-3 (with b = 0 a
+ * lane decayed into denormal floats, which cost a microcode assist on
+ * every multiply-add on Intel cores). A loop over an array of them, as
+ * this was before, kept the array in memory at -O2: a load and a store
+ * per multiply-add, and a "peak" that moved with the code's layout
+ * (24-37 GFLOP/s on one core of this machine, where its AVX-512 units do
+ * about four times that). */
 #define PEAK_CHAINS 12
-typedef float PeakVec __attribute__ ((vector_size (32)));
+#define PEAK_STEP(fma) G_STMT_START {                                   \
+    c0 = fma (c0, a, b); c1 = fma (c1, a, b); c2 = fma (c2, a, b);      \
+    c3 = fma (c3, a, b); c4 = fma (c4, a, b); c5 = fma (c5, a, b);      \
+    c6 = fma (c6, a, b); c7 = fma (c7, a, b); c8 = fma (c8, a, b);      \
+    c9 = fma (c9, a, b); c10 = fma (c10, a, b); c11 = fma (c11, a, b);  \
+  } G_STMT_END
+
+/* Each chain from its own start: chains alike would be folded into one. */
+#define PEAK_CHAINS_INIT(type, set) type c0 = set (0.0f), c1 = set (1e-4f), \
+  c2 = set (2e-4f), c3 = set (3e-4f), c4 = set (4e-4f), c5 = set (5e-4f),   \
+  c6 = set (6e-4f), c7 = set (7e-4f), c8 = set (8e-4f), c9 = set (9e-4f),   \
+  c10 = set (1e-3f), c11 = set (1.1e-3f)
 
 #if defined(__x86_64__) && defined(__GNUC__)
-__attribute__ ((target ("avx2,fma")))
-#endif
-static float
-peak_loop (guint iterations)
-{
-  PeakVec acc[PEAK_CHAINS], a = { 0 }, b = { 0 };
-  float sum = 0.0f;
+#include <immintrin.h>
 
-  /* Every lane converges to b / (1 - a), about 1e-3: with b = 0 a lane
-   * decayed into denormal floats, which cost a microcode assist on every
-   * multiply-add on Intel cores (the peak read 0.5 GFLOP/s there). */
-  for (int l = 0; l < 8; l++) {
-    a[l] = 0.999f + 1e-5f * l;
-    b[l] = 1e-6f * (l + 1);
-  }
-  for (int c = 0; c < PEAK_CHAINS; c++)
-    acc[c] = a * (float) c;
-  for (guint i = 0; i < iterations; i++) {
-    for (int c = 0; c < PEAK_CHAINS; c++)
-      acc[c] = acc[c] * a + b;
-    /* Keeps the compiler from folding the loop. */
-    __asm__ volatile ("" : "+x" (a));
-  }
-  for (int c = 0; c < PEAK_CHAINS; c++)
-    for (int l = 0; l < 8; l++)
-      sum += acc[c][l];
-  return sum;
+/* The chains' sum, one lane each: keeps the compiler from folding them. */
+#define PEAK_SUM(cvt, add) cvt (add (add (add (add (c0, c1), add (c2, c3)), \
+            add (add (c4, c5), add (c6, c7))), add (add (c8, c9), add (c10, c11))))
+
+__attribute__ ((target ("avx512f"))) static float
+peak_loop_avx512 (guint iterations)
+{
+  const __m512 a = _mm512_set1_ps (0.999f), b = _mm512_set1_ps (1e-6f);
+  PEAK_CHAINS_INIT (__m512, _mm512_set1_ps);
+
+  for (guint i = 0; i < iterations; i++)
+    PEAK_STEP (_mm512_fmadd_ps);
+  return PEAK_SUM (_mm512_cvtss_f32, _mm512_add_ps);
 }
 
-/* GFLOP/s of one core (2 flops per lane of a fused multiply-add): the
- * best of a few runs of about 20 ms (others share the machine). */
+__attribute__ ((target ("avx2,fma"))) static float
+peak_loop_avx2 (guint iterations)
+{
+  const __m256 a = _mm256_set1_ps (0.999f), b = _mm256_set1_ps (1e-6f);
+  PEAK_CHAINS_INIT (__m256, _mm256_set1_ps);
+
+  for (guint i = 0; i < iterations; i++)
+    PEAK_STEP (_mm256_fmadd_ps);
+  return PEAK_SUM (_mm256_cvtss_f32, _mm256_add_ps);
+}
+#endif
+
+/* Elsewhere: the baseline's multiply and add, one float a chain. */
+static float
+fma_generic (float x, float a, float b)
+{
+  return x * a + b;
+}
+
+static float
+peak_loop_generic (guint iterations)
+{
+  const float a = 0.999f, b = 1e-6f;
+  PEAK_CHAINS_INIT (float, (float));
+
+  for (guint i = 0; i < iterations; i++)
+    PEAK_STEP (fma_generic);
+  return c0 + c1 + c2 + c3 + c4 + c5 + c6 + c7 + c8 + c9 + c10 + c11;
+}
+
+/* GFLOP/s of one core (2 flops per lane of a fused multiply-add) on its
+ * widest vectors, named in @isa: the best of a few runs of about 20 ms
+ * (others share the machine). */
 double
-measure_peak_gflops (void)
+measure_peak_gflops (const char **isa)
 {
   const guint iterations = 1000000;
+  float (*loop) (guint) = peak_loop_generic;
+  guint lanes = 1;
   double best = 0.0;
   volatile float sink;
 
+  *isa = "scalar";
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (__builtin_cpu_supports ("avx512f")) {
+    loop = peak_loop_avx512;
+    lanes = 16;
+    *isa = "AVX-512";
+  } else if (__builtin_cpu_supports ("avx2")
+      && __builtin_cpu_supports ("fma")) {
+    loop = peak_loop_avx2;
+    lanes = 8;
+    *isa = "AVX2";
+  }
+#endif
   for (int run = 0; run < 5; run++) {
     const double start = clock_ms (CLOCK_THREAD_CPUTIME_ID);
     double ms;
-    sink = peak_loop (iterations);
+    sink = loop (iterations);
     ms = clock_ms (CLOCK_THREAD_CPUTIME_ID) - start;
-    best = MAX (best, 2.0 * 8 * PEAK_CHAINS * (double) iterations /
+    best = MAX (best, 2.0 * lanes * PEAK_CHAINS * (double) iterations /
         (ms * 1e6));
   }
   (void) sink;

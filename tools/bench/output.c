@@ -165,8 +165,8 @@ void
 print_efficiency_header (const Bench * b)
 {
   g_print ("  arithmetic floor (ms per ping at this CPU's %.1f GFLOP/s per "
-      "core and %.1f GB/s read, on the cores each stage uses) and time "
-      "over floor\n", b->peak_gflops, b->read_gbs);
+      "core, %s, and %.1f GB/s read, on the cores each stage uses) and "
+      "time over floor\n", b->peak_gflops, b->peak_isa, b->read_gbs);
   g_print ("  %-9s %-8s", "value", "scene");
   for (guint k = 0; k < N_STAGES; k++)
     g_print (" %9s %6s", stage_names[k], "x");

@@ -217,7 +217,12 @@ scaled_product_generic (SonarComplex * out, const float *r_re,
   }
 }
 
-static void
+/* Not inlined into the vector versions' tails: compiled there, for a CPU
+ * with FMA, a compiler that contracts across statements (clang at
+ * -ffp-contract=fast) fused re * re into the sum, and a tail's envelope
+ * moved by an ulp from the reference's (the datacube's maximum was not
+ * the detection image bit for bit, /elements/datacube). */
+static __attribute__ ((noinline)) void
 envelope_generic (float *out, const SonarComplex * x, guint n,
     float scale, gboolean accumulate)
 {

@@ -901,9 +901,12 @@ image_confirm_unit (SonarImager * im, guint w, guint u, guint d,
     first = FALSE;
     scratch->passes++;
   }
+  /* The mapped image's block peaks, before the blocks are written. */
+  sonar_kernel_block_peaks (scratch->block_top, row, n_range,
+      HYPOTHESIS_BLOCK);
   for (guint i0 = 0, b = 0; i0 < n_range; i0 += HYPOTHESIS_BLOCK, b++) {
     const guint len = MIN (HYPOTHESIS_BLOCK, n_range - i0);
-    const float mapped = sonar_kernel_peak (row + i0, NULL, len);
+    const float mapped = scratch->block_top[b];
     if (top[b] >= mapped)
       best[b] = which[b];
     if (!noise[b] && top[b] >= mapped)

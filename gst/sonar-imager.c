@@ -91,8 +91,12 @@ typedef struct
   float *block_top;             /* its peak per block of HYPOTHESIS_BLOCK */
   guint passes;                 /* unit x hypothesis passes of this call */
   /* The noise gate's range floors: [FLOOR_BLOCK x coarse direction]
-   * gathered values, and one bin's scratch (2 x coarse directions). */
-  float *floor_values, *floor_scratch;
+   * gathered values, and one bin's scratch (2 x coarse directions); one
+   * block of a coarse direction's column (column_quartile ()). */
+  float *floor_values, *floor_scratch, *column_values;
+  /* The largest magnitude of a part in the worker's share of the call's
+   * data (split_share ()). */
+  float data_peak;
   /* The sub-band coarse pass: its product and transform (sub_ifft_size),
    * one hypothesis's envelope and the maximum over them (sub_ifft_size +
    * 1: the last is the first again, the transform's period). */
@@ -150,6 +154,12 @@ typedef struct
   int window_first;
   guint window_n;
   guint first_emitter, end_emitter;
+  /* mark_hot_over_noise (): the gate over the range floors, and whether
+   * a pixel over it also marks its coarse neighbours. */
+  float gate_gain;
+  gboolean gate_neighbours;
+  /* The call's data, while split_data () splits it. */
+  const SonarComplex *mic_spectra;
 } ImageJob;
 
 struct _SonarImager
@@ -183,9 +193,9 @@ struct _SonarImager
   guint8 *noise_block;
   /* wardcluster's column floor on the coarse directions: blocks of
    * column_bins range bins, [coarse unit x block] lower quartiles (NaN:
-   * not yet taken this call), column_values one block's values. */
+   * not yet taken this call). */
   guint column_bins, n_column_blocks;
-  float *column_quartile, *column_values;
+  float *column_quartile;
   float *range_weight;          /* [range bin] r^2, as wardcluster's */
   guint *units;                 /* [direction x zone]: the units to image */
   guint8 *hot;                  /* [direction x zone]: coarse, HOT_ bits */
@@ -219,7 +229,7 @@ struct _SonarImager
   guint map_hypotheses, map_coarse;
   guint8 *confirm;              /* [coarse unit x hypothesis] */
   gboolean level_echo;          /* the sub-band saw an echo */
-  /* The call's data, split: microphones x K, scaled (data_exponent ()). */
+  /* The call's data, split: microphones x K, scaled (split_data ()). */
   float *mic_re, *mic_im;
   /* [UNIT x hypothesis], as job.zone_peaks and job.wanted, for
    * hypothesis_capacity hypotheses. */
@@ -532,7 +542,6 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
       im->column_bins;
   im->column_quartile = g_new (float, (gsize) im->n_coarse *
       im->n_column_blocks);
-  im->column_values = g_new (float, im->column_bins);
   im->range_weight = g_new (float, grid->n_range);
   for (guint i = 0; i < grid->n_range; i++) {
     const double r = grid->range_first + i * grid->range_step;
@@ -571,6 +580,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
     im->scratch[w].floor_values = g_new (float, (gsize) FLOOR_BLOCK *
         im->n_coarse);
     im->scratch[w].floor_scratch = g_new (float, 2 * (gsize) im->n_coarse);
+    im->scratch[w].column_values = g_new (float, im->column_bins);
     if (im->sub) {
       im->scratch[w].sub_baseband = fftwf_alloc_complex (im->sub_ifft_size);
       im->scratch[w].sub_lags = fftwf_alloc_complex (im->sub_ifft_size);
@@ -617,7 +627,6 @@ sonar_imager_free (SonarImager * im)
   g_free (im->best_hypothesis);
   g_free (im->best_value);
   g_free (im->column_quartile);
-  g_free (im->column_values);
   g_free (im->units);
   g_free (im->hot);
   g_free (im->imaging);
@@ -644,6 +653,7 @@ sonar_imager_free (SonarImager * im)
     g_free (im->scratch[w].envelope);
     g_free (im->scratch[w].floor_values);
     g_free (im->scratch[w].floor_scratch);
+    g_free (im->scratch[w].column_values);
     fftwf_free (im->scratch[w].sub_baseband);
     fftwf_free (im->scratch[w].sub_lags);
     g_free (im->scratch[w].sub_envelope);
@@ -670,16 +680,46 @@ sonar_imager_grid (const SonarImager * im)
   return &im->grid;
 }
 
-/* Binary exponent of the largest component of @x (0 when all zero or not
- * finite): x / 2^exponent is below 1. */
+/* Worker @w's share of the call's data (job.mic_spectra, microphones x
+ * K): its microphones split into mic_re, mic_im, and the largest
+ * magnitude of their parts (infinite when one is NaN) into its
+ * data_peak. */
+static void
+split_share (gpointer data, guint w, guint n_workers)
+{
+  SonarImager *im = data;
+  const guint n_mics = im->setup->geometry.n_microphones;
+  const gsize n_bins = im->band.n_bins;
+  const gsize first = n_mics * w / n_workers * n_bins;
+  const gsize end = n_mics * (w + 1) / n_workers * n_bins;
+  const SonarComplex *x = im->job.mic_spectra;
+  float peak = 0.0f;
+
+  sonar_kernel_split (im->mic_re + first, im->mic_im + first, x + first,
+      end - first);
+  for (gsize i = first; i < end; i++) {
+    if (isnan (im->mic_re[i]) || isnan (im->mic_im[i]))
+      peak = INFINITY;
+    else
+      peak = MAX (peak, MAX (fabsf (im->mic_re[i]), fabsf (im->mic_im[i])));
+  }
+  im->scratch[w].data_peak = peak;
+}
+
+/* The call's data split (split_share ()), and the binary exponent of its
+ * largest part (0 when all are zero or one is not finite): data /
+ * 2^exponent is below 1. */
 static int
-data_exponent (const SonarComplex * x, gsize n)
+split_data (SonarImager * im, const SonarComplex * mic_spectra)
 {
   float peak = 0.0f;
   int exponent = 0;
 
-  for (gsize i = 0; i < n; i++)
-    peak = MAX (peak, MAX (fabsf (crealf (x[i])), fabsf (cimagf (x[i]))));
+  im->job.mic_spectra = mic_spectra;
+  sonar_workers_run (im->workers, split_share, im);
+  im->job.mic_spectra = NULL;
+  for (guint w = 0; w < sonar_workers_count (im->workers); w++)
+    peak = MAX (peak, im->scratch[w].data_peak);
   if (peak > 0.0f && isfinite (peak))
     frexpf (peak, &exponent);
   return exponent;
@@ -1068,8 +1108,8 @@ mark_hot (SonarImager * im, guint n_coarse)
 /* The lower quartile of block @b of the column of coarse unit @u (its
  * direction @d). */
 static float
-column_quartile (SonarImager * im, const float *image, guint u, guint d,
-    guint b)
+column_quartile (SonarImager * im, Scratch * scratch, const float *image,
+    guint u, guint d, guint b)
 {
   float *q = &im->column_quartile[(gsize) u * im->n_column_blocks + b];
 
@@ -1077,9 +1117,9 @@ column_quartile (SonarImager * im, const float *image, guint u, guint d,
     const guint n_range = im->grid.n_range;
     const guint i0 = b * im->column_bins;
     const guint n = MIN (i0 + im->column_bins, n_range) - i0;
-    memcpy (im->column_values, image + (gsize) d * n_range + i0,
+    memcpy (scratch->column_values, image + (gsize) d * n_range + i0,
         n * sizeof (float));
-    *q = sonar_select_kth (im->column_values, n, n / 4);
+    *q = sonar_select_kth (scratch->column_values, n, n / 4);
   }
   return *q;
 }
@@ -1088,16 +1128,16 @@ column_quartile (SonarImager * im, const float *image, guint u, guint d,
  * @gain: its block's and neighbours' largest quartile (sonar-cluster.c,
  * column_floor ()), a strong echo's cross-talk ridge along it. */
 static float
-column_gate (SonarImager * im, const float *image, guint u, guint d,
-    guint i, float gain)
+column_gate (SonarImager * im, Scratch * scratch, const float *image,
+    guint u, guint d, guint i, float gain)
 {
   const guint b = i / im->column_bins;
-  float q = column_quartile (im, image, u, d, b);
+  float q = column_quartile (im, scratch, image, u, d, b);
 
   if (b > 0)
-    q = MAX (q, column_quartile (im, image, u, d, b - 1));
+    q = MAX (q, column_quartile (im, scratch, image, u, d, b - 1));
   if (b + 1 < im->n_column_blocks)
-    q = MAX (q, column_quartile (im, image, u, d, b + 1));
+    q = MAX (q, column_quartile (im, scratch, image, u, d, b + 1));
   return (float) SONAR_CLUSTER_COLUMN_MARGIN * gain * q;
 }
 
@@ -1389,7 +1429,8 @@ mark_level_over_noise (SonarImager * im, guint n_coarse)
     for (guint i = 0; i < n_range; i++)
       if (row[i] > echo * im->range_floor[i]
           && row[i] * im->range_weight[i] > top && coarse_peak (im, image,
-              d, i) && row[i] > column_gate (im, image, u, d, i, echo)) {
+              d, i) && row[i] > column_gate (im, &im->scratch[0], image, u, d, i,
+              echo)) {
         top = row[i] * im->range_weight[i];
       }
   }
@@ -1497,6 +1538,63 @@ confirm_sub_image (SonarImager * im, guint n_coarse)
       im->n_imaged--;
 }
 
+/* Worker @w's share of mark_hot_over_noise (): every n_workers-th coarse
+ * unit from @w (those near an echo test more pixels). A unit writes its
+ * own hot bit, wanted hypotheses and column quartiles; with the
+ * neighbours (job.gate_neighbours) it writes theirs too, and runs alone. */
+static void
+hot_over_noise_share (gpointer data, guint w, guint n_workers)
+{
+  SonarImager *im = data;
+  Scratch *scratch = &im->scratch[w];
+  const guint n_range = im->grid.n_range, n_hyp = im->job.n_hypotheses;
+  const guint step = im->job.hyp_step;
+  const float gain = im->job.gate_gain;
+  const float *image = im->job.image;
+
+  for (guint u = w; u < im->job.n_coarse; u += n_workers) {
+    const guint d = UNIT_DIRECTION (im, im->units[u]);
+    const float *row = image + (gsize) d * n_range;
+    const guint16 *best = im->best_hypothesis + (gsize) u *
+        im->n_hypothesis_blocks;
+
+    for (guint z = 0; z < im->n_zones; z++) {
+      const FocusZone *zone = &im->zones[z];
+      const gsize unit = UNIT (im, d, z);
+
+      for (guint i = zone->first_range; i < zone->end_range; i++) {
+        guint top;
+        if (!(row[i] > im->range_floor[i] && coarse_peak (im, image, d, i)
+                && row[i] > column_gate (im, scratch, image, u, d, i,
+                    gain)))
+          continue;
+        im->hot[unit] |= HOT_GATE;
+        /* The strongest (on the sub-band, its run of step hypotheses)
+         * and the next either side. */
+        top = best[i / HYPOTHESIS_BLOCK] / step * step;
+        for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + step,
+                n_hyp - 1); h++)
+          im->wanted[unit * n_hyp + h] = TRUE;
+        if (im->job.gate_neighbours) {
+          /* The flanks that see the echo over the gate too: the whole
+           * band's coarse pass would have put them within the refine
+           * level. */
+          guint around[4], n = coarse_neighbours (im, d, around);
+          for (guint k = 0; k < n; k++) {
+            const gsize other = UNIT (im, around[k], z);
+            if (!(image[(gsize) around[k] * n_range + i] >
+                    im->range_floor[i]))
+              continue;
+            for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + step,
+                    n_hyp - 1); h++)
+              im->wanted[other * n_hyp + h] = TRUE;
+          }
+        }
+      }
+    }
+  }
+}
+
 /* From the coarse image (the maximum over the hypotheses): a (coarse
  * direction, zone) is hot when one of its pixels could pass wardcluster's
  * tests once imaged in full: it exceeds its range bin's noise floor over
@@ -1527,13 +1625,12 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse, double pfa,
 {
   const SonarImageGrid *grid = &im->grid;
   const guint n_range = grid->n_range, n_hyp = im->job.n_hypotheses;
-  const guint step = im->job.hyp_step;
   const double k_eff = sonar_cluster_effective_hypotheses (n_hyp);
   const float gain = (float) sonar_cluster_floor_gain (pfa, k_eff);
   const int reach = (int) ceil (SONAR_CLUSTER_SIDELOBE_RANGE /
       grid->range_step);
-  const float *image = im->job.image;
 
+  g_assert (n_coarse == im->job.n_coarse);
   for (gsize k = 0; k < (gsize) n_coarse * im->n_column_blocks; k++)
     im->column_quartile[k] = NAN;
   /* range_floor: each range bin's quartile (range_floors_share ()), then
@@ -1546,46 +1643,12 @@ mark_hot_over_noise (SonarImager * im, guint n_coarse, double pfa,
     im->range_floor[i] = MAX (im->range_floor[i] * gain,
         top * im->sidelobe_ratio);
   }
-  for (guint u = 0; u < n_coarse; u++) {
-    const guint d = UNIT_DIRECTION (im, im->units[u]);
-    const float *row = image + (gsize) d * n_range;
-    const guint16 *best = im->best_hypothesis + (gsize) u *
-        im->n_hypothesis_blocks;
-
-    for (guint z = 0; z < im->n_zones; z++) {
-      const FocusZone *zone = &im->zones[z];
-      const gsize unit = UNIT (im, d, z);
-
-      for (guint i = zone->first_range; i < zone->end_range; i++) {
-        guint top;
-        if (!(row[i] > im->range_floor[i] && coarse_peak (im, image, d, i)
-                && row[i] > column_gate (im, image, u, d, i, gain)))
-          continue;
-        im->hot[unit] |= HOT_GATE;
-        /* The strongest (on the sub-band, its run of step hypotheses)
-         * and the next either side. */
-        top = best[i / HYPOTHESIS_BLOCK] / step * step;
-        for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + step,
-                n_hyp - 1); h++)
-          im->wanted[unit * n_hyp + h] = TRUE;
-        if (neighbours) {
-          /* The flanks that see the echo over the gate too: the whole
-           * band's coarse pass would have put them within the refine
-           * level. */
-          guint around[4], n = coarse_neighbours (im, d, around);
-          for (guint k = 0; k < n; k++) {
-            const gsize other = UNIT (im, around[k], z);
-            if (!(image[(gsize) around[k] * n_range + i] >
-                    im->range_floor[i]))
-              continue;
-            for (guint h = top > 0 ? top - 1u : 0u; h <= MIN (top + step,
-                    n_hyp - 1); h++)
-              im->wanted[other * n_hyp + h] = TRUE;
-          }
-        }
-      }
-    }
-  }
+  im->job.gate_gain = gain;
+  im->job.gate_neighbours = neighbours;
+  if (neighbours)
+    hot_over_noise_share (im, 0, 1);
+  else
+    sonar_workers_run (im->workers, hot_over_noise_share, im);
 }
 
 /* Whether the block of HYPOTHESIS_BLOCK range bins holding bin @i holds
@@ -1609,12 +1672,14 @@ noise_block (const SonarImager * im, const guint corners[4], guint i)
  * the corners hold noise alone and 0 elsewhere (their fine envelope
  * written there), the coarse directions' own pixels included. */
 static void
-interpolate (SonarImager * im, float *image)
+interpolate_share (gpointer data, guint worker, guint n_workers)
 {
+  SonarImager *im = data;
+  float *image = im->job.image;
   const guint n_range = im->grid.n_range, n_az = im->grid.n_azimuth;
   guint corners[4];
 
-  for (guint d = 0; d < im->n_directions; d++) {
+  for (guint d = worker; d < im->n_directions; d += n_workers) {
     float *out = image + (gsize) d * n_range;
     const guint a = d % n_az, e = d / n_az;
     const float *p[4];
@@ -1644,6 +1709,16 @@ interpolate (SonarImager * im, float *image)
             w[2] * p[2][i] + w[3] * p[3][i];
     }
   }
+}
+
+static void
+interpolate (SonarImager * im, float *image)
+{
+  const guint n_range = im->grid.n_range;
+  guint corners[4];
+
+  g_assert (image == im->job.image);
+  sonar_workers_run (im->workers, interpolate_share, im);
   /* The coarse directions last: the others read their pixels above. */
   for (guint d = 0; d < im->n_directions; d++) {
     float *out = image + (gsize) d * n_range;
@@ -1798,9 +1873,8 @@ image_hypotheses (SonarImager * im, const SonarComplex * mic_spectra,
    * unity (a recording scaled by 1e-30, spikes of 1e30) they underflow or
    * overflow. Such data are imaged scaled by a power of two (exact), and
    * the envelope scaled back. */
-  const int exponent = data_exponent (mic_spectra, n_data);
+  const int exponent = split_data (im, mic_spectra);
 
-  sonar_kernel_split (im->mic_re, im->mic_im, mic_spectra, n_data);
   if (ABS (exponent) > 30) {
     const float factor = ldexpf (1.0f, -exponent);
     for (gsize i = 0; i < n_data; i++) {

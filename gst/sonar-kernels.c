@@ -1550,11 +1550,21 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
     double next_re;
     guint v = 0;
 
-    for (int l = 0; l < SCALED_LANES; l++) {
-      seeded_re[l] = (float) (gain * (seed_re * offset_re[l] - seed_im *
-              offset_im[l]));
-      seeded_im[l] = (float) (gain * (seed_re * offset_im[l] + seed_im *
-              offset_re[l]));
+    /* The lanes' phasors times the gain, in double, eight lanes a vector:
+     * lane by lane, in scalar code, they took a sixth of the call (four
+     * vectors an interval share them). */
+    for (int half = 0; half < 2; half++) {
+      const __m512d o_re = _mm512_loadu_pd (offset_re + 8 * half);
+      const __m512d o_im = _mm512_loadu_pd (offset_im + 8 * half);
+      const __m512d s_re = _mm512_set1_pd (seed_re);
+      const __m512d s_im = _mm512_set1_pd (seed_im);
+      const __m512d g = _mm512_set1_pd (gain);
+      _mm256_storeu_ps (seeded_re + 8 * half, _mm512_cvtpd_ps (_mm512_mul_pd
+              (g, _mm512_fmsub_pd (s_re, o_re, _mm512_mul_pd (s_im,
+                          o_im)))));
+      _mm256_storeu_ps (seeded_im + 8 * half, _mm512_cvtpd_ps (_mm512_mul_pd
+              (g, _mm512_fmadd_pd (s_re, o_im, _mm512_mul_pd (s_im,
+                          o_re)))));
     }
     next_re = seed_re * jump_re - seed_im * jump_im;
     seed_im = seed_re * jump_im + seed_im * jump_re;

@@ -40,10 +40,10 @@ G_BEGIN_DECLS
  * times exp(i j dphase) from a table made once per call: one float
  * rotation from double precision, not a chain of them (1.8e-7 of the
  * sum of |x| from the double-precision sum, avx2 4.5e-7). CPU time per
- * call on this Xeon (medians, shared machine): the imager's receive sum,
- * 32 microphones by 2883 bins, 14-16 us against avx2's 21-24; the
- * transmit table, 8 emitters by 5824 bins, 6.7-7.5 us against 10.9-12
- * (1.5-1.6x). */
+ * call on this Xeon (best of 9 runs, shared machine): the imager's
+ * receive sum, 32 microphones by 2883 bins, 13.0-13.1 us against avx2's
+ * 18.8-19.1; the transmit table, 8 emitters by 5824 bins, 5.9-6.1 us
+ * against 9.1-9.2 (1.5x). */
 void sonar_kernel_steer_sum_split (float *out_re, float *out_im,
     const float *x_re, const float *x_im, gsize stride, guint n_channels,
     guint n, const double *phase0, const double *dphase, gboolean conj_x);

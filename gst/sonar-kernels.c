@@ -1554,7 +1554,7 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
 
   for (guint k0 = 0; k0 < n; k0 += RESEED_INTERVAL) {
     const guint k1 = MIN (n, k0 + RESEED_INTERVAL);
-    float seeded_re[SCALED_LANES], seeded_im[SCALED_LANES];
+    __m256 seeded_re[2], seeded_im[2];
     float fraction[RESEED_INTERVAL / SCALED_LANES];
     int node[RESEED_INTERVAL / SCALED_LANES];
     __m512 phasor_re, phasor_im;
@@ -1563,25 +1563,29 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
 
     /* The lanes' phasors times the gain, in double, eight lanes a vector:
      * lane by lane, in scalar code, they took a sixth of the call (four
-     * vectors an interval share them). */
+     * vectors an interval share them). The halves are joined in
+     * registers: a vector loaded over two stores of half of it waits for
+     * them to retire. */
     for (int half = 0; half < 2; half++) {
       const __m512d o_re = _mm512_loadu_pd (offset_re + 8 * half);
       const __m512d o_im = _mm512_loadu_pd (offset_im + 8 * half);
       const __m512d s_re = _mm512_set1_pd (seed_re);
       const __m512d s_im = _mm512_set1_pd (seed_im);
       const __m512d g = _mm512_set1_pd (gain);
-      _mm256_storeu_ps (seeded_re + 8 * half, _mm512_cvtpd_ps (_mm512_mul_pd
-              (g, _mm512_fmsub_pd (s_re, o_re, _mm512_mul_pd (s_im,
-                          o_im)))));
-      _mm256_storeu_ps (seeded_im + 8 * half, _mm512_cvtpd_ps (_mm512_mul_pd
-              (g, _mm512_fmadd_pd (s_re, o_im, _mm512_mul_pd (s_im,
-                          o_re)))));
+      seeded_re[half] = _mm512_cvtpd_ps (_mm512_mul_pd (g, _mm512_fmsub_pd
+              (s_re, o_re, _mm512_mul_pd (s_im, o_im))));
+      seeded_im[half] = _mm512_cvtpd_ps (_mm512_mul_pd (g, _mm512_fmadd_pd
+              (s_re, o_im, _mm512_mul_pd (s_im, o_re))));
     }
     next_re = seed_re * jump_re - seed_im * jump_im;
     seed_im = seed_re * jump_im + seed_im * jump_re;
     seed_re = next_re;
-    phasor_re = _mm512_loadu_ps (seeded_re);
-    phasor_im = _mm512_loadu_ps (seeded_im);
+    phasor_re = _mm512_castpd_ps (_mm512_insertf64x4 (_mm512_castps_pd
+            (_mm512_castps256_ps512 (seeded_re[0])),
+            _mm256_castps_pd (seeded_re[1]), 1));
+    phasor_im = _mm512_castpd_ps (_mm512_insertf64x4 (_mm512_castps_pd
+            (_mm512_castps256_ps512 (seeded_im[0])),
+            _mm256_castps_pd (seeded_im[1]), 1));
     /* The interval's vectors' first positions at once, as the reference
      * computes them (the scalar work of one took a few percent). */
     {

@@ -439,6 +439,28 @@ def bench_emitters_sweep():
 
 
 @test
+def bench_hemisphere_grid():
+    """sonar-bench --sweep hemisphere-grid: the 3-D hemisphere at 2, 3 and
+    4 degrees on one fig10 ping finds its 6 objects with every grid, the
+    velocities within 1 cm/s, and the coarser grids make fewer passes (the
+    share of the dense image's passes times the directions)"""
+    path = TMP / "hemisphere-grid.csv"
+    run(BENCH, "--sweep", "hemisphere-grid", "--timed-pings", "1",
+        "--csv", path)
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["value"] for r in rows] == ["2", "3", "4"], rows
+    passes = []
+    for r in rows:
+        assert r["found"] == r["total"] == "6", r
+        assert r["false_positives"] == "0", r
+        assert float(r["max_error"]) < 0.01, r
+        side = 180 // int(r["value"]) + 1
+        passes.append(float(r["imaging_work"]) * side * side)
+    assert passes[0] > passes[1] > passes[2], passes
+
+
+@test
 def bench_near_far():
     """sonar-bench --sweep near-far: a point 10-60 dB above a normal one,
     beyond and within the near echo's pulse, one ping per level: the

@@ -26,7 +26,9 @@
  * hemisphere-fig9 (minutes, not in --all: issue 13's 3-D goal with the
  * default bank, the same grid at the imager's 3-D defaults on the fig9
  * world); hemisphere-fig9-band (minutes, not in --all: the same with
- * the coarse pass on the whole band and on half of it).
+ * the coarse pass on the whole band and on half of it); hemisphere-grid
+ * (the hemisphere at 2, 3 and 4 degrees, one fig10 ping) and
+ * hemisphere-fig9-grid (the same on the fig9 world, not in --all).
  * The "work" column is the share of the dense image's direction x zone x
  * hypothesis passes the imager made. The sensitivity sweeps (noise,
  * detection, split) are sensitivity.c's.
@@ -229,6 +231,36 @@ apply_hemisphere_fig9 (Config * c, guint i, char *label, gsize size)
   g_snprintf (label, size, "%g", c->imager.coarse_spacing);
 }
 
+/* The hemisphere at the 3-D default's 2 degrees and coarser, 3 and 4
+ * (91, 61, 46 directions a side), the default coarse spacing (6 degrees;
+ * at 4, two grid steps): what a coarser image buys in time, and costs. */
+static void
+hemisphere_grid (Config * c, guint i, char *label, gsize size)
+{
+  static const double steps[] = { 2.0, 3.0, 4.0 };
+
+  sonar_imager_params_set_view (&c->imager, SONAR_FIELD_OF_VIEW_HEMISPHERE);
+  c->imager.n_azimuth = c->imager.n_elevation =
+      (guint) (180.0 / steps[i]) + 1;
+  g_snprintf (label, size, "%g", steps[i]);
+}
+
+/* hemisphere_grid () on one Fig. 10 ping (its -0.4..0.4 bank). */
+static void
+apply_hemisphere_grid (Config * c, guint i, char *label, gsize size)
+{
+  c->n_pings = 1;
+  hemisphere_grid (c, i, label, size);
+}
+
+/* hemisphere_grid () on the Fig. 9 world, the elements' default bank: the
+ * sensor's rate in 3-D. */
+static void
+apply_hemisphere_fig9_grid (Config * c, guint i, char *label, gsize size)
+{
+  hemisphere_grid (c, i, label, size);
+}
+
 FIELD_SWEEP (apply_hypotheses, hypothesis_spacing, double, "%g", 0.15, 0.3, 0.6)
 
 static void
@@ -315,6 +347,9 @@ const Sweep sweeps[] = {
   {"hemisphere", SCENE_FIG10, 4, apply_hemisphere},
   {"hemisphere-fig9", SCENE_FIG9, 1, apply_hemisphere_fig9, NULL, TRUE},
   {"hemisphere-fig9-band", SCENE_FIG9, 2, apply_hemisphere_fig9_band, NULL,
+      TRUE},
+  {"hemisphere-grid", SCENE_FIG10, 3, apply_hemisphere_grid},
+  {"hemisphere-fig9-grid", SCENE_FIG9, 3, apply_hemisphere_fig9_grid, NULL,
       TRUE},
   {"noise", SCENE_FIG9, 0, NULL, run_noise},
   {"detection", SCENE_FIG9, 0, NULL, run_detection},

@@ -443,7 +443,8 @@ def bench_hemisphere_grid():
     """sonar-bench --sweep hemisphere-grid: the 3-D hemisphere at 2, 3 and
     4 degrees on one fig10 ping finds its 6 objects with every grid, the
     velocities within 1 cm/s, and the coarser grids make fewer passes (the
-    share of the dense image's passes times the directions)"""
+    share of the dense image's passes times the directions); plot-bench.py
+    draws them as 3-D rows"""
     path = TMP / "hemisphere-grid.csv"
     run(BENCH, "--sweep", "hemisphere-grid", "--timed-pings", "1",
         "--csv", path)
@@ -458,6 +459,9 @@ def bench_hemisphere_grid():
         side = 180 // int(r["value"]) + 1
         passes.append(float(r["imaging_work"]) * side * side)
     assert passes[0] > passes[1] > passes[2], passes
+    # plot-bench.py sets them beside the other 3-D rows, not the 2-D fig10.
+    rows, _ = load_script("plot-bench").load_rows(path)
+    assert [r["scene"] for r in rows] == ["fig10 3-D"] * 3, rows
 
 
 @test

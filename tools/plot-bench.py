@@ -12,8 +12,9 @@ sweeps (linkage=ward is refine=on) are one marker with both labels.
 The Pareto front, per scene, joins the configurations that no other one
 beats in both time and error; it is drawn as a line and printed as a table.
 Only its points are labelled (the elements' defaults, shared by most sweeps,
-as "defaults"). The hemisphere sweep (3-D image) and the datacube sweep (a
-wider bank, one ping) are scenes of their own: "fig10 3-D", "fig10 +-1".
+as "defaults"). The hemisphere sweeps (3-D images) and the datacube sweep
+(a wider bank, one ping) are scenes of their own: "fig10 3-D", "fig9 3-D",
+"fig10 +-1".
 Only configurations that found every object without a false positive are
 candidates: the mean error of one that misses objects is over fewer, easier
 ones. The others are drawn hollow and listed below the table.
@@ -41,11 +42,14 @@ from matplotlib.ticker import FuncFormatter  # noqa: E402
 NUMERIC = ("pings", "found", "total", "false_positives", "mean_error",
            "max_error", "ms_spectra", "ms_imaging", "ms_clustering",
            "ms_velocity", "ms_total", "pings_per_second")
-MARKERS = {"fig10": "o", "fig9": "s", "fig10 3-D": "D", "fig10 +-1": "v"}
+MARKERS = {"fig10": "o", "fig9": "s", "fig10 3-D": "D", "fig9 3-D": "P",
+           "fig10 +-1": "v"}
 COLOURS = {"fig10": "tab:blue", "fig9": "tab:orange", "fig10 3-D": "tab:green",
-           "fig10 +-1": "tab:purple"}
+           "fig9 3-D": "tab:red", "fig10 +-1": "tab:purple"}
 # Sweeps whose rows are not comparable with their scene's others.
-OWN_SCENE = {"hemisphere": "fig10 3-D", "datacube": "fig10 +-1"}
+OWN_SCENE = {"hemisphere": "fig10 3-D", "hemisphere-grid": "fig10 3-D",
+             "hemisphere-fig9": "fig9 3-D", "hemisphere-fig9-band": "fig9 3-D",
+             "hemisphere-fig9-grid": "fig9 3-D", "datacube": "fig10 +-1"}
 # Sweeps that render their own pings: no timing, their own figures.
 SENSITIVITY = ("noise", "detection", "split", "crowded", "near-far")
 

@@ -7,7 +7,7 @@
  * phase ramp advances in LANES independent lanes instead of one serial
  * recurrence), "avx512" after it where there is one (AVX-512F
  * intrinsics, 16 lanes a vector: steer_sum_split, scaled_product,
- * rank_pass) or "orc" (an ORC program of sonar-orc.orc, which ORC
+ * block8_sums_conj, rank_pass) or "orc" (an ORC program of sonar-orc.orc, which ORC
  * compiles for the running CPU or runs as its C backup). The kernel's
  * entry point, sonar_kernel_<name> (), calls the last implementation the
  * CPU has. tests/test-kernels.c checks every implementation the CPU has

@@ -389,8 +389,8 @@ lanes_init (Lanes * p, double phase0, double dphase)
 
 /* Lane l = exp(i (phase + l dphase)) at the next reseed's bin (every
  * RESEED_INTERVAL bins from the first): the lanes in double vectors, four
- * at a time (lane by lane, in scalar code, a receive sum's seeds took
- * about as many operations as its bins). */
+ * at a time (lane by lane, in scalar code, a receive sum's reseeds took
+ * nearly as many operations as its sums). */
 static inline AVX2_TARGET void
 lanes_seed (Lanes * p)
 {
@@ -1561,11 +1561,11 @@ scaled_product_avx512 (SonarComplex * out, const float *r_re,
     double next_re;
     guint v = 0;
 
-    /* The lanes' phasors times the gain, in double, eight lanes a vector:
-     * lane by lane, in scalar code, they took a sixth of the call (four
-     * vectors an interval share them). The halves are joined in
-     * registers: a vector loaded over two stores of half of it waits for
-     * them to retire. */
+    /* The lanes' phasors times the gain, which the interval's four
+     * vectors start from, in double, eight lanes a vector: lane by lane,
+     * in scalar code, they took a sixth of the call. The halves are
+     * joined in registers: a vector loaded over two stores of half of it
+     * waits for them to retire. */
     for (int half = 0; half < 2; half++) {
       const __m512d o_re = _mm512_loadu_pd (offset_re + 8 * half);
       const __m512d o_im = _mm512_loadu_pd (offset_im + 8 * half);

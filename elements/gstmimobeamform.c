@@ -593,8 +593,10 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           flags));
   g_object_class_install_property (gobject_class, PROP_AZIMUTH_COUNT,
       g_param_spec_uint ("azimuth-count", "Azimuth count", "Number of "
-          "azimuths, evenly spaced from azimuth-min to azimuth-max", 1, 65536,
-          d.n_azimuth, flags));
+          "azimuths, evenly spaced from azimuth-min to azimuth-max. A step "
+          "wider than the beam lets sidelobes pass as objects (a 3-D "
+          "hemisphere at 4 degrees, 46 x 46: sonar-bench --sweep "
+          "hemisphere-fig9-grid)", 1, 65536, d.n_azimuth, flags));
   g_object_class_install_property (gobject_class, PROP_ELEVATION_MIN,
       g_param_spec_double ("elevation-min", "Minimum elevation", "Lowest "
           "elevation, degrees towards +y (0 with elevation-count=1: the "

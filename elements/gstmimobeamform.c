@@ -159,6 +159,61 @@ emitter_exists (const SonarSetup * setup, int emitter, GError ** error)
   return FALSE;
 }
 
+/* A grid whose directions lose more than this between them (dB, half the
+ * amplitude) is coarser than the array's beam: a warning says so. */
+#define GRID_LOSS_WARNING_DB 6.0
+
+/* Directions over @n - 1 steps of @step degrees at steps @factor times
+ * that. */
+static guint
+directions_at (guint n, double step, double factor)
+{
+  return (guint) ceil ((n - 1) * step / (factor * step) - 1e-9) + 1;
+}
+
+/* Warns when the image's grid is coarser than the array's beam: an echo
+ * between its directions is imaged more than GRID_LOSS_WARNING_DB low,
+ * and its sidelobes can pass wardcluster's sidelobe test as objects
+ * (measured: the 3-D hemisphere at 4 degrees, sonar-bench --sweep
+ * hemisphere-fig9-grid). */
+static void
+warn_coarse_grid (GstMimoBeamform * self)
+{
+  const SonarImageGrid *g = sonar_imager_grid (self->imager);
+  const double loss = sonar_imager_sampling_loss (self->imager);
+  double f;
+
+  if (!(loss > GRID_LOSS_WARNING_DB))
+    return;
+  f = sonar_imager_step_factor (self->imager, GRID_LOSS_WARNING_DB);
+  if (g->n_azimuth > 1 && g->azimuth_step > 0.0 && g->n_elevation > 1
+      && g->elevation_step > 0.0)
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("the image's %g x %g degree steps (azimuth x elevation) are coarser "
+            "than the array's beam: a point at the centre of a cell of four "
+            "directions is imaged %.1f dB below its peak at boresight, where "
+            "its sidelobes can pass as objects; steps of at most %.2f x %.2f "
+            "degrees "
+            "(%u x %u directions) keep that within %g dB", g->azimuth_step,
+            g->elevation_step, loss, f * g->azimuth_step,
+            f * g->elevation_step, directions_at (g->n_azimuth,
+                g->azimuth_step, f), directions_at (g->n_elevation,
+                g->elevation_step, f), GRID_LOSS_WARNING_DB), (NULL));
+  else {
+    const gboolean azimuth = g->n_azimuth > 1 && g->azimuth_step > 0.0;
+    const guint n = azimuth ? g->n_azimuth : g->n_elevation;
+    const double step = azimuth ? g->azimuth_step : g->elevation_step;
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("the image's %g degree %s step is coarser than the array's beam: "
+            "a point halfway between two directions is imaged %.1f dB below "
+            "its peak at boresight, where its sidelobes can pass as objects; "
+            "a step of at most %.2f degrees (%u directions) keeps that within "
+            "%g dB",
+            step, azimuth ? "azimuth" : "elevation", loss, f * step,
+            directions_at (n, step, f), GRID_LOSS_WARNING_DB), (NULL));
+  }
+}
+
 static GstCaps *
 gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
@@ -216,6 +271,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
         ("range-max %g m is beyond what one ping records: the image stops "
             "at %.3f m, the end of the %u-sample window", params.range_max,
             range_max, setup->ping_length), (NULL));
+  warn_coarse_grid (self);
 
   self->indices = g_new (guint, n_bank + 2);
   switch (self->active_mode) {
@@ -596,7 +652,10 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "azimuths, evenly spaced from azimuth-min to azimuth-max. A step "
           "wider than the beam lets sidelobes pass as objects (a 3-D "
           "hemisphere at 4 degrees, 46 x 46: sonar-bench --sweep "
-          "hemisphere-fig9-grid)", 1, 65536, d.n_azimuth, flags));
+          "hemisphere-fig9-grid): a grid that images a point between its "
+          "directions more than 6 dB low (the default sensor: azimuth steps "
+          "over 3.04 degrees, 3-D steps over 2.55) is warned of at start", 1,
+          65536, d.n_azimuth, flags));
   g_object_class_install_property (gobject_class, PROP_ELEVATION_MIN,
       g_param_spec_double ("elevation-min", "Minimum elevation", "Lowest "
           "elevation, degrees towards +y (0 with elevation-count=1: the "
@@ -606,7 +665,9 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "elevation, degrees", -90.0, 90.0, d.elevation_max, flags));
   g_object_class_install_property (gobject_class, PROP_ELEVATION_COUNT,
       g_param_spec_uint ("elevation-count", "Elevation count", "Number of "
-          "elevations (1: a 2-D image; more: a 3-D azimuth x elevation grid)",
+          "elevations (1: a 2-D image; more: a 3-D azimuth x elevation grid; "
+          "a grid coarser than the beam is warned of at start, see "
+          "azimuth-count)",
           1, 65536, d.n_elevation, flags));
   g_object_class_install_property (gobject_class, PROP_RANGE_MIN,
       g_param_spec_double ("range-min", "Minimum range", "Nearest range of "

@@ -680,6 +680,35 @@ sonar_imager_grid (const SonarImager * im)
   return &im->grid;
 }
 
+/* The grid's steps along the axes it spans (0 along one it does not). */
+static void
+grid_steps (const SonarImager * im, double *azimuth, double *elevation)
+{
+  *azimuth = im->grid.n_azimuth > 1 ? fabs (im->grid.azimuth_step) : 0.0;
+  *elevation = im->grid.n_elevation > 1 ? fabs (im->grid.elevation_step) :
+      0.0;
+}
+
+double
+sonar_imager_sampling_loss (const SonarImager * im)
+{
+  double azimuth, elevation;
+
+  grid_steps (im, &azimuth, &elevation);
+  return sonar_scaled_transmit_sampling_loss (im->transmit, azimuth,
+      elevation);
+}
+
+double
+sonar_imager_step_factor (const SonarImager * im, double loss_db)
+{
+  double azimuth, elevation;
+
+  grid_steps (im, &azimuth, &elevation);
+  return sonar_scaled_transmit_step_factor (im->transmit, azimuth,
+      elevation, loss_db);
+}
+
 /* Worker @w's share of the call's data (job.mic_spectra, microphones x
  * K): its microphones split into mic_re, mic_im, and the largest
  * magnitude of their parts (infinite when one is NaN) into its

@@ -113,6 +113,15 @@ void sonar_imager_free (SonarImager * imager);
 
 const SonarImageGrid *sonar_imager_grid (const SonarImager * imager);
 
+/* What the MIMO image's grid loses between its directions: how far below
+ * its own peak a point halfway between them is imaged, dB
+ * (sonar_scaled_transmit_sampling_loss () at the grid's steps). */
+double sonar_imager_sampling_loss (const SonarImager * imager);
+/* The factor of the grid's steps that loses @loss_db
+ * (sonar_scaled_transmit_step_factor ()): 1 when they lose no more. */
+double sonar_imager_step_factor (const SonarImager * imager,
+    double loss_db);
+
 /* Images the echoes in @mic_spectra (n_microphones x n_bins, the band's
  * spectra of one ping) for @n_hypotheses Doppler hypotheses (their
  * templates on the same band). @image receives,

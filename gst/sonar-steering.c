@@ -2,6 +2,7 @@
 #include "sonar-steering.h"
 #include "sonar-kernels.h"
 
+#include <complex.h>
 #include <math.h>
 #include <string.h>
 
@@ -317,4 +318,100 @@ sonar_scaled_transmit_product (const SonarScaledTransmit * t,
   sonar_kernel_scaled_product (out, receive_re, receive_im, v_re, v_im, n,
       x0, stretch, stretch * k_first * t->centre,
       stretch * s->dk * t->centre, (float) sqrt (stretch));
+}
+
+/* Bins of the band the beam is summed over, at most: it changes little
+ * from bin to bin. */
+#define BEAM_BINS 256
+/* Lags searched for the envelope's peak, over +-BEAM_REACH of the band's
+ * range resolution (a few millimetres of path). */
+#define BEAM_LAGS 41
+#define BEAM_REACH 0.5
+/* A range far enough for plane waves, m. */
+#define BEAM_FAR 1e4
+
+/* The MIMO envelope of a still far point at boresight, delayed and summed
+ * for the direction @look: the emitters' echoes, each weighted by its
+ * power spectrum, and the microphones' phasors of the legs' differences
+ * between @look and boresight, summed over the band at the lag where that
+ * is largest. */
+static double
+beam_envelope (const SonarScaledTransmit * t, SonarVec3 look)
+{
+  const SonarSteering *s = t->steering;
+  const SonarGeometry *g = s->geometry;
+  const guint stride = MAX (1u, s->n_bins / BEAM_BINS);
+  const guint n = (s->n_bins + stride - 1) / stride;
+  const double reach = BEAM_REACH * 2.0 * G_PI / (s->dk * s->n_bins);
+  double mic_look[SONAR_MAX_MICROPHONES], mic_zero[SONAR_MAX_MICROPHONES];
+  double em_look[SONAR_MAX_EMITTERS], em_zero[SONAR_MAX_EMITTERS];
+  g_autofree double complex *beam = g_new (double complex, n);
+  double best = 0.0;
+
+  sonar_steering_legs (s, look, BEAM_FAR, mic_look, em_look);
+  sonar_steering_legs (s, sonar_vec3 (0.0, 0.0, 1.0), BEAM_FAR, mic_zero,
+      em_zero);
+  for (guint b = 0; b < n; b++) {
+    const guint bin = t->first_bin + b * stride;
+    const double kappa = s->k0 + (double) b * stride * s->dk;
+    double complex e = 0.0, m = 0.0;
+    for (guint i = 0; i < t->n_emitters; i++) {
+      const float re = t->spectra_re[(gsize) i * t->n_spectrum + bin];
+      const float im = t->spectra_im[(gsize) i * t->n_spectrum + bin];
+      e += (re * re + im * im) * cexp (I * kappa * (em_look[i] -
+              em_zero[i]));
+    }
+    for (guint j = 0; j < g->n_microphones; j++)
+      m += cexp (I * kappa * (mic_look[j] - mic_zero[j]));
+    beam[b] = e * m;
+  }
+  for (guint l = 0; l < BEAM_LAGS; l++) {
+    const double lag = reach * (2.0 * l / (BEAM_LAGS - 1) - 1.0);
+    double complex sum = 0.0;
+    for (guint b = 0; b < n; b++)
+      sum += beam[b] * cexp (-I * (s->k0 + (double) b * stride * s->dk) *
+          lag);
+    best = MAX (best, cabs (sum));
+  }
+  return best;
+}
+
+static double
+loss_below (const SonarScaledTransmit * t, double peak, double azimuth_step,
+    double elevation_step)
+{
+  const double off = beam_envelope (t, sonar_vec3_from_direction (0.5 *
+          MAX (azimuth_step, 0.0), 0.5 * MAX (elevation_step, 0.0)));
+
+  return peak > 0.0 && off > 0.0 ? 20.0 * log10 (peak / off) : 0.0;
+}
+
+double
+sonar_scaled_transmit_sampling_loss (const SonarScaledTransmit * t,
+    double azimuth_step, double elevation_step)
+{
+  return loss_below (t, beam_envelope (t, sonar_vec3 (0.0, 0.0, 1.0)),
+      azimuth_step, elevation_step);
+}
+
+double
+sonar_scaled_transmit_step_factor (const SonarScaledTransmit * t,
+    double azimuth_step, double elevation_step, double loss_db)
+{
+  const double peak = beam_envelope (t, sonar_vec3 (0.0, 0.0, 1.0));
+  double lo = 0.0, hi = 1.0;
+
+  if (loss_below (t, peak, azimuth_step, elevation_step) <= loss_db)
+    return 1.0;
+  /* Within the main lobe, where grids are set, the loss grows with the
+   * step: bisection, to a millionth. */
+  for (int k = 0; k < 20; k++) {
+    const double f = 0.5 * (lo + hi);
+    if (loss_below (t, peak, f * azimuth_step, f * elevation_step) <=
+        loss_db)
+      lo = f;
+    else
+      hi = f;
+  }
+  return lo;
 }

@@ -187,6 +187,27 @@ void sonar_scaled_transmit_product (const SonarScaledTransmit * transmit,
     const float *receive_re, const float *receive_im, guint first, guint n,
     SonarComplex * out);
 
+/* What an image grid of @azimuth_step degrees loses between its
+ * directions (and of @elevation_step too, when above 0): how far below
+ * its own peak, in dB, a still point halfway between two directions (at
+ * the centre of a cell of four) is imaged at the directions around it.
+ * At boresight, where the beam is narrowest (off it a degree of azimuth
+ * is a smaller step of the direction cosine): the far-field MIMO beam of
+ * the emissions, each emitter's echo weighted by its power spectrum over
+ * the band, at the lag where the envelope peaks. The default eRTIS
+ * sensor: 0.6, 2.6, 5.9, 10.5 dB for 1, 2, 3, 4 degrees of azimuth, 3.7
+ * dB at the centre of a 3-D 2-degree cell. The delay-and-sum of the
+ * point's echoes loses up to 0.6 dB less: the emitters' cross-talk,
+ * left out here, fills the beam's flanks a little (tests/test-steering.c;
+ * sonar-bench --sweep scalloping images a point at 2 m). */
+double sonar_scaled_transmit_sampling_loss (const SonarScaledTransmit *
+    transmit, double azimuth_step, double elevation_step);
+
+/* The factor f <= 1 of both steps at which they lose @loss_db
+ * (sonar_scaled_transmit_sampling_loss ()); 1 when they lose no more. */
+double sonar_scaled_transmit_step_factor (const SonarScaledTransmit *
+    transmit, double azimuth_step, double elevation_step, double loss_db);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarScaledTransmit, sonar_scaled_transmit_free)
 
 G_END_DECLS

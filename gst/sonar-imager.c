@@ -54,7 +54,8 @@ typedef enum
                                  * corners hold noise alone */
   UNIT_GATE_HYPOTHESES,         /* over those of the noise gate alone: its
                                  * envelope's maximum taken with the
-                                 * interpolation everywhere */
+                                 * interpolation but where the corners'
+                                 * echo is of those hypotheses */
   UNIT_EVERY_HYPOTHESIS         /* over all: its envelope written */
 } UnitImaging;
 
@@ -1646,8 +1647,13 @@ hot_over_noise_share (gpointer data, guint w, guint n_workers)
  * passes (a 3-D scene of tests/test_foreign.py: 18.3 % of the dense
  * image's passes against 4.9 %). So that their noise stays the maximum
  * over every hypothesis, as elsewhere, the fine units of such corners
- * keep the interpolation wherever it is higher (UNIT_GATE_HYPOTHESES);
- * the echo's own peak, over its coarse corners, is the fine image's. */
+ * keep the interpolation wherever it is higher (UNIT_GATE_HYPOTHESES),
+ * but not where the corners hold an echo whose strongest hypothesis
+ * they image (echo_imaged ()): the interpolation there is that echo
+ * imaged at the coarse pass's one focus for the whole range, whose
+ * broader beam filled the flanks of a faint far echo and made a second
+ * peak at a coarse direction 1.3 degrees from its own (reported twice:
+ * tests/test_foreign.py, faint-mover). */
 static void
 mark_hot_over_noise (SonarImager * im, guint n_coarse, double pfa,
     gboolean neighbours)
@@ -1694,12 +1700,41 @@ noise_block (const SonarImager * im, const guint corners[4], guint i)
   return TRUE;
 }
 
+/* Whether, in the block of range bin @i, the coarse corners @corners
+ * that hold an echo (one at least) have their strongest hypothesis there
+ * among those the units of zone @z between them image: their fine
+ * envelope then holds that echo, at the zone's own focus. */
+static gboolean
+echo_imaged (const SonarImager * im, const guint corners[4], guint z,
+    guint i)
+{
+  const guint b = i / HYPOTHESIS_BLOCK, n_hyp = im->job.n_hypotheses;
+  gboolean echo = FALSE;
+
+  for (guint k = 0; k < 4; k++) {
+    const gsize block = (gsize) im->coarse_unit[corners[k]] *
+        im->n_hypothesis_blocks + b;
+    const guint h = im->best_hypothesis[block];
+    if (im->noise_block[block])
+      continue;
+    echo = TRUE;
+    if (!im->wanted[UNIT (im, corners[0], z) * n_hyp + h]
+        && !im->wanted[UNIT (im, corners[1], z) * n_hyp + h]
+        && !im->wanted[UNIT (im, corners[2], z) * n_hyp + h]
+        && !im->wanted[UNIT (im, corners[3], z) * n_hyp + h])
+      return FALSE;
+  }
+  return echo;
+}
+
 /* Before the fine pass, from the coarse pass's values: the pixels of the
  * UNIT_INTERPOLATED and UNIT_GATE_HYPOTHESES units, bilinear between the
  * direction's coarse corners (which the former do not image again: none
  * is hot in that zone); in the UNIT_SOME_HYPOTHESES units, the same where
  * the corners hold noise alone and 0 elsewhere (their fine envelope
- * written there), the coarse directions' own pixels included. */
+ * written there), the coarse directions' own pixels included, and in the
+ * UNIT_GATE_HYPOTHESES units 0 where the corners' echo is of the
+ * hypotheses they image (echo_imaged ()). */
 static void
 interpolate_share (gpointer data, guint worker, guint n_workers)
 {
@@ -1733,9 +1768,10 @@ interpolate_share (gpointer data, guint worker, guint n_workers)
       if (imaging == UNIT_EVERY_HYPOTHESIS)
         continue;
       for (guint i = zone->first_range; i < zone->end_range; i++)
-        out[i] = imaging == UNIT_SOME_HYPOTHESES && !noise_block (im,
-            corners, i) ? 0.0f : w[0] * p[0][i] + w[1] * p[1][i] +
-            w[2] * p[2][i] + w[3] * p[3][i];
+        out[i] = (imaging == UNIT_SOME_HYPOTHESES && !noise_block (im,
+                corners, i)) || (imaging == UNIT_GATE_HYPOTHESES
+            && echo_imaged (im, corners, z, i)) ? 0.0f : w[0] * p[0][i] +
+            w[1] * p[1][i] + w[2] * p[2][i] + w[3] * p[3][i];
     }
   }
 }
@@ -1756,11 +1792,16 @@ interpolate (SonarImager * im, float *image)
       continue;
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
-      if (im->imaging[UNIT (im, d, z)] != UNIT_SOME_HYPOTHESES)
-        continue;
-      for (guint i = zone->first_range; i < zone->end_range; i++)
-        if (!noise_block (im, corners, i))
-          out[i] = 0.0f;
+      const guint imaging = im->imaging[UNIT (im, d, z)];
+      if (imaging == UNIT_SOME_HYPOTHESES) {
+        for (guint i = zone->first_range; i < zone->end_range; i++)
+          if (!noise_block (im, corners, i))
+            out[i] = 0.0f;
+      } else if (imaging == UNIT_GATE_HYPOTHESES) {
+        for (guint i = zone->first_range; i < zone->end_range; i++)
+          if (echo_imaged (im, corners, z, i))
+            out[i] = 0.0f;
+      }
     }
   }
 }

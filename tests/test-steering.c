@@ -227,6 +227,36 @@ test_emitter_output_at_lag (void)
   sonar_setup_unref (f.setup);
 }
 
+/* A Doppler bank of @setup from @v_min to @v_max m/s on its ping's band,
+ * and the steering and scaled transmit sums on that band (the transmit
+ * borrows the steering: the fixture stays where it was made). */
+typedef struct
+{
+  SonarDopplerBank *bank;
+  const SonarBand *band;
+  SonarSteering steering;
+  SonarScaledTransmit *transmit;
+} TransmitFixture;
+
+static void
+transmit_fixture_init (TransmitFixture * f, SonarSetup * setup,
+    double v_min, double v_max)
+{
+  f->bank = sonar_doppler_bank_new (setup, v_min, v_max, 0.01, NULL);
+  g_assert_nonnull (f->bank);
+  sonar_doppler_bank_prepare_ping_band (f->bank);
+  f->band = sonar_doppler_bank_band (f->bank);
+  sonar_steering_init (&f->steering, setup, f->band);
+  f->transmit = sonar_scaled_transmit_new (&f->steering, setup, f->band);
+}
+
+static void
+transmit_fixture_clear (TransmitFixture * f)
+{
+  sonar_scaled_transmit_free (f->transmit);
+  sonar_doppler_bank_unref (f->bank);
+}
+
 /* A hypothesis's transmit product read from the zero-velocity table
  * (sonar_scaled_transmit_product ()) against the direct sum over the
  * bank's own templates of that velocity, on the whole ping band, every
@@ -242,9 +272,9 @@ test_scaled_transmit (void)
     -30.0
   };
   const SonarGeometry *g = &setup->geometry;
-  g_autoptr (SonarDopplerBank) bank = NULL;
-  g_autoptr (SonarScaledTransmit) transmit = NULL;
-  const SonarBand *ping_band;
+  TransmitFixture fixture;
+  SonarDopplerBank *bank;
+  SonarScaledTransmit *transmit;
   SonarSteering steering;
   SonarRng rng;
   double emitter[SONAR_MAX_EMITTERS];
@@ -253,13 +283,11 @@ test_scaled_transmit (void)
   guint K, max_window;
   double worst_db = -400.0;
 
-  bank = sonar_doppler_bank_new (setup, -30.0, 30.0, 0.01, NULL);
-  g_assert_nonnull (bank);
-  sonar_doppler_bank_prepare_ping_band (bank);
-  ping_band = sonar_doppler_bank_band (bank);
-  K = ping_band->n_bins;
-  sonar_steering_init (&steering, setup, ping_band);
-  transmit = sonar_scaled_transmit_new (&steering, setup, ping_band);
+  transmit_fixture_init (&fixture, setup, -30.0, 30.0);
+  bank = fixture.bank;
+  transmit = fixture.transmit;
+  steering = fixture.steering;
+  K = fixture.band->n_bins;
   max_window = sonar_scaled_transmit_max_window (transmit);
   r_re = g_new (float, K);
   r_im = g_new (float, K);
@@ -345,6 +373,7 @@ test_scaled_transmit (void)
   g_free (v_re);
   g_free (v_im);
   g_free (out);
+  transmit_fixture_clear (&fixture);
 }
 
 /* A window reaching below bin 0 or past Nyquist (a band near either edge,
@@ -432,22 +461,18 @@ test_sampling_loss (void)
 {
   g_autoptr (SonarSetup) setup = sonar_test_default_setup (17262);
   const SonarGeometry *g = &setup->geometry;
-  g_autoptr (SonarDopplerBank) bank = NULL;
-  g_autoptr (SonarScaledTransmit) transmit = NULL;
-  const SonarBand *ping_band;
+  TransmitFixture fixture;
+  SonarScaledTransmit *transmit;
   SonarSteering steering;
   SonarHypothesis still;
   double last[2] = { 0.0, 0.0 };
   guint K;
 
-  bank = sonar_doppler_bank_new (setup, 0.0, 0.0, 0.01, NULL);
-  g_assert_nonnull (bank);
-  sonar_doppler_bank_prepare_ping_band (bank);
-  ping_band = sonar_doppler_bank_band (bank);
-  K = ping_band->n_bins;
-  sonar_steering_init (&steering, setup, ping_band);
-  transmit = sonar_scaled_transmit_new (&steering, setup, ping_band);
-  still = sonar_doppler_bank_hypothesis (bank, 0);
+  transmit_fixture_init (&fixture, setup, 0.0, 0.0);
+  transmit = fixture.transmit;
+  steering = fixture.steering;
+  K = fixture.band->n_bins;
+  still = sonar_doppler_bank_hypothesis (fixture.bank, 0);
   g_assert_cmpfloat (sonar_scaled_transmit_sampling_loss (transmit, 0.0,
           0.0), ==, 0.0);
 
@@ -519,6 +544,7 @@ test_sampling_loss (void)
     g_assert_cmpfloat (sonar_scaled_transmit_step_factor (transmit, 1.0,
             0.0, 6.0), ==, 1.0);
   }
+  transmit_fixture_clear (&fixture);
 }
 
 int

@@ -5,7 +5,10 @@ scenes written by tests/foreign_sim.py (its own physics, the eRTIS array,
 elements' defaults (`filesrc ! wavparse ! dopplerbank sensor-file=... !
 mimobeamform ! wardcluster ! velocityest`) and, for comparison, with
 other mimobeamform properties. An object is found when a valid
-detection lies within 5 cm of it; every other valid detection is false.
+detection lies within 5 cm of it where it is at the detection's instant
+(moved along its straight line: the chain reports each object when the
+emissions' energy centre reaches it, the simulator's truth is when their
+start does); every other valid detection is false.
 
 Scenes: OBJECTS point reflectors at 0.8-6 m, azimuth +-60 degrees (and
 elevation +-40 on a 3-D sensor), radial velocities +-3 m/s, strengths
@@ -94,14 +97,24 @@ def spread(values, unit, digits):
         digits, max(values))
 
 
+def offset(r, d):
+    """How far detection @d lies from reflector @r where @r is at @d's
+    instant (velocityest's: when the emissions' energy centre reaches the
+    object; the truth's own instant, "t", is when their start does), along
+    @r's straight line."""
+    dt = d["instant"] - r["t"] if d.get("instant") is not None else 0.0
+    return math.dist([p + v * dt for p, v in zip(r["position"],
+                                                  r["velocity"])],
+                     [d["x"], d["y"], d["z"]])
+
+
 def score(detections, truth):
     """The objects found, and the lists of those missed and of the false
     detections."""
     found, used, missed = 0, set(), []
     for r in truth:
         for j, d in enumerate(detections):
-            if d["valid"] and j not in used and math.dist(
-                    r["position"], [d["x"], d["y"], d["z"]]) < MATCH:
+            if d["valid"] and j not in used and offset(r, d) < MATCH:
                 found += 1
                 used.add(j)
                 break
@@ -118,12 +131,10 @@ def explain(label, truth, detections, missed, false):
     detection (valid or rejected); each false detection's place."""
     top = max(r["strength"] for r in truth)
     for r in missed:
-        near = min(detections, default=None, key=lambda d: math.dist(
-            r["position"], [d["x"], d["y"], d["z"]]))
+        near = min(detections, default=None, key=lambda d: offset(r, d))
         where = "no detection" if near is None else \
             "nearest detection %.3f m away (%s)" % (
-                math.dist(r["position"], [near["x"], near["y"], near["z"]]),
-                "valid" if near["valid"] else "rejected")
+                offset(r, near), "valid" if near["valid"] else "rejected")
         print("  %s missed: %.3f m, az %.1f, el %.1f, %+.2f m/s, %.1f dB "
               "below the strongest; %s" % (
                   label, r["range"], r["azimuth"], r["elevation"],

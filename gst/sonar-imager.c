@@ -1727,6 +1727,18 @@ echo_imaged (const SonarImager * im, const guint corners[4], guint z,
   return echo;
 }
 
+/* Whether a unit imaged @imaging (UnitImaging) with coarse corners
+ * @corners in zone @z holds its own envelope alone at range bin @i, not
+ * its maximum with the interpolation: some hypotheses, where a corner
+ * holds an echo; the noise gate's, where the corners' echo is of them. */
+static gboolean
+envelope_alone (const SonarImager * im, guint imaging,
+    const guint corners[4], guint z, guint i)
+{
+  return imaging == UNIT_SOME_HYPOTHESES ? !noise_block (im, corners, i) :
+      imaging == UNIT_GATE_HYPOTHESES && echo_imaged (im, corners, z, i);
+}
+
 /* Before the fine pass, from the coarse pass's values: the pixels of the
  * UNIT_INTERPOLATED and UNIT_GATE_HYPOTHESES units, bilinear between the
  * direction's coarse corners (which the former do not image again: none
@@ -1768,10 +1780,9 @@ interpolate_share (gpointer data, guint worker, guint n_workers)
       if (imaging == UNIT_EVERY_HYPOTHESIS)
         continue;
       for (guint i = zone->first_range; i < zone->end_range; i++)
-        out[i] = (imaging == UNIT_SOME_HYPOTHESES && !noise_block (im,
-                corners, i)) || (imaging == UNIT_GATE_HYPOTHESES
-            && echo_imaged (im, corners, z, i)) ? 0.0f : w[0] * p[0][i] +
-            w[1] * p[1][i] + w[2] * p[2][i] + w[3] * p[3][i];
+        out[i] = envelope_alone (im, imaging, corners, z, i) ? 0.0f :
+            w[0] * p[0][i] + w[1] * p[1][i] + w[2] * p[2][i] +
+            w[3] * p[3][i];
     }
   }
 }
@@ -1793,15 +1804,9 @@ interpolate (SonarImager * im, float *image)
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
       const guint imaging = im->imaging[UNIT (im, d, z)];
-      if (imaging == UNIT_SOME_HYPOTHESES) {
-        for (guint i = zone->first_range; i < zone->end_range; i++)
-          if (!noise_block (im, corners, i))
-            out[i] = 0.0f;
-      } else if (imaging == UNIT_GATE_HYPOTHESES) {
-        for (guint i = zone->first_range; i < zone->end_range; i++)
-          if (echo_imaged (im, corners, z, i))
-            out[i] = 0.0f;
-      }
+      for (guint i = zone->first_range; i < zone->end_range; i++)
+        if (envelope_alone (im, imaging, corners, z, i))
+          out[i] = 0.0f;
     }
   }
 }

@@ -1730,7 +1730,8 @@ echo_imaged (const SonarImager * im, const guint corners[4], guint z,
 /* Whether a unit imaged @imaging (UnitImaging) with coarse corners
  * @corners in zone @z holds its own envelope alone at range bin @i, not
  * its maximum with the interpolation: some hypotheses, where a corner
- * holds an echo; the noise gate's, where the corners' echo is of them. */
+ * holds an echo; the noise gate's, where the corners' echo is of them.
+ * The same throughout a block of HYPOTHESIS_BLOCK range bins. */
 static gboolean
 envelope_alone (const SonarImager * im, guint imaging,
     const guint corners[4], guint z, guint i)
@@ -1777,12 +1778,15 @@ interpolate_share (gpointer data, guint worker, guint n_workers)
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
       const guint imaging = im->imaging[UNIT (im, d, z)];
+      gboolean alone = FALSE;
       if (imaging == UNIT_EVERY_HYPOTHESIS)
         continue;
-      for (guint i = zone->first_range; i < zone->end_range; i++)
-        out[i] = envelope_alone (im, imaging, corners, z, i) ? 0.0f :
-            w[0] * p[0][i] + w[1] * p[1][i] + w[2] * p[2][i] +
-            w[3] * p[3][i];
+      for (guint i = zone->first_range; i < zone->end_range; i++) {
+        if (i == zone->first_range || i % HYPOTHESIS_BLOCK == 0)
+          alone = envelope_alone (im, imaging, corners, z, i);
+        out[i] = alone ? 0.0f : w[0] * p[0][i] + w[1] * p[1][i] +
+            w[2] * p[2][i] + w[3] * p[3][i];
+      }
     }
   }
 }
@@ -1804,6 +1808,8 @@ interpolate (SonarImager * im, float *image)
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
       const guint imaging = im->imaging[UNIT (im, d, z)];
+      if (imaging != UNIT_SOME_HYPOTHESES && imaging != UNIT_GATE_HYPOTHESES)
+        continue;
       for (guint i = zone->first_range; i < zone->end_range; i++)
         if (envelope_alone (im, imaging, corners, z, i))
           out[i] = 0.0f;

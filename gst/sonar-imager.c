@@ -43,6 +43,9 @@
 #define MAX_FOCUS_ZONES 64
 
 #define UNIT(im, d, z) ((d) * ((im)->n_zones + 1) + (z))
+/* Block @b (of HYPOTHESIS_BLOCK range bins) of coarse unit @u, in the
+ * [coarse unit x block] arrays. */
+#define COARSE_BLOCK(im, u, b) ((gsize) (u) * (im)->n_hypothesis_blocks + (b))
 
 /* How the fine pass images a (direction, zone) unit of a coarse-to-fine
  * image. */
@@ -786,6 +789,20 @@ coarse_corners (const SonarImager * im, guint d, guint corners[4])
   corners[3] = e1 * n_az + a1;
 }
 
+/* Whether the units with coarse corners @corners image hypothesis @h in
+ * zone @z: some corner wants it there (im->wanted). */
+static inline gboolean
+images_hypothesis (const SonarImager * im, const guint corners[4], guint z,
+    guint h)
+{
+  const guint n_hyp = im->job.n_hypotheses;
+
+  for (guint k = 0; k < 4; k++)
+    if (im->wanted[UNIT (im, corners[k], z) * n_hyp + h])
+      return TRUE;
+  return FALSE;
+}
+
 /* The coarse hypothesis that stands for hypothesis @h when they are
  * every @step-th of @n: the middle of its run of @step. */
 static inline guint
@@ -857,7 +874,7 @@ image_sub_unit (SonarImager * im, guint w, guint u, guint d,
   const guint n_range = im->grid.n_range, n_hyp = job->n_hypotheses;
   const guint ratio = im->sub_ratio, step = job->hyp_step;
   const guint l0 = im->sub_first_lag, l1 = im->sub_end_lag;
-  const gsize blocks = (gsize) u * im->n_hypothesis_blocks;
+  const gsize blocks = COARSE_BLOCK (im, u, 0);
   guint16 *best = job->best_hypothesis + blocks;
   float *best_value = job->best_value + blocks;
   float *env = scratch->sub_envelope;
@@ -1034,10 +1051,7 @@ image_units (gpointer data, guint w, guint n_workers)
       const guint z = UNIT_ZONE (im, job->units[u]);
       const SonarComplex *lags;
 
-      if (job->wanted && !job->wanted[UNIT (im, corners[0], z) * n_hyp + h]
-          && !job->wanted[UNIT (im, corners[1], z) * n_hyp + h]
-          && !job->wanted[UNIT (im, corners[2], z) * n_hyp + h]
-          && !job->wanted[UNIT (im, corners[3], z) * n_hyp + h])
+      if (job->wanted && !images_hypothesis (im, corners, z, h))
         continue;
       transmit_product (im, scratch, h, 0, n_bins, scratch->baseband);
       fftwf_execute_dft (im->inverse, scratch->baseband, scratch->lags);
@@ -1045,7 +1059,7 @@ image_units (gpointer data, guint w, guint n_workers)
       if (job->zone_peaks) {
         /* Coarse unit (the whole range): each zone's peak of this
          * hypothesis, then the maximum over the hypotheses and which. */
-        const gsize blocks = (gsize) u * im->n_hypothesis_blocks;
+        const gsize blocks = COARSE_BLOCK (im, u, 0);
         guint16 *best = job->best_hypothesis + blocks;
         float *best_value = job->best_value + blocks;
 
@@ -1266,8 +1280,7 @@ range_floors_share (gpointer data, guint w, guint n_workers)
         gboolean noise = TRUE;
         for (guint j = i; j < MIN (i + HYPOTHESIS_BLOCK, n_range); j++)
           noise &= pixels[j] <= im->range_echo[j];
-        im->noise_block[(gsize) u * im->n_hypothesis_blocks + i /
-            HYPOTHESIS_BLOCK] = noise;
+        im->noise_block[COARSE_BLOCK (im, u, i / HYPOTHESIS_BLOCK)] = noise;
       }
     }
   }
@@ -1471,8 +1484,7 @@ mark_level_over_noise (SonarImager * im, guint n_coarse)
   for (guint u = 0; u < n_coarse; u++) {
     const guint d = UNIT_DIRECTION (im, im->units[u]);
     const float *row = image + (gsize) d * n_range;
-    const guint16 *best = im->best_hypothesis + (gsize) u *
-        im->n_hypothesis_blocks;
+    const guint16 *best = im->best_hypothesis + COARSE_BLOCK (im, u, 0);
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
       guint8 *wanted = im->wanted + UNIT (im, d, z) * n_hyp;
@@ -1585,8 +1597,7 @@ hot_over_noise_share (gpointer data, guint w, guint n_workers)
   for (guint u = w; u < im->job.n_coarse; u += n_workers) {
     const guint d = UNIT_DIRECTION (im, im->units[u]);
     const float *row = image + (gsize) d * n_range;
-    const guint16 *best = im->best_hypothesis + (gsize) u *
-        im->n_hypothesis_blocks;
+    const guint16 *best = im->best_hypothesis + COARSE_BLOCK (im, u, 0);
 
     for (guint z = 0; z < im->n_zones; z++) {
       const FocusZone *zone = &im->zones[z];
@@ -1694,8 +1705,7 @@ noise_block (const SonarImager * im, const guint corners[4], guint i)
   const guint b = i / HYPOTHESIS_BLOCK;
 
   for (guint k = 0; k < 4; k++)
-    if (!im->noise_block[(gsize) im->coarse_unit[corners[k]] *
-            im->n_hypothesis_blocks + b])
+    if (!im->noise_block[COARSE_BLOCK (im, im->coarse_unit[corners[k]], b)])
       return FALSE;
   return TRUE;
 }
@@ -1708,20 +1718,16 @@ static gboolean
 echo_imaged (const SonarImager * im, const guint corners[4], guint z,
     guint i)
 {
-  const guint b = i / HYPOTHESIS_BLOCK, n_hyp = im->job.n_hypotheses;
+  const guint b = i / HYPOTHESIS_BLOCK;
   gboolean echo = FALSE;
 
   for (guint k = 0; k < 4; k++) {
-    const gsize block = (gsize) im->coarse_unit[corners[k]] *
-        im->n_hypothesis_blocks + b;
+    const gsize block = COARSE_BLOCK (im, im->coarse_unit[corners[k]], b);
     const guint h = im->best_hypothesis[block];
     if (im->noise_block[block])
       continue;
     echo = TRUE;
-    if (!im->wanted[UNIT (im, corners[0], z) * n_hyp + h]
-        && !im->wanted[UNIT (im, corners[1], z) * n_hyp + h]
-        && !im->wanted[UNIT (im, corners[2], z) * n_hyp + h]
-        && !im->wanted[UNIT (im, corners[3], z) * n_hyp + h])
+    if (!images_hypothesis (im, corners, z, h))
       return FALSE;
   }
   return echo;
@@ -1823,13 +1829,8 @@ static gboolean
 wants_every_hypothesis (const SonarImager * im, const guint corners[4],
     guint z)
 {
-  const guint n_hyp = im->job.n_hypotheses;
-  const guint8 *wanted[4];
-
-  for (guint k = 0; k < 4; k++)
-    wanted[k] = im->wanted + UNIT (im, corners[k], z) * n_hyp;
-  for (guint h = 0; h < n_hyp; h++)
-    if (!wanted[0][h] && !wanted[1][h] && !wanted[2][h] && !wanted[3][h])
+  for (guint h = 0; h < im->job.n_hypotheses; h++)
+    if (!images_hypothesis (im, corners, z, h))
       return FALSE;
   return TRUE;
 }

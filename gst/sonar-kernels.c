@@ -261,6 +261,25 @@ max_generic (float *out, const float *x, guint n)
 }
 
 static void
+correlate_generic (float *out, const float *x, const float *w, guint n,
+    guint n_lags)
+{
+  for (guint l = 0; l < n_lags; l++) {
+    double sum = 0.0;
+    for (guint i = 0; i < n; i++)
+      sum += (double) x[i + l] * w[i];
+    out[l] = (float) sum;
+  }
+}
+
+static void
+axpy_generic (float *y, const float *x, float a, guint n)
+{
+  for (guint i = 0; i < n; i++)
+    y[i] += a * x[i];
+}
+
+static void
 rank_pass_generic (const float *x, gsize stride, guint n_rows,
     const float *level, guint32 * below, float *under, float *over,
     guint32 * finite)
@@ -2052,6 +2071,46 @@ steer_sum_split_avx512 (float *out_re, float *out_im, const float *x_re,
 #undef STEER_GROUP
 #undef STEER_LANES
 
+/* Two vectors of partial sums a lag (one chain of dependent sums waits on
+ * each addition), added across at the end. */
+AVX2_TARGET static void
+correlate_avx2 (float *out, const float *x, const float *w, guint n,
+    guint n_lags)
+{
+  const guint whole = n - n % (2 * LANES);
+
+  for (guint l = 0; l < n_lags; l++) {
+    const float *xl = x + l;
+    __m256 s0 = _mm256_setzero_ps (), s1 = _mm256_setzero_ps ();
+    float lanes[LANES], sum = 0.0f;
+
+    for (guint i = 0; i < whole; i += 2 * LANES) {
+      s0 = _mm256_fmadd_ps (_mm256_loadu_ps (xl + i), _mm256_loadu_ps (w + i),
+          s0);
+      s1 = _mm256_fmadd_ps (_mm256_loadu_ps (xl + i + LANES),
+          _mm256_loadu_ps (w + i + LANES), s1);
+    }
+    _mm256_storeu_ps (lanes, _mm256_add_ps (s0, s1));
+    for (guint i = whole; i < n; i++)
+      sum += xl[i] * w[i];
+    for (guint k = 0; k < LANES; k++)
+      sum += lanes[k];
+    out[l] = sum;
+  }
+}
+
+AVX2_TARGET static void
+axpy_avx2 (float *y, const float *x, float a, guint n)
+{
+  const __m256 va = _mm256_set1_ps (a);
+  const guint whole = n - n % LANES;
+
+  for (guint i = 0; i < whole; i += LANES)
+    _mm256_storeu_ps (y + i, _mm256_add_ps (_mm256_loadu_ps (y + i),
+            _mm256_mul_ps (va, _mm256_loadu_ps (x + i))));
+  axpy_generic (y + whole, x + whole, a, n - whole);
+}
+
 #endif /* HAVE_AVX2_KERNELS */
 
 /* ORC versions -----------------------------------------------------------*/
@@ -2220,6 +2279,22 @@ const SonarMaxImpl sonar_kernel_max_impls[] = {
   {NULL, NULL, NULL}
 };
 
+const SonarCorrelateImpl sonar_kernel_correlate_impls[] = {
+  {"generic", correlate_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", correlate_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
+const SonarAxpyImpl sonar_kernel_axpy_impls[] = {
+  {"generic", axpy_generic, always_available},
+#ifdef HAVE_AVX2_KERNELS
+  {"avx2", axpy_avx2, cpu_has_avx2_fma},
+#endif
+  {NULL, NULL, NULL}
+};
+
 const SonarRankPassImpl sonar_kernel_rank_pass_impls[] = {
   {"generic", rank_pass_generic, always_available},
 #ifdef HAVE_AVX2_KERNELS
@@ -2253,6 +2328,8 @@ static struct
   SonarMaxFn max;
   SonarRankPassFn rank_pass;
   SonarDeinterleaveFn deinterleave;
+  SonarCorrelateFn correlate;
+  SonarAxpyFn axpy;
 } chosen;
 
 /* The last implementation of @impls the CPU has. */
@@ -2286,6 +2363,8 @@ choose (void)
     LAST_AVAILABLE (sonar_kernel_max_impls, chosen.max);
     LAST_AVAILABLE (sonar_kernel_rank_pass_impls, chosen.rank_pass);
     LAST_AVAILABLE (sonar_kernel_deinterleave_impls, chosen.deinterleave);
+    LAST_AVAILABLE (sonar_kernel_correlate_impls, chosen.correlate);
+    LAST_AVAILABLE (sonar_kernel_axpy_impls, chosen.axpy);
     g_once_init_leave (&done, 1);
   }
 }
@@ -2399,4 +2478,19 @@ sonar_kernel_deinterleave (float *const *out, guint n_out,
 {
   choose ();
   return chosen.deinterleave (out, n_out, frames, stride, n);
+}
+
+void
+sonar_kernel_correlate (float *out, const float *x, const float *w, guint n,
+    guint n_lags)
+{
+  choose ();
+  chosen.correlate (out, x, w, n, n_lags);
+}
+
+void
+sonar_kernel_axpy (float *y, const float *x, float a, guint n)
+{
+  choose ();
+  chosen.axpy (y, x, a, n);
 }

@@ -223,6 +223,28 @@ typedef guint (*SonarDeinterleaveFn) (float *const *out, guint n_out,
 typedef SONAR_KERNEL_IMPL (SonarDeinterleaveFn) SonarDeinterleaveImpl;
 extern const SonarDeinterleaveImpl sonar_kernel_deinterleave_impls[];
 
+/* out[l] = the sum over i < n of x[i + l] * w[i], l < n_lags (@x holds
+ * n + n_lags - 1 samples): @x's correlation with @w at @n_lags
+ * consecutive lags. The direct path's fit (sonar-direct-path.c): each
+ * emitter's waveform against a microphone's ping at the lags around its
+ * path. The reference sums in double; the fast version in float lanes
+ * (two vectors of 8 a lag: within 1e-6 of the sum of |x w| over a
+ * waveform's 4000 samples). */
+void sonar_kernel_correlate (float *out, const float *x, const float *w,
+    guint n, guint n_lags);
+typedef void (*SonarCorrelateFn) (float *out, const float *x,
+    const float *w, guint n, guint n_lags);
+typedef SONAR_KERNEL_IMPL (SonarCorrelateFn) SonarCorrelateImpl;
+extern const SonarCorrelateImpl sonar_kernel_correlate_impls[];
+
+/* y[i] += a * x[i], i < n: the direct path's subtraction, a tap of a
+ * waveform at a time (the fast version may fuse the product and the sum:
+ * within a rounding of the reference). */
+void sonar_kernel_axpy (float *y, const float *x, float a, guint n);
+typedef void (*SonarAxpyFn) (float *y, const float *x, float a, guint n);
+typedef SONAR_KERNEL_IMPL (SonarAxpyFn) SonarAxpyImpl;
+extern const SonarAxpyImpl sonar_kernel_axpy_impls[];
+
 /* Lanes of sonar_kernel_rank_pass (): a block of range bins. */
 #define SONAR_RANK_LANES 16
 

@@ -76,6 +76,45 @@ sonar_linalg_invert_spd (double *a, guint n, double *log_det)
   return TRUE;
 }
 
+gboolean
+sonar_linalg_cholesky (double *a, guint n)
+{
+  for (guint j = 0; j < n; j++) {
+    double d = a[(gsize) j * n + j];
+    for (guint k = 0; k < j; k++)
+      d -= a[(gsize) j * n + k] * a[(gsize) j * n + k];
+    if (!(d > 0.0) || !isfinite (d))
+      return FALSE;
+    d = sqrt (d);
+    a[(gsize) j * n + j] = d;
+    for (guint i = j + 1; i < n; i++) {
+      double sum = a[(gsize) i * n + j];
+      for (guint k = 0; k < j; k++)
+        sum -= a[(gsize) i * n + k] * a[(gsize) j * n + k];
+      a[(gsize) i * n + j] = sum / d;
+    }
+  }
+  return TRUE;
+}
+
+void
+sonar_linalg_cholesky_solve (const double *l, guint n, double *b)
+{
+  /* L y = b, then L^T x = y */
+  for (guint i = 0; i < n; i++) {
+    double sum = b[i];
+    for (guint k = 0; k < i; k++)
+      sum -= l[(gsize) i * n + k] * b[k];
+    b[i] = sum / l[(gsize) i * n + i];
+  }
+  for (guint i = n; i-- > 0;) {
+    double sum = b[i];
+    for (guint k = i + 1; k < n; k++)
+      sum -= l[(gsize) k * n + i] * b[k];
+    b[i] = sum / l[(gsize) i * n + i];
+  }
+}
+
 void
 sonar_linalg_eigen_symmetric3 (const double a_in[3][3], double values[3],
     double vectors[3][3])

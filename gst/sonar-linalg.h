@@ -24,6 +24,13 @@ void sonar_linalg_multiply_transposed (const double *a, const double *b,
  * @a unchanged, when @a is not positive definite. */
 gboolean sonar_linalg_invert_spd (double *a, guint n, double *log_det);
 
+/* The Cholesky factor L (a = L L^T) of the symmetric positive definite
+ * @a (n x n, any n), in place in its lower triangle (the upper is left
+ * as it was). FALSE when @a is not positive definite. */
+gboolean sonar_linalg_cholesky (double *a, guint n);
+/* Solves L L^T x = @b in place, @l from sonar_linalg_cholesky (). */
+void sonar_linalg_cholesky_solve (const double *l, guint n, double *b);
+
 /* Eigen-decomposition of the symmetric 3 x 3 @a (Jacobi rotations):
  * @values in decreasing order, @vectors[i] the unit eigenvector of
  * @values[i] (rows). */

@@ -890,6 +890,70 @@ test_peak (gconstpointer data)
   }
 }
 
+/* The correlation at consecutive lags against the reference's double
+ * sums, every length's tail and 1-9 lags: within 1e-6 of the sum of |x
+ * w| (float lanes over up to 4100 samples). */
+static void
+test_correlate (gconstpointer data)
+{
+  const SonarCorrelateImpl *impl = data;
+  const guint sizes[] = { 0, 1, 7, 16, 17, 63, 200, 4000, 4100 };
+  const guint max_lags = 9;
+  SonarRng rng;
+  g_autofree float *x = g_new (float, 4100 + max_lags);
+  g_autofree float *w = g_new (float, 4100);
+  float got[9], want[9];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 41, 0);
+  for (guint i = 0; i < 4100 + max_lags; i++)
+    x[i] = (float) (100.0 * sonar_rng_gaussian (&rng));
+  for (guint i = 0; i < 4100; i++)
+    w[i] = (float) sonar_rng_gaussian (&rng);
+  for (guint t = 0; t < G_N_ELEMENTS (sizes); t++)
+    for (guint lags = 1; lags <= max_lags; lags += 4) {
+      const guint n = sizes[t];
+      impl->fn (got, x, w, n, lags);
+      sonar_kernel_correlate_impls[0].fn (want, x, w, n, lags);
+      for (guint l = 0; l < lags; l++) {
+        double scale = 0.0, exact = 0.0;
+        for (guint i = 0; i < n; i++) {
+          scale += fabs ((double) x[i + l] * w[i]);
+          exact += (double) x[i + l] * w[i];
+        }
+        g_assert_cmpfloat (fabs (want[l] - exact), <=, 1e-7 * scale + 1e-30);
+        g_assert_cmpfloat (fabs (got[l] - exact), <=, 1e-6 * scale + 1e-30);
+      }
+    }
+}
+
+/* y += a x, every length's tail, against the reference within a rounding
+ * of each element (the fast version may fuse the product and the sum);
+ * y beyond n untouched. */
+static void
+test_axpy (gconstpointer data)
+{
+  const SonarAxpyImpl *impl = data;
+  SonarRng rng;
+  float x[2883], y[2883], want[2883];
+
+  SKIP_UNLESS_AVAILABLE (impl);
+  sonar_rng_init (&rng, 43, 0);
+  for (guint t = 0; t < G_N_ELEMENTS (lengths); t++) {
+    const guint n = lengths[t];
+    for (guint i = 0; i <= n; i++) {
+      x[i] = (float) sonar_rng_gaussian (&rng);
+      y[i] = want[i] = (float) sonar_rng_gaussian (&rng);
+    }
+    impl->fn (y, x, -0.37f, n);
+    sonar_kernel_axpy_impls[0].fn (want, x, -0.37f, n);
+    for (guint i = 0; i < n; i++)
+      g_assert_cmpfloat (fabsf (y[i] - want[i]), <=,
+          2e-7f * (fabsf (want[i]) + 0.37f * fabsf (x[i])));
+    g_assert_cmpfloat (y[n], ==, want[n]);
+  }
+}
+
 /* Each block's peak, the reference's peak of it bit for bit, for blocks
  * of whole vectors and not, every length's tail included: a NaN never
  * wins, -0 gives +0, a block of negatives 0. */
@@ -1291,6 +1355,14 @@ test_upper_clean (gconstpointer data)
         ASSERT_UPPER_CLEAN_AFTER (u->kernel,
             sonar_kernel_block_peaks_impls[i].fn (f + stride, f, n, 16));
         break;
+      case 15:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_correlate_impls[i].fn (f + 8 * stride, a, b, n, 7));
+        break;
+      case 16:
+        ASSERT_UPPER_CLEAN_AFTER (u->kernel,
+            sonar_kernel_axpy_impls[i].fn (f, a, 0.5f, n));
+        break;
       default:
         /* A stretch of the vector loads, then one of the gathers; the
          * tables' taps reach 1.3 n + 5 < 5 stride. */
@@ -1370,6 +1442,9 @@ main (int argc, char **argv)
   ADD_IMPL_TESTS ("max", sonar_kernel_max_impls, test_max);
   ADD_IMPL_TESTS ("rank-pass", sonar_kernel_rank_pass_impls,
       test_rank_pass);
+  ADD_IMPL_TESTS ("correlate", sonar_kernel_correlate_impls,
+      test_correlate);
+  ADD_IMPL_TESTS ("axpy", sonar_kernel_axpy_impls, test_axpy);
   ADD_IMPL_TESTS ("deinterleave", sonar_kernel_deinterleave_impls,
       test_deinterleave);
   ADD_UPPER_TESTS ("steer-sum-split", sonar_kernel_steer_sum_split_impls, 0);
@@ -1389,6 +1464,8 @@ main (int argc, char **argv)
   ADD_UPPER_TESTS ("rank-pass", sonar_kernel_rank_pass_impls, 11);
   ADD_UPPER_TESTS ("scaled-product", sonar_kernel_scaled_product_impls, 12);
   ADD_UPPER_TESTS ("deinterleave", sonar_kernel_deinterleave_impls, 13);
+  ADD_UPPER_TESTS ("correlate", sonar_kernel_correlate_impls, 15);
+  ADD_UPPER_TESTS ("axpy", sonar_kernel_axpy_impls, 16);
   g_test_add_func ("/kernels/block-sums-at-lag-offsets",
       test_block_sums_at_lag_offsets);
   g_test_add_func ("/kernels/entry-points-choose-best",

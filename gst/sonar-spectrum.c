@@ -1,5 +1,6 @@
 /* sonar-spectrum.c: see sonar-spectrum.h. */
 #include "sonar-spectrum.h"
+#include "sonar-direct-path.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
 #include "sonar-workers.h"
@@ -130,10 +131,22 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
  * each (the same plan on arrays of the same alignment: the same spectra
  * bit for bit). Reading one channel at a time read a cache line (a
  * frame) per sample, 32 times over; it was half of the stage's time. */
+/* A worker's direct-path subtraction (sonar-direct-path.h): what it
+ * needs and what it found. */
+typedef struct
+{
+  const SonarDirectPath *path;  /* NULL: none */
+  SonarDirectPathMode mode;
+  double *scratch;
+  guint removed;                /* channels it was subtracted from */
+  double largest_db;            /* the largest fit over the noise */
+} DirectPathWork;
+
 static void
 spectrum_process_group (SonarSpectrum * s, float *const *inputs,
     gsize * filled, guint count, const float *samples, gsize length,
-    gsize stride, guint first, SonarComplex * out, guint * n_bad)
+    gsize stride, guint first, SonarComplex * out, guint * n_bad,
+    DirectPathWork * direct)
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
@@ -141,6 +154,13 @@ spectrum_process_group (SonarSpectrum * s, float *const *inputs,
       samples + first, stride, used);
 
   for (guint k = 0; k < count; k++) {
+    if (direct->path) {
+      gboolean removed;
+      const double db = sonar_direct_path_remove (direct->path, first + k,
+          inputs[k], used, direct->mode, direct->scratch, &removed);
+      direct->removed += removed;
+      direct->largest_db = MAX (direct->largest_db, db);
+    }
     zero_padding (inputs[k], used, &filled[k]);
     fftwf_execute_dft_r2c (s->plan, inputs[k], s->output);
     memcpy (out + (gsize) k * s->band.n_bins, s->output + s->band.first_bin,
@@ -157,6 +177,7 @@ struct _SonarChannelSpectra
   float *inputs[SONAR_MAX_WORKERS][SPECTRA_GROUP];
   gsize inputs_filled[SONAR_MAX_WORKERS][SPECTRA_GROUP];
   guint n_bad[SONAR_MAX_WORKERS];
+  DirectPathWork direct[SONAR_MAX_WORKERS];
   guint n_channels;
   guint n_bins;
   /* The call's, for the workers. */
@@ -200,6 +221,7 @@ sonar_channel_spectra_free (SonarChannelSpectra * s)
   sonar_workers_free (s->workers);
   for (guint w = 0; w < SONAR_MAX_WORKERS; w++) {
     sonar_spectrum_free (s->per_worker[w]);
+    g_free (s->direct[w].scratch);
     for (guint k = 0; k < SPECTRA_GROUP; k++)
       fftwf_free (s->inputs[w][k]);
   }
@@ -215,12 +237,14 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
   const guint end = s->n_channels * (w + 1) / n_workers;
 
   s->n_bad[w] = 0;
+  s->direct[w].removed = 0;
+  s->direct[w].largest_db = -INFINITY;
   for (guint j = s->n_channels * w / n_workers; j < end;
       j += SPECTRA_GROUP)
     spectrum_process_group (s->per_worker[w], s->inputs[w],
         s->inputs_filled[w], MIN (SPECTRA_GROUP, end - j), s->samples,
         s->length, s->n_channels, j, s->out + (gsize) j * s->n_bins,
-        &s->n_bad[w]);
+        &s->n_bad[w], &s->direct[w]);
 }
 
 guint
@@ -236,4 +260,34 @@ sonar_channel_spectra_process (SonarChannelSpectra * s,
   for (guint w = 0; w < sonar_workers_count (s->workers); w++)
     bad += s->n_bad[w];
   return bad;
+}
+
+void
+sonar_channel_spectra_set_direct_path (SonarChannelSpectra * s,
+    const SonarDirectPath * path, SonarDirectPathMode mode)
+{
+  for (guint w = 0; w < sonar_workers_count (s->workers); w++) {
+    DirectPathWork *d = &s->direct[w];
+    g_clear_pointer (&d->scratch, g_free);
+    d->path = mode == SONAR_DIRECT_PATH_OFF ? NULL : path;
+    d->mode = mode;
+    if (d->path)
+      d->scratch = g_new (double, sonar_direct_path_scratch_size (path));
+  }
+}
+
+guint
+sonar_channel_spectra_direct_path_removed (const SonarChannelSpectra * s,
+    double *largest_db)
+{
+  guint removed = 0;
+  double largest = -INFINITY;
+
+  for (guint w = 0; w < sonar_workers_count (s->workers); w++) {
+    removed += s->direct[w].removed;
+    largest = MAX (largest, s->direct[w].largest_db);
+  }
+  if (largest_db)
+    *largest_db = largest;
+  return removed;
 }

@@ -87,6 +87,31 @@ void sonar_channel_spectra_free (SonarChannelSpectra * spectra);
 guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
     const float *samples, gsize length, SonarComplex * out);
 
+/* The emissions heard straight from the emitters (sonar-direct-path.h):
+ * what the front end does with them. */
+typedef struct _SonarDirectPath SonarDirectPath;
+
+typedef enum
+{
+  SONAR_DIRECT_PATH_OFF,
+  SONAR_DIRECT_PATH_AUTO,
+  SONAR_DIRECT_PATH_ALWAYS,
+} SonarDirectPathMode;
+
+/* Before each channel's spectrum, fits the emissions' direct path to it
+ * and subtracts it as @mode says (sonar-direct-path.h; channel j is
+ * microphone j; OFF or a NULL @path: none, the default). @path must
+ * outlive the spectra or the next call. */
+void sonar_channel_spectra_set_direct_path (SonarChannelSpectra * spectra,
+    const SonarDirectPath * path, SonarDirectPathMode mode);
+
+/* After sonar_channel_spectra_process (): the channels the direct path
+ * was subtracted from, and (@largest_db, may be NULL) the largest power
+ * a channel's fit explained over noise's, in dB (-inf without a direct
+ * path set). */
+guint sonar_channel_spectra_direct_path_removed (const SonarChannelSpectra *
+    spectra, double *largest_db);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarSpectrum, sonar_spectrum_free)
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarChannelSpectra,
     sonar_channel_spectra_free)

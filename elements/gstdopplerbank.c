@@ -31,6 +31,7 @@
  */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
+#include "sonar-direct-path.h"
 #include "sonar-error.h"
 #endif
 
@@ -51,6 +52,27 @@ GST_DEBUG_CATEGORY_STATIC (doppler_bank_debug);
 #define DEFAULT_VELOCITY_MIN -7.0
 #define DEFAULT_VELOCITY_MAX 7.0
 #define DEFAULT_VELOCITY_STEP 0.05
+#define DEFAULT_DIRECT_PATH SONAR_DIRECT_PATH_AUTO
+
+#define GST_TYPE_SONAR_DIRECT_PATH_MODE (sonar_direct_path_mode_get_type ())
+static GType
+sonar_direct_path_mode_get_type (void)
+{
+  static GType type = 0;
+  static const GEnumValue values[] = {
+    {SONAR_DIRECT_PATH_OFF, "Leave the recording as it is", "off"},
+    {SONAR_DIRECT_PATH_AUTO, "Subtract it from the microphones where it "
+          "holds a fifth or more of what they record meanwhile", "auto"},
+    {SONAR_DIRECT_PATH_ALWAYS, "Subtract the fit from every microphone",
+        "always"},
+    {0, NULL, NULL}
+  };
+
+  if (g_once_init_enter (&type))
+    g_once_init_leave (&type,
+        g_enum_register_static ("GstSonarDirectPath", values));
+  return type;
+}
 
 enum
 {
@@ -65,6 +87,7 @@ enum
   PROP_SENSOR_FILE,
   PROP_THREADS,
   PROP_MAX_MEMORY,
+  PROP_DIRECT_PATH,
 };
 
 struct _GstDopplerBank
@@ -78,6 +101,7 @@ struct _GstDopplerBank
   guint ping_length_setting;
   double speed_of_sound;
   guint threads;
+  SonarDirectPathMode direct_path_mode;
 
   /* Configured state. */
   SonarSetup *setup;            /* the filter's: valid while configured */
@@ -86,6 +110,8 @@ struct _GstDopplerBank
   guint ping_length;
   SonarBand band;
   SonarChannelSpectra *analyzer;
+  SonarDirectPath *direct_path; /* NULL with direct-path=off */
+  gboolean told_direct_path;
   float *converted;             /* one ping as float, for other formats */
   gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
   gboolean warned_non_finite, warned_overflow, warned_clipped;
@@ -181,8 +207,9 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GstAudioInfo info;
   GstCaps *out_caps;
   double v_min, v_max, v_step;
-  guint64 max_memory, bank_bytes;
+  guint64 max_memory, bank_bytes, direct_bytes;
   guint n_velocities, threads;
+  SonarDirectPathMode direct_path_mode;
   SonarBand ping_band;
 
   if (!in_caps || !recording_info_from_caps (&info, in_caps)) {
@@ -212,13 +239,20 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
 
   bank_bytes = sonar_doppler_bank_memory (setup, v_min, v_max, v_step,
       &n_velocities, &ping_band);
-  if (!sonar_memory_check_buffers (bank_bytes, sizeof (SonarComplex) *
-          (guint64) ping_band.n_bins * setup->geometry.n_microphones,
-          GST_SONAR_FILTER_POOL_MIN_BUFFERS, max_memory, error,
-          "dopplerbank: a bank of %u velocities (velocity-min %g, "
-          "velocity-max %g, velocity-step %g m/s) for %u emitters and %u "
-          "output buffers of %u microphones x %u band bins", n_velocities,
-          v_min, v_max, v_step, setup->geometry.n_emitters,
+  GST_OBJECT_LOCK (self);
+  direct_path_mode = self->direct_path_mode;
+  GST_OBJECT_UNLOCK (self);
+  direct_bytes = direct_path_mode == SONAR_DIRECT_PATH_OFF ? 0 :
+      sonar_direct_path_memory (setup, SONAR_DIRECT_PATH_HALF_TAPS);
+  if (!sonar_memory_check_buffers (bank_bytes + direct_bytes,
+          sizeof (SonarComplex) * (guint64) ping_band.n_bins *
+          setup->geometry.n_microphones, GST_SONAR_FILTER_POOL_MIN_BUFFERS,
+          max_memory, error, "dopplerbank: a bank of %u velocities "
+          "(velocity-min %g, velocity-max %g, velocity-step %g m/s) for %u "
+          "emitters, %s and %u output buffers of %u microphones x %u band "
+          "bins", n_velocities, v_min, v_max, v_step,
+          setup->geometry.n_emitters, direct_bytes ? "the direct path's fit "
+          "(direct-path)" : "no direct-path fit",
           GST_SONAR_FILTER_POOL_MIN_BUFFERS, setup->geometry.n_microphones,
           ping_band.n_bins))
     return NULL;
@@ -245,6 +279,20 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
       threads, error);
   if (!self->analyzer)
     return NULL;
+  if (direct_path_mode != SONAR_DIRECT_PATH_OFF) {
+    g_autoptr (GError) why = NULL;
+    self->direct_path = sonar_direct_path_new (setup,
+        SONAR_DIRECT_PATH_HALF_TAPS, &why);
+    if (!self->direct_path && direct_path_mode == SONAR_DIRECT_PATH_ALWAYS) {
+      g_set_error (error, why->domain, why->code, "dopplerbank: "
+          "direct-path=always: %s", why->message);
+      return NULL;
+    }
+    if (!self->direct_path)
+      GST_INFO_OBJECT (self, "no direct-path subtraction: %s", why->message);
+    sonar_channel_spectra_set_direct_path (self->analyzer,
+        self->direct_path, direct_path_mode);
+  }
   {
     g_autofree char *problems = sonar_setup_check (setup);
     if (problems)
@@ -271,6 +319,7 @@ gst_doppler_bank_unconfigure (GstSonarFilter * filter)
   GstDopplerBank *self = GST_DOPPLER_BANK (filter);
 
   g_clear_pointer (&self->analyzer, sonar_channel_spectra_free);
+  g_clear_pointer (&self->direct_path, sonar_direct_path_free);
   g_clear_pointer (&self->converted, g_free);
   g_clear_pointer (&self->unpacked, g_free);
   self->setup = NULL;
@@ -439,6 +488,28 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
   n_bad = sonar_channel_spectra_process (self->analyzer, samples,
       self->ping_length, (SonarComplex *) map.data);
   gst_buffer_unmap (out, &map);
+  if (self->direct_path && !self->told_direct_path) {
+    double largest_db;
+    const guint removed = sonar_channel_spectra_direct_path_removed
+        (self->analyzer, &largest_db);
+    if (removed > 0) {
+      /* Once a stream: what the user's recording holds, and what was
+       * done; the text as the debug string too, which gst-launch-1.0
+       * prints of an info message. */
+      g_autofree char *text = g_strdup_printf ("The recording holds the "
+          "emissions' direct path to the microphones (from ping %"
+          G_GUINT64_FORMAT ", on %u of %u, up to %.0f dB over the rest of "
+          "what they record meanwhile); it is subtracted before the matched "
+          "filters (direct-path=off keeps it)", index, removed,
+          self->channels, largest_db);
+      g_autoptr (GError) info = g_error_new_literal (GST_STREAM_ERROR,
+          GST_STREAM_ERROR_FORMAT, text);
+      GST_INFO_OBJECT (self, "%s", text);
+      gst_element_post_message (GST_ELEMENT (self),
+          gst_message_new_info (GST_OBJECT (self), info, text));
+      self->told_direct_path = TRUE;
+    }
+  }
   if (n_bad > 0 && !self->warned_non_finite) {
     GST_ELEMENT_WARNING (self, STREAM, FORMAT,
         ("The recording holds NaN or infinite samples (%u in ping %"
@@ -625,6 +696,7 @@ gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
   if (!drain) {
     self->warned_non_finite = self->warned_overflow = FALSE;
     self->warned_clipped = FALSE;
+    self->told_direct_path = FALSE;
     self->stream_start_pts = GST_CLOCK_TIME_NONE;
   }
 }
@@ -669,6 +741,9 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
       break;
     case PROP_MAX_MEMORY:
       self->max_memory = g_value_get_uint64 (value);
+      break;
+    case PROP_DIRECT_PATH:
+      self->direct_path_mode = g_value_get_enum (value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
@@ -715,6 +790,9 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
     case PROP_MAX_MEMORY:
       g_value_set_uint64 (value, self->max_memory);
       break;
+    case PROP_DIRECT_PATH:
+      g_value_set_enum (value, self->direct_path_mode);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -742,6 +820,7 @@ gst_doppler_bank_init (GstDopplerBank * self)
   self->velocity_step = DEFAULT_VELOCITY_STEP;
   self->speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND;
   self->max_memory = SONAR_DEFAULT_MAX_MEMORY;
+  self->direct_path_mode = DEFAULT_DIRECT_PATH;
   self->adapter = gst_adapter_new ();
   self->stream_start_pts = GST_CLOCK_TIME_NONE;
 }
@@ -801,6 +880,19 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
           "spectra do not depend on it", 0, SONAR_MAX_WORKERS, 0, flags));
   g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
       sonar_memory_param_spec (flags));
+  g_object_class_install_property (gobject_class, PROP_DIRECT_PATH,
+      g_param_spec_enum ("direct-path", "Direct path", "A real sensor's "
+          "microphones hear its emitters directly, far louder than any echo: "
+          "after the matched filters an echo at range 0 whose sidelobes and "
+          "tails cover the image. Per microphone, each emitter's waveform "
+          "through a 7-tap filter at its path's delay (from the geometry) is "
+          "fitted by least squares and subtracted before the spectra; auto "
+          "does so where the fit holds a fifth or more of what the "
+          "microphone records over the direct path's samples (an info "
+          "message says so once a stream), so a recording without one is "
+          "left bit for bit as it was",
+          GST_TYPE_SONAR_DIRECT_PATH_MODE, DEFAULT_DIRECT_PATH, flags));
+  gst_type_mark_as_plugin_api (GST_TYPE_SONAR_DIRECT_PATH_MODE, 0);
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

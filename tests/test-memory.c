@@ -28,15 +28,21 @@ test_bank_too_large (void)
   assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
       "velocity-step=0.0007 ! fakesink", "dopplerbank: a bank of 20001 "
       "velocities (velocity-min -7, velocity-max 7, velocity-step 0.0007 "
-      "m/s) for 8 emitters and 2 output buffers of 32 microphones x 2883 "
-      "band bins needs 5.9 GiB (6358913952 bytes), more than max-memory "
-      "(4.0 GiB)");
+      "m/s) for 8 emitters, the direct path's fit (direct-path) and 2 "
+      "output buffers of 32 microphones x 2883 band bins needs 5.9 GiB "
+      "(6359718048 bytes), more than max-memory (4.0 GiB)");
   assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
       "max-memory=10000000 ! fakesink", "dopplerbank: a bank of 281 "
       "velocities (velocity-min -7, velocity-max 7, velocity-step 0.05 m/s) "
-      "for 8 emitters and 2 output buffers of 32 microphones x 2883 band "
-      "bins needs 86.6 MiB (90793632 bytes), more than max-memory "
-      "(9.5 MiB)");
+      "for 8 emitters, the direct path's fit (direct-path) and 2 output "
+      "buffers of 32 microphones x 2883 band bins needs 87.4 MiB (91597728 "
+      "bytes), more than max-memory (9.5 MiB)");
+  assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
+      "max-memory=10000000 direct-path=off ! fakesink", "dopplerbank: a "
+      "bank of 281 velocities (velocity-min -7, velocity-max 7, "
+      "velocity-step 0.05 m/s) for 8 emitters, no direct-path fit and 2 "
+      "output buffers of 32 microphones x 2883 band bins needs 86.6 MiB "
+      "(90793632 bytes), more than max-memory (9.5 MiB)");
 }
 
 /* The estimate is what the bank allocates: its templates and their split

@@ -29,6 +29,7 @@
 #include "sonar-egomotion.h"
 #include "sonar-imager.h"
 #include "sonar-simulator.h"
+#include "sonar-direct-path.h"
 #include "sonar-spectrum.h"
 #include "sonar-track.h"
 #include "sonar-velocity.h"
@@ -207,6 +208,7 @@ typedef struct
   const SonarImageGrid *grid;
   guint n_emitters;             /* in the velocity product */
   SonarChannelSpectra *analyzer;
+  SonarDirectPath *direct_path; /* dopplerbank's default, direct-path=auto */
   SonarImager *imager;
   SonarClusterer *clusterer;
   SonarVelocityPool *workers;   /* METHOD_PROPOSED */

@@ -390,6 +390,7 @@ void
 chain_clear (Chain * ch)
 {
   g_clear_pointer (&ch->analyzer, sonar_channel_spectra_free);
+  g_clear_pointer (&ch->direct_path, sonar_direct_path_free);
   g_clear_pointer (&ch->imager, sonar_imager_free);
   g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
   g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
@@ -433,6 +434,12 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
   ch->analyzer = sonar_channel_spectra_new (ch->band, n_mics, 0, error);
   if (!ch->analyzer)
     return FALSE;
+  ch->direct_path = sonar_direct_path_new (b->setup,
+      SONAR_DIRECT_PATH_HALF_TAPS, error);
+  if (!ch->direct_path)
+    return FALSE;
+  sonar_channel_spectra_set_direct_path (ch->analyzer, ch->direct_path,
+      SONAR_DIRECT_PATH_AUTO);
   ch->spectra = g_new (SonarComplex, (gsize) n_mics * ch->band->n_bins);
   r->mb[STAGE_SPECTRA] = heap_mb () - heap;
 

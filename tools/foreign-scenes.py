@@ -18,6 +18,15 @@ image spans that range), one ping each.
     /usr/bin/python3 tools/foreign-scenes.py --view fan --scenes 20 \\
         --compare "refine-pfa=0"
 
+A word ELEMENT.PROP=VALUE of --compare sets another element's property
+(dopplerbank, mimobeamform, wardcluster or velocityest); a bare one is
+mimobeamform's. --direct-path G makes the sensor's microphones hear its
+emitters straight (foreign_sim.py's direct_path coupling), as a real
+sensor's do:
+
+    /usr/bin/python3 tools/foreign-scenes.py --view fan --scenes 12 \\
+        --seed 3 --direct-path 0.1 --compare dopplerbank.direct-path=off
+
 --explain lists, under each scene, every object missed (its place,
 radial velocity, dB below the strongest and the nearest detection) and
 every false detection. --time measures each run of the chain (one
@@ -65,14 +74,27 @@ def scene(rng, view, n_objects, spread_db):
 PASSES = re.compile(r"of the dense image's .* passes \(([0-9.]+) %\)")
 
 
+ELEMENTS = ("dopplerbank", "mimobeamform", "wardcluster", "velocityest")
+
+
 def run_chain(folder, name, props, env, timing=None):
-    """The detections of the scene's ping; with @timing (a list), appends
-    (wall s, CPU s, share of the dense image's passes in %) of the run."""
+    """The detections of the scene's ping, @props the words of --compare;
+    with @timing (a list), appends (wall s, CPU s, share of the dense
+    image's passes in %) of the run."""
+    settings = {e: [] for e in ELEMENTS}
+    for word in props.split():
+        element, dot, rest = word.partition(".")
+        if dot and element in ELEMENTS and "=" in rest:
+            settings[element].append(rest)
+        else:
+            settings["mimobeamform"].append(word)
+    settings["dopplerbank"].insert(0, "sensor-file=%s/%s.sensor.json" % (
+        folder, name))
     launch = ["gst-launch-1.0", "-q", "filesrc",
-              "location=%s/%s.wav" % (folder, name), "!", "wavparse", "!",
-              "dopplerbank", "sensor-file=%s/%s.sensor.json" % (folder, name),
-              "!", "mimobeamform"] + props.split() + [
-              "!", "wardcluster", "!", "velocityest", "!", "fdsink"]
+              "location=%s/%s.wav" % (folder, name), "!", "wavparse"]
+    for element in ELEMENTS:
+        launch += ["!", element] + settings[element]
+    launch += ["!", "fdsink"]
     if timing is not None:
         env = dict(env, GST_DEBUG="mimobeamform:5", GST_DEBUG_NO_COLOR="1")
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -161,7 +183,13 @@ def main():
                         "simulator's")
     parser.add_argument("--compare", action="append", default=[],
                         metavar="PROPS", help="mimobeamform properties of "
-                        "another run of every scene (repeatable)")
+                        "another run of every scene, or ELEMENT.PROP=VALUE "
+                        "for another element's (repeatable)")
+    parser.add_argument("--direct-path", type=float, default=0.0,
+                        metavar="G", help="the emitters heard straight by "
+                        "the microphones, foreign_sim.py's direct_path "
+                        "coupling (0.1: 33-71 dB over a unit reflector's "
+                        "echo at 1 m); default 0, none")
     parser.add_argument("--explain", action="store_true",
                         help="under each scene, the objects missed and "
                         "the false detections")
@@ -188,6 +216,7 @@ def main():
                     "field_of_view": args.view,
                     **({"ping_period": 1.0 / args.ping_rate}
                        if args.ping_rate else {}),
+                    "direct_path": args.direct_path,
                     "reflectors": scene(rng, args.view, args.objects,
                                         args.spread)}
             foreign_sim.simulate(spec, folder)
@@ -213,8 +242,9 @@ def main():
             for label, detections, missed, false in lines if args.explain \
                     else ():
                 explain(label, truth, detections, missed, false)
-    print("\n%s, %d scenes of %d objects over %g dB, seed %d:" % (
-        args.view, args.scenes, args.objects, args.spread, args.seed))
+    print("\n%s, %d scenes of %d objects over %g dB, seed %d%s:" % (
+        args.view, args.scenes, args.objects, args.spread, args.seed,
+        ", direct path %g" % args.direct_path if args.direct_path else ""))
     for v in variants:
         t = totals[v]
         print("  %-24s found %d of %d, %d false" % (

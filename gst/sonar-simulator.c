@@ -90,6 +90,7 @@ sonar_simulator_params_init_default (SonarSimulatorParams * params)
   params->seed = 0;
   params->clip = FALSE;
   params->air_absorption = FALSE;
+  params->direct_path = 0.0;
 }
 
 /* ISO 9613-1:1993 pure-tone absorption of air (eq. 3 to 5, B.1 to B.3) in
@@ -126,6 +127,12 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "simulator: noise amplitude %g must be between 0 and 1e6",
         params->noise_amplitude);
+    return NULL;
+  }
+  if (!(params->direct_path >= 0.0 && params->direct_path < 1e6)) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
+        "simulator: direct-path coupling %g must be between 0 and 1e6",
+        params->direct_path);
     return NULL;
   }
 
@@ -485,6 +492,39 @@ render_reflector (SonarSimulator * sim, const SonarReflector * r,
   }
 }
 
+/* Every emission heard straight by every microphone (the sensor is still
+ * in its own frame): emitter n's waveform, which starts at the ping
+ * instant (its delay in its leading zeros), |m_j - e_n| / c later. */
+static void
+render_direct_path (SonarSimulator * sim, float *out)
+{
+  const SonarSetup *setup = sim->setup;
+  const SonarGeometry *g = &setup->geometry;
+  const guint length = setup->ping_length;
+  const double fs = setup->sample_rate;
+
+  for (guint n = 0; n < g->n_emitters; n++) {
+    /* Air absorption over centimetres is nothing: the waveform itself. */
+    if (sim->absorption)
+      sonar_interp_filter (sim->waveforms[n], NULL);
+    for (guint j = 0; j < g->n_microphones; j++) {
+      const double d = sonar_vec3_norm (sonar_vec3_sub (g->microphones[j],
+              g->emitters[n]));
+      const double gain = sim->params.direct_path / MAX (d * d, 1e-6);
+      const double delay = d / setup->speed_of_sound * fs;
+      const guint i0 = clamp_sample (ceil (delay - SONAR_INTERP_PAD),
+          length);
+      const guint i1 = clamp_sample (floor (delay + setup->waveform_length +
+              SONAR_INTERP_PAD) + 1.0, length);
+      float *mic = out + (gsize) j * length;
+
+      for (guint i = i0; i < i1; i++)
+        mic[i] += (float) (gain * sonar_interp_at (sim->waveforms[n],
+                i - delay));
+    }
+  }
+}
+
 void
 sonar_simulator_render (SonarSimulator * sim, const SonarScene * scene,
     guint64 ping_index, double ping_time, float *out, SonarTruth * truth)
@@ -508,6 +548,9 @@ sonar_simulator_render (SonarSimulator * sim, const SonarScene * scene,
     if (ok && r->strength > 0.0 && r->strength < 1e12)
       render_reflector (sim, r, &m, tau_r, t.echo_delay, out);
   }
+
+  if (sim->params.direct_path > 0.0)
+    render_direct_path (sim, out);
 
   if (sim->params.noise_amplitude > 0.0) {
     const double sigma = sim->params.noise_amplitude;

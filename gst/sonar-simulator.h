@@ -50,6 +50,11 @@ typedef struct
   guint64 seed;                 /* noise seed; ping p uses a stream derived from (seed, p) */
   gboolean clip;                /* saturate the recording at +-1 like an ADC */
   gboolean air_absorption;      /* frequency-dependent absorption of air (20 C, 50 % RH) */
+  /* >= 0: the microphones also hear the emitters straight, as a real
+   * sensor's do: emitter n's waveform |m_j - e_n| / c after it starts,
+   * times direct_path / |m_j - e_n|^2 (eq. 6 with one leg; 0.1: 33-71 dB
+   * over a unit reflector's echo at 1 m on the default set-up); 0: none. */
+  double direct_path;
 } SonarSimulatorParams;
 
 typedef struct _SonarSimulator SonarSimulator;

@@ -288,3 +288,35 @@ sonar_test_chain_simulate (SonarTestChain * c, const char *json,
   sonar_scene_clear (&scene);
   return truth[0];
 }
+
+/* Taps either side of sonar_test_add_delayed ()'s interpolator. */
+#define SINC_HALF 48
+
+void
+sonar_test_add_delayed (float *signal, gsize length, const float *w, guint n,
+    double delay, double gain)
+{
+  const gint whole = (gint) floor (delay);
+  const double frac = delay - whole;
+  double taps[2 * SINC_HALF + 1];
+
+  for (gint k = -SINC_HALF; k <= SINC_HALF; k++) {
+    const double x = k - frac;
+    const double window = 0.42 + 0.5 * cos (G_PI * x / (SINC_HALF + 1)) +
+        0.08 * cos (2.0 * G_PI * x / (SINC_HALF + 1));
+    taps[k + SINC_HALF] = (fabs (x) < 1e-12 ? 1.0 : sin (G_PI * x) /
+        (G_PI * x)) * window;
+  }
+  /* signal[t] = sum_k w[t - whole - k] taps[k]: w shifted by delay. */
+  for (gint t = whole - SINC_HALF; t < (gint) n + whole + SINC_HALF; t++) {
+    double sum = 0.0;
+    if (t < 0 || t >= (gint) length)
+      continue;
+    for (gint k = -SINC_HALF; k <= SINC_HALF; k++) {
+      const gint i = t - whole - k;
+      if (i >= 0 && i < (gint) n)
+        sum += w[i] * taps[k + SINC_HALF];
+    }
+    signal[t] += (float) (gain * sum);
+  }
+}

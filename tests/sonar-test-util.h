@@ -26,6 +26,12 @@ double *sonar_test_xcorr (const float *x, gsize nx, const float *y, gsize ny);
 double sonar_test_delay (const float *x, gsize nx, const float *y, gsize ny,
     double min_lag, double max_lag, double *peak);
 
+/* signal[t] += gain w(t - delay) for t < @length, w (@n samples, zero
+ * outside) read between its samples by a Blackman-windowed sinc of 97
+ * taps: independent of the core's interpolators. */
+void sonar_test_add_delayed (float *signal, gsize length, const float *w,
+    guint n, double delay, double gain);
+
 /* Max |v| and index. */
 double sonar_test_max_abs (const double *v, gsize n, gsize * index);
 

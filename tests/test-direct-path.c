@@ -3,8 +3,9 @@
  *
  * Each ping here is built by the test itself: every emitter's waveform
  * delayed by its path to the microphone through a long windowed-sinc
- * interpolator (independent of the fit's whole-sample taps), at a gain of
- * its own, plus white noise and echoes. */
+ * interpolator (sonar_test_add_delayed (), independent of the fit's
+ * whole-sample taps), at a gain of its own, plus white noise and
+ * echoes. */
 #include <math.h>
 #include <string.h>
 
@@ -13,39 +14,6 @@
 #include "sonar-rng.h"
 #include "sonar-spectrum.h"
 #include "sonar-test-util.h"
-
-#define SINC_HALF 48            /* taps either side: -90 dB in the band */
-
-/* signal[t] += gain w(t - delay), w read between its samples by a
- * Blackman-windowed sinc. */
-static void
-add_delayed (float *signal, gsize length, const float *w, guint n,
-    double delay, double gain)
-{
-  const gint whole = (gint) floor (delay);
-  const double frac = delay - whole;
-  double taps[2 * SINC_HALF + 1];
-
-  for (gint k = -SINC_HALF; k <= SINC_HALF; k++) {
-    const double x = k - frac;
-    const double window = 0.42 + 0.5 * cos (G_PI * x / (SINC_HALF + 1)) +
-        0.08 * cos (2.0 * G_PI * x / (SINC_HALF + 1));
-    taps[k + SINC_HALF] = (fabs (x) < 1e-12 ? 1.0 : sin (G_PI * x) /
-        (G_PI * x)) * window;
-  }
-  /* signal[t] = sum_k w[t - whole - k] taps[k]: w shifted by delay. */
-  for (gint t = whole - SINC_HALF; t < (gint) n + whole + SINC_HALF; t++) {
-    double sum = 0.0;
-    if (t < 0 || t >= (gint) length)
-      continue;
-    for (gint k = -SINC_HALF; k <= SINC_HALF; k++) {
-      const gint i = t - whole - k;
-      if (i >= 0 && i < (gint) n)
-        sum += w[i] * taps[k + SINC_HALF];
-    }
-    signal[t] += (float) (gain * sum);
-  }
-}
 
 typedef struct
 {
@@ -88,7 +56,7 @@ fixture_init (Fixture * f, double noise, double direct, double echo,
       const double c = f->setup->speed_of_sound, fs = f->setup->sample_rate;
       const double there = sonar_vec3_norm (sonar_vec3_sub (point, e)) +
           sonar_vec3_norm (sonar_vec3_sub (point, m));
-      add_delayed (clean, f->length, sonar_setup_waveform (f->setup, n),
+      sonar_test_add_delayed (clean, f->length, sonar_setup_waveform (f->setup, n),
           f->setup->waveform_length, there / c * fs, echo);
     }
     memcpy (ping, clean, sizeof (float) * f->length);
@@ -100,7 +68,7 @@ fixture_init (Fixture * f, double noise, double direct, double echo,
         const double fs = f->setup->sample_rate;
         const double path = sonar_vec3_norm (sonar_vec3_sub (m, e)) +
             geometry_error * (2.0 * sonar_rng_uniform (&rng) - 1.0);
-        add_delayed (alone, f->length, sonar_setup_waveform (f->setup, n),
+        sonar_test_add_delayed (alone, f->length, sonar_setup_waveform (f->setup, n),
             f->setup->waveform_length, path / c * fs, direct * (0.5 + 1.5 *
                 sonar_rng_uniform (&rng)));
       }

@@ -67,6 +67,7 @@ sonar_test_run_with (const char *launch, SonarTestPrepare prepare,
   run->samples = g_hash_table_new_full (g_str_hash, g_str_equal, g_free,
       (GDestroyNotify) g_ptr_array_unref);
   run->warnings = g_ptr_array_new_with_free_func (g_free);
+  run->infos = g_ptr_array_new_with_free_func (g_free);
   run->messages = g_ptr_array_new_with_free_func ((GDestroyNotify)
       gst_structure_free);
   run->pipeline = gst_parse_launch (launch, &error);
@@ -93,7 +94,8 @@ sonar_test_run_with (const char *launch, SonarTestPrepare prepare,
       drain_sink (run, sinks->pdata[i], GST_MSECOND * 20 / sinks->len);
     while ((msg = gst_bus_timed_pop_filtered (bus, sinks->len ? 0 :
                 GST_MSECOND * 20, GST_MESSAGE_EOS | GST_MESSAGE_ERROR |
-                GST_MESSAGE_WARNING | GST_MESSAGE_ELEMENT))) {
+                GST_MESSAGE_WARNING | GST_MESSAGE_INFO |
+                GST_MESSAGE_ELEMENT))) {
       GError *e = NULL;
       char *debug = NULL;
       switch (GST_MESSAGE_TYPE (msg)) {
@@ -107,6 +109,10 @@ sonar_test_run_with (const char *launch, SonarTestPrepare prepare,
         case GST_MESSAGE_WARNING:
           gst_message_parse_warning (msg, &e, &debug);
           g_ptr_array_add (run->warnings, g_strdup (e->message));
+          break;
+        case GST_MESSAGE_INFO:
+          gst_message_parse_info (msg, &e, &debug);
+          g_ptr_array_add (run->infos, g_strdup (e ? e->message : debug));
           break;
         case GST_MESSAGE_ELEMENT:
           if (gst_message_get_structure (msg))
@@ -144,6 +150,7 @@ sonar_test_run_free (SonarTestRun * run)
   }
   g_hash_table_unref (run->samples);
   g_ptr_array_unref (run->warnings);
+  g_ptr_array_unref (run->infos);
   g_ptr_array_unref (run->messages);
   g_clear_error (&run->error);
   g_free (run->error_text);

@@ -11,14 +11,15 @@ G_BEGIN_DECLS
 
 /* The tests' one pipeline runner: @launch (gst-launch syntax) played to
  * EOS or its first error (300 s at most). The samples of every appsink
- * are kept, by the appsink's name, in order; the warnings' texts and the
- * first error too. The pipeline stays in PLAYING for inspection (sticky
+ * are kept, by the appsink's name, in order; the warnings' and info
+ * messages' texts and the first error too. The pipeline stays in PLAYING for inspection (sticky
  * events, element properties) until sonar_test_run_free (). */
 typedef struct
 {
   GstElement *pipeline;         /* NULL when @launch does not parse */
   GHashTable *samples;          /* appsink name -> GPtrArray of GstSample */
   GPtrArray *warnings;          /* char *: the warnings' messages */
+  GPtrArray *infos;             /* char *: the info messages' texts */
   GPtrArray *messages;          /* GstStructure: the element messages */
   GError *error;                /* the first error, its domain and code */
   char *error_text;             /* its message, a newline and its debug

@@ -115,6 +115,11 @@ typedef struct
   SonarImagerParams imager;
   SonarClusterParams cluster;
   SonarVelocityParams velocity;
+  /* The sensor's microphones hear its emitters straight (the simulator's
+   * direct_path coupling, added to the scene's pings untimed); dopplerbank's
+   * direct-path. */
+  double direct_path;
+  SonarDirectPathMode direct_path_mode;
 } Config;
 
 typedef struct

@@ -320,3 +320,22 @@ sonar_test_add_delayed (float *signal, gsize length, const float *w, guint n,
     signal[t] += (float) (gain * sum);
   }
 }
+
+void
+sonar_test_setup_params (SonarSetupParams * p, const SonarSetup * setup)
+{
+  sonar_setup_params_init (p);
+  p->sample_rate = setup->sample_rate;
+  p->speed_of_sound = setup->speed_of_sound;
+  p->band_low = setup->band_low;
+  p->band_high = setup->band_high;
+  p->geometry = &setup->geometry;
+  p->waveform_length = setup->waveform_length;
+  p->waveforms = setup->waveforms;
+  p->ping_length = setup->ping_length;
+  p->ping_period = setup->ping_period;
+  p->ping_stride = setup->ping_stride;
+  p->trigger_offset = setup->trigger_offset;
+  p->field_of_view = setup->field_of_view;
+  p->frame_id = setup->frame_id;
+}

@@ -32,6 +32,11 @@ double sonar_test_delay (const float *x, gsize nx, const float *y, gsize ny,
 void sonar_test_add_delayed (float *signal, gsize length, const float *w,
     guint n, double delay, double gain);
 
+/* @params describing @setup as it is (every field; the geometry and
+ * waveforms @setup's own), for a test to change one thing of. */
+void sonar_test_setup_params (SonarSetupParams * params,
+    const SonarSetup * setup);
+
 /* Max |v| and index. */
 double sonar_test_max_abs (const double *v, gsize n, gsize * index);
 

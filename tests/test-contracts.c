@@ -108,18 +108,7 @@ test_frame_id (void)
           "frame-id"));
   gst_event_unref (event);
 
-  sonar_setup_params_init (&p);
-  p.sample_rate = plain->sample_rate;
-  p.speed_of_sound = plain->speed_of_sound;
-  p.band_low = plain->band_low;
-  p.band_high = plain->band_high;
-  p.geometry = &plain->geometry;
-  p.waveform_length = plain->waveform_length;
-  p.waveforms = plain->waveforms;
-  p.ping_length = plain->ping_length;
-  p.ping_period = plain->ping_period;
-  p.ping_stride = plain->ping_stride;
-  p.field_of_view = plain->field_of_view;
+  sonar_test_setup_params (&p, plain);
   p.frame_id = "sonar_front";
   tagged = sonar_setup_new (&p, &error);
   g_assert_no_error (error);

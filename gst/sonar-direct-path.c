@@ -57,7 +57,7 @@ sonar_direct_path_new (SonarSetup * setup, guint half_taps, GError ** error)
   const guint w = setup->waveform_length;
   const guint n_taps = 2 * half_taps + 1;
   const guint p = n_emitters * n_taps;
-  gint *lag_min, *lag_max;
+  gint *lag_min;
   double **table;
   guint last = 0;
 
@@ -106,7 +106,6 @@ sonar_direct_path_new (SonarSetup * setup, guint half_taps, GError ** error)
    * l - first_mj - k), R_nm (d) = sum_u w_n (u) w_m (u + d): the lags a
    * pair of emitters takes over every microphone, each computed once. */
   lag_min = g_new (gint, (gsize) n_emitters * n_emitters);
-  lag_max = g_new (gint, (gsize) n_emitters * n_emitters);
   table = g_new0 (double *, (gsize) n_emitters * n_emitters);
   for (guint n = 0; n < n_emitters; n++)
     for (guint m = 0; m < n_emitters; m++) {
@@ -118,7 +117,6 @@ sonar_direct_path_new (SonarSetup * setup, guint half_taps, GError ** error)
         hi = MAX (hi, d + (gint) n_taps - 1);
       }
       lag_min[n * n_emitters + m] = lo;
-      lag_max[n * n_emitters + m] = hi;
       table[n * n_emitters + m] = g_new (double, hi - lo + 1);
       for (gint d = lo; d <= hi; d++)
         table[n * n_emitters + m][d - lo] = m < n ?
@@ -156,7 +154,6 @@ sonar_direct_path_new (SonarSetup * setup, guint half_taps, GError ** error)
     g_free (table[c]);
   g_free (table);
   g_free (lag_min);
-  g_free (lag_max);
   return g_steal_pointer (&dp);
 }
 

@@ -13,7 +13,9 @@
 
 #include "sonar-test-util.h"
 #include "sonar-cluster.h"
+#include "sonar-direct-path.h"
 #include "sonar-imager.h"
+#include "sonar-simulator.h"
 #include "sonar-velocity.h"
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -111,7 +113,7 @@ static const char *scene_json =
 /* The chain at its defaults, the imager's coarse pass on @coarse_band of
  * the band. */
 static void
-check_ping_allocates_nothing (double coarse_band)
+check_ping_allocates_nothing (double coarse_band, double direct_path)
 {
   SonarTestChain chain;
   SonarImagerParams ip;
@@ -122,6 +124,7 @@ check_ping_allocates_nothing (double coarse_band)
   g_autoptr (SonarClusterer) clusterer = NULL;
   g_autoptr (SonarVelocityPool) pool = NULL;
   g_autoptr (SonarChannelSpectra) analyzer = NULL;
+  g_autoptr (SonarDirectPath) direct = NULL;
   g_autofree float *interleaved = NULL;
   g_autofree guint *indices = NULL;
   g_autofree SonarHypothesis *hypotheses = NULL;
@@ -156,11 +159,35 @@ check_ping_allocates_nothing (double coarse_band)
   g_assert_no_error (error);
   image = g_new (float, sonar_image_grid_size (sonar_imager_grid (imager)));
   sonar_test_chain_simulate (&chain, scene_json, 0.01);
+  if (direct_path > 0.0) {
+    /* The microphones hear the emitters straight too: dopplerbank's
+     * default fits and subtracts it on every ping. */
+    const gsize total = (gsize) chain.setup->ping_length *
+        chain.setup->geometry.n_microphones;
+    SonarSimulatorParams sp;
+    SonarScene empty = { .dimensions = 3 };
+    g_autoptr (SonarSimulator) sim = NULL;
+    g_autofree float *heard = g_new (float, total);
+
+    sonar_simulator_params_init_default (&sp);
+    sp.noise_amplitude = 0.0;
+    sp.direct_path = direct_path;
+    sim = sonar_simulator_new (chain.setup, &sp, &error);
+    g_assert_no_error (error);
+    sonar_simulator_render (sim, &empty, 0, 0.0, heard, NULL);
+    for (gsize i = 0; i < total; i++)
+      chain.ping[i] += heard[i];
+    direct = sonar_direct_path_new (chain.setup, SONAR_DIRECT_PATH_HALF_TAPS,
+        &error);
+    g_assert_no_error (error);
+  }
   /* The spectra as dopplerbank makes them: from the channels interleaved,
    * shared by two workers. */
   analyzer = sonar_channel_spectra_new (&chain.band,
       chain.setup->geometry.n_microphones, 2, &error);
   g_assert_no_error (error);
+  sonar_channel_spectra_set_direct_path (analyzer, direct,
+      SONAR_DIRECT_PATH_AUTO);
   interleaved = g_new (float, (gsize) chain.setup->ping_length *
       chain.setup->geometry.n_microphones);
   for (guint j = 0; j < chain.setup->geometry.n_microphones; j++)
@@ -177,6 +204,8 @@ check_ping_allocates_nothing (double coarse_band)
     g_atomic_int_set (&counting, ping > 0);
     sonar_channel_spectra_process (analyzer, interleaved,
         chain.setup->ping_length, chain.mic_spectra);
+    g_assert_cmpuint (sonar_channel_spectra_direct_path_removed (analyzer,
+            NULL), ==, direct ? chain.setup->geometry.n_microphones : 0);
     sonar_imager_process (imager, chain.mic_spectra, n_hyp, hypotheses, -1,
         image);
     n_centroids = sonar_clusterer_process (clusterer, image, centroids,
@@ -200,7 +229,7 @@ check_ping_allocates_nothing (double coarse_band)
 static void
 test_ping_allocates_nothing (void)
 {
-  check_ping_allocates_nothing (1.0);
+  check_ping_allocates_nothing (1.0, 0.0);
 }
 
 /* The coarse pass on a sub-band (its transforms, calibration, map and
@@ -208,7 +237,15 @@ test_ping_allocates_nothing (void)
 static void
 test_ping_allocates_nothing_sub_band (void)
 {
-  check_ping_allocates_nothing (0.5);
+  check_ping_allocates_nothing (0.5, 0.0);
+}
+
+/* The direct path fitted and subtracted from every microphone of every
+ * ping (sonarsrc's direct-path=0.1): nothing either. */
+static void
+test_ping_allocates_nothing_direct_path (void)
+{
+  check_ping_allocates_nothing (1.0, 0.1);
 }
 
 /* The counter counts: a GLib allocation made while counting is seen. */
@@ -237,6 +274,8 @@ main (int argc, char **argv)
       test_counter_sees_allocations);
   g_test_add_func ("/steady-state/ping-allocates-nothing",
       test_ping_allocates_nothing);
+  g_test_add_func ("/steady-state/ping-allocates-nothing-direct-path",
+      test_ping_allocates_nothing_direct_path);
   g_test_add_func ("/steady-state/ping-allocates-nothing-sub-band",
       test_ping_allocates_nothing_sub_band);
   return g_test_run ();

@@ -31,11 +31,11 @@
  */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
-#include "sonar-direct-path.h"
-#include "sonar-error.h"
 #endif
 
 #include "gstdopplerbank.h"
+#include "sonar-direct-path.h"
+#include "sonar-error.h"
 #include "sonar-memory.h"
 #include "sonar-workers.h"
 

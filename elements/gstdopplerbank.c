@@ -88,6 +88,7 @@ enum
   PROP_THREADS,
   PROP_MAX_MEMORY,
   PROP_DIRECT_PATH,
+  PROP_DIRECT_PATH_TAPS,
 };
 
 struct _GstDopplerBank
@@ -102,6 +103,7 @@ struct _GstDopplerBank
   double speed_of_sound;
   guint threads;
   SonarDirectPathMode direct_path_mode;
+  guint direct_path_taps;
 
   /* Configured state. */
   SonarSetup *setup;            /* the filter's: valid while configured */
@@ -208,7 +210,7 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   GstCaps *out_caps;
   double v_min, v_max, v_step;
   guint64 max_memory, bank_bytes, direct_bytes;
-  guint n_velocities, threads;
+  guint n_velocities, threads, direct_path_taps;
   SonarDirectPathMode direct_path_mode;
   SonarBand ping_band;
 
@@ -241,9 +243,10 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
       &n_velocities, &ping_band);
   GST_OBJECT_LOCK (self);
   direct_path_mode = self->direct_path_mode;
+  direct_path_taps = self->direct_path_taps;
   GST_OBJECT_UNLOCK (self);
   direct_bytes = direct_path_mode == SONAR_DIRECT_PATH_OFF ? 0 :
-      sonar_direct_path_memory (setup, SONAR_DIRECT_PATH_HALF_TAPS);
+      sonar_direct_path_memory (setup, direct_path_taps);
   if (!sonar_memory_check_buffers (bank_bytes + direct_bytes,
           sizeof (SonarComplex) * (guint64) ping_band.n_bins *
           setup->geometry.n_microphones, GST_SONAR_FILTER_POOL_MIN_BUFFERS,
@@ -281,8 +284,8 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
     return NULL;
   if (direct_path_mode != SONAR_DIRECT_PATH_OFF) {
     g_autoptr (GError) why = NULL;
-    self->direct_path = sonar_direct_path_new (setup,
-        SONAR_DIRECT_PATH_HALF_TAPS, &why);
+    self->direct_path = sonar_direct_path_new (setup, direct_path_taps,
+        &why);
     if (!self->direct_path && direct_path_mode == SONAR_DIRECT_PATH_ALWAYS) {
       g_set_error (error, why->domain, why->code, "dopplerbank: "
           "direct-path=always: %s", why->message);
@@ -745,6 +748,9 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
     case PROP_DIRECT_PATH:
       self->direct_path_mode = g_value_get_enum (value);
       break;
+    case PROP_DIRECT_PATH_TAPS:
+      self->direct_path_taps = g_value_get_uint (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -793,6 +799,9 @@ gst_doppler_bank_get_property (GObject * object, guint prop_id,
     case PROP_DIRECT_PATH:
       g_value_set_enum (value, self->direct_path_mode);
       break;
+    case PROP_DIRECT_PATH_TAPS:
+      g_value_set_uint (value, self->direct_path_taps);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -821,6 +830,7 @@ gst_doppler_bank_init (GstDopplerBank * self)
   self->speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND;
   self->max_memory = SONAR_DEFAULT_MAX_MEMORY;
   self->direct_path_mode = DEFAULT_DIRECT_PATH;
+  self->direct_path_taps = SONAR_DIRECT_PATH_TAPS;
   self->adapter = gst_adapter_new ();
   self->stream_start_pts = GST_CLOCK_TIME_NONE;
 }
@@ -885,14 +895,25 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
           "microphones hear its emitters directly, far louder than any echo: "
           "after the matched filters an echo at range 0 whose sidelobes and "
           "tails cover the image. Per microphone, each emitter's waveform "
-          "through a 7-tap filter at its path's delay (from the geometry) is "
-          "fitted by least squares and subtracted before the spectra; auto "
+          "through a filter of direct-path-taps taps at its path's delay "
+          "(from the geometry) is fitted by least squares and subtracted "
+          "before the spectra; auto "
           "does so where the fit holds a fifth or more of what the "
           "microphone records over the direct path's samples (an info "
           "message says so once a stream), so a recording without one is "
           "left bit for bit as it was",
           GST_TYPE_SONAR_DIRECT_PATH_MODE, DEFAULT_DIRECT_PATH, flags));
   gst_type_mark_as_plugin_api (GST_TYPE_SONAR_DIRECT_PATH_MODE, 0);
+  g_object_class_install_property (gobject_class, PROP_DIRECT_PATH_TAPS,
+      g_param_spec_uint ("direct-path-taps", "Direct-path taps", "Taps of "
+          "each path's filter in the direct path's fit, 2 before its delay "
+          "and the rest after: a transducer that rings (a resonance the "
+          "waveforms lack) needs more (a resonance of Q 1.5-3: 58 of 72 "
+          "foreign objects found at 7, 66 at 41, 68 without a direct path); "
+          "each tap costs 8 dot products of a waveform per microphone and "
+          "ping when a direct path is there, and its fit (taps x emitters)^2 "
+          "doubles per microphone", SONAR_DIRECT_PATH_LEAD + 1,
+          SONAR_DIRECT_PATH_MAX_TAPS, SONAR_DIRECT_PATH_TAPS, flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

@@ -19,12 +19,12 @@ struct _SonarDirectPath
 {
   SonarSetup *setup;
   guint n_mics, n_emitters;
-  guint n_taps;                 /* 2 half_taps + 1 */
+  guint n_taps;                 /* from lead before a path's delay on */
   guint n_params;               /* n_emitters n_taps */
   guint waveform_length;
   guint ping_length;
   /* [mic][emitter]: the sample of the ping where the window of the first
-   * tap starts (the path's delay less half_taps, at least 0). */
+   * tap starts (the path's delay less the lead, at least 0). */
   guint *first;
   /* [emitter]: the waveform's energy (the probe's normalisation). */
   double *energy;
@@ -49,17 +49,24 @@ cross_correlation (const float *a, const float *b, guint length, gint lag)
 }
 
 SonarDirectPath *
-sonar_direct_path_new (SonarSetup * setup, guint half_taps, GError ** error)
+sonar_direct_path_new (SonarSetup * setup, guint n_taps, GError ** error)
 {
   g_autoptr (SonarDirectPath) dp = g_new0 (SonarDirectPath, 1);
   const guint n_mics = setup->geometry.n_microphones;
   const guint n_emitters = setup->geometry.n_emitters;
   const guint w = setup->waveform_length;
-  const guint n_taps = 2 * half_taps + 1;
+  const guint lead = SONAR_DIRECT_PATH_LEAD;
   const guint p = n_emitters * n_taps;
   gint *lag_min;
   double **table;
   guint last = 0;
+
+  if (n_taps <= lead || n_taps > SONAR_DIRECT_PATH_MAX_TAPS) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
+        "direct path: %u taps: between %u and %u", n_taps, lead + 1,
+        SONAR_DIRECT_PATH_MAX_TAPS);
+    return NULL;
+  }
 
   dp->setup = sonar_setup_ref (setup);
   dp->n_mics = n_mics;
@@ -75,8 +82,8 @@ sonar_direct_path_new (SonarSetup * setup, guint half_taps, GError ** error)
           (setup->geometry.microphones[j], setup->geometry.emitters[n]));
       const guint delay = (guint) lround (path / setup->speed_of_sound *
           setup->sample_rate);
-      /* A path shorter than half_taps samples still lies within the taps. */
-      const guint first = MAX (delay, half_taps) - half_taps;
+      /* A path shorter than the lead still lies within the taps. */
+      const guint first = MAX (delay, lead) - lead;
       dp->first[(gsize) j * n_emitters + n] = first;
       last = MAX (last, first + n_taps - 1 + w);
     }
@@ -172,11 +179,10 @@ sonar_direct_path_free (SonarDirectPath * dp)
 }
 
 guint64
-sonar_direct_path_memory (const SonarSetup * setup, guint half_taps)
+sonar_direct_path_memory (const SonarSetup * setup, guint n_taps)
 {
   const guint64 n_mics = setup->geometry.n_microphones;
-  const guint64 p = (guint64) setup->geometry.n_emitters *
-      (2 * half_taps + 1);
+  const guint64 p = (guint64) setup->geometry.n_emitters * n_taps;
 
   return n_mics * p * p * sizeof (double) + n_mics *
       (setup->geometry.n_emitters + 2) * sizeof (guint);
@@ -195,7 +201,7 @@ sonar_direct_path_remove (const SonarDirectPath * dp, guint mic,
     gboolean * removed)
 {
   const guint n_emitters = dp->n_emitters, n_taps = dp->n_taps;
-  const guint half = n_taps / 2, p = dp->n_params;
+  const guint at_path = SONAR_DIRECT_PATH_LEAD, p = dp->n_params;
   const guint *first = dp->first + (gsize) mic * n_emitters;
   const guint *window = dp->window + 2 * (gsize) mic;
   double *b = scratch;
@@ -214,10 +220,10 @@ sonar_direct_path_remove (const SonarDirectPath * dp, guint mic,
     return -INFINITY;
 
   if (mode == SONAR_DIRECT_PATH_AUTO) {
-    /* The probe: each emitter's centre tap alone, apart. */
+    /* The probe: each emitter's tap at its path's delay alone, apart. */
     double probe = 0.0;
     for (guint n = 0; n < n_emitters; n++) {
-      sonar_kernel_correlate (correlations, signal + first[n] + half,
+      sonar_kernel_correlate (correlations, signal + first[n] + at_path,
           sonar_setup_waveform (dp->setup, n), dp->waveform_length, 1);
       probe += (double) correlations[0] * correlations[0] / dp->energy[n];
     }

@@ -177,7 +177,7 @@ check_ping_allocates_nothing (double coarse_band, double direct_path)
     sonar_simulator_render (sim, &empty, 0, 0.0, heard, NULL);
     for (gsize i = 0; i < total; i++)
       chain.ping[i] += heard[i];
-    direct = sonar_direct_path_new (chain.setup, SONAR_DIRECT_PATH_HALF_TAPS,
+    direct = sonar_direct_path_new (chain.setup, SONAR_DIRECT_PATH_TAPS,
         &error);
     g_assert_no_error (error);
   }

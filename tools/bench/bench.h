@@ -120,6 +120,7 @@ typedef struct
    * direct-path. */
   double direct_path;
   SonarDirectPathMode direct_path_mode;
+  guint direct_path_taps;
 } Config;
 
 typedef struct

@@ -434,8 +434,8 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
   ch->analyzer = sonar_channel_spectra_new (ch->band, n_mics, 0, error);
   if (!ch->analyzer)
     return FALSE;
-  ch->direct_path = sonar_direct_path_new (b->setup,
-      SONAR_DIRECT_PATH_HALF_TAPS, error);
+  ch->direct_path = sonar_direct_path_new (b->setup, c->direct_path_taps,
+      error);
   if (!ch->direct_path)
     return FALSE;
   sonar_channel_spectra_set_direct_path (ch->analyzer, ch->direct_path,

@@ -56,6 +56,7 @@ config_init (Config * c, BenchScene * scene)
   sonar_velocity_params_init_default (&c->velocity);
   c->direct_path = 0.0;
   c->direct_path_mode = SONAR_DIRECT_PATH_AUTO;
+  c->direct_path_taps = SONAR_DIRECT_PATH_TAPS;
 }
 
 /* Everything that makes a run: equal keys, equal results. */
@@ -69,7 +70,7 @@ config_key (const Config * c)
   return g_strdup_printf ("%s %u %d %d | %.17g %.17g %.17g %d %.17g | "
       "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g %.17g %.17g %.17g | %d "
       "%.17g %.17g "
-      "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u | %.17g %d",
+      "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u | %.17g %d %u",
       c->scene->name, c->n_pings, c->method, c->measure_curves, c->v_min,
       c->v_max, c->v_step, c->template_interp, c->hypothesis_spacing,
       i->azimuth_min, i->azimuth_max, i->n_azimuth, i->elevation_min,
@@ -80,7 +81,7 @@ config_key (const Config * c)
       k->inconsistency, k->depth, k->distance, k->max_peaks,
       v->window_directions, v->window_ranges, v->refine, v->min_variance,
       v->min_agreeing_emitters, v->min_coherence, v->second_peak_db,
-      v->emitters, c->direct_path, c->direct_path_mode);
+      v->emitters, c->direct_path, c->direct_path_mode, c->direct_path_taps);
 }
 
 void
@@ -325,17 +326,23 @@ apply_datacube (Config * c, guint i, char *label, gsize size)
 
 /* Fig. 10 heard through a real sensor's direct path (the simulator's
  * coupling 0, 0.01, 0.1, 1: up to 53-91 dB over a unit echo at 1 m),
- * dopplerbank's direct-path at auto and, for the couplings, off. */
+ * dopplerbank's direct-path at auto and, for the couplings, off; then at
+ * 0.1 with 16 and 41 taps a path (what a ringing emitter needs). */
 static void
 apply_direct_path (Config * c, guint i, char *label, gsize size)
 {
-  static const double couplings[] = { 0.0, 0.01, 0.01, 0.1, 0.1, 1.0, 1.0 };
+  static const double couplings[] = { 0.0, 0.01, 0.01, 0.1, 0.1, 1.0, 1.0,
+    0.1, 0.1
+  };
+  static const guint taps[] = { 7, 7, 7, 7, 7, 7, 7, 16, 41 };
 
   c->direct_path = couplings[i];
-  c->direct_path_mode = i > 0 && i % 2 == 0 ? SONAR_DIRECT_PATH_OFF :
-      SONAR_DIRECT_PATH_AUTO;
-  g_snprintf (label, size, "%g %s", couplings[i],
-      c->direct_path_mode == SONAR_DIRECT_PATH_OFF ? "off" : "auto");
+  c->direct_path_mode = i > 0 && i < 7 && i % 2 == 0 ?
+      SONAR_DIRECT_PATH_OFF : SONAR_DIRECT_PATH_AUTO;
+  c->direct_path_taps = taps[i];
+  g_snprintf (label, size, "%g %s%s", couplings[i],
+      c->direct_path_mode == SONAR_DIRECT_PATH_OFF ? "off" : "auto",
+      taps[i] == SONAR_DIRECT_PATH_TAPS ? "" : taps[i] == 16 ? " 16" : " 41");
 }
 
 const Sweep sweeps[] = {
@@ -357,7 +364,7 @@ const Sweep sweeps[] = {
   {"datacube", SCENE_FIG10, 2, apply_datacube},
   {"coarse-spacing", SCENE_FIG10, 5, apply_coarse_spacing},
   {"refine-db", SCENE_FIG10, 4, apply_refine_db},
-  {"direct-path", SCENE_FIG10, 7, apply_direct_path},
+  {"direct-path", SCENE_FIG10, 9, apply_direct_path},
   {"refine-pfa", SCENE_FIG9, 4, apply_refine_pfa},
   {"coarse-band", SCENE_FIG9, 5, apply_coarse_band},
   {"coarse-band-pfa", SCENE_FIG9, 3, apply_coarse_band_pfa},

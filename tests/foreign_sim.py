@@ -88,6 +88,19 @@ SPEC_KEYS = {
                    "(default 1)}, position at t = 0 s (the first sample)"),
     "noise_rms": (0.03, "rms of the white Gaussian noise per sample (the "
                   "emissions have unit rms)"),
+    "air_absorption": (False, "ISO 9613-1 absorption of air (20 C, relative "
+                       "humidity 50 percent) along each echo's two-way path "
+                       "(its range at t = 0), applied to the echo's "
+                       "spectrum"),
+    "emitter_resonance": (None, "[f0_min, f0_max, q_min, q_max]: each "
+                          "emitter radiates its waveform through a resonance "
+                          "(2nd-order band-pass, centre and Q drawn per "
+                          "emitter) that the emissions file does not hold; "
+                          "None: as written"),
+    "microphone_mismatch": (None, "[gain_db, phase_deg]: each microphone's "
+                            "gain and phase off by up to that (drawn per "
+                            "microphone), as an uncalibrated array; None: "
+                            "none"),
     "direct_path": (0.0, "coupling of the emitters to the microphones "
                     "through the air: each microphone also hears each "
                     "emission straight, direct_path / d^2 times it, d the "
@@ -317,10 +330,11 @@ def resolve(spec):
         raise ValueError(f"unknown spec keys: {sorted(unknown)}")
     s = {key: spec.get(key, default) for key, (default, _) in
          SPEC_KEYS.items()}
-    rng_layout, rng_waves, rng_noise = (
+    rng_layout, rng_waves, rng_noise, rng_hardware = (
         np.random.default_rng(child) for child in
-        np.random.SeedSequence(s["seed"]).spawn(3))
+        np.random.SeedSequence(s["seed"]).spawn(4))
     s["rng_noise"] = rng_noise
+    s["rng_hardware"] = rng_hardware
     fs = s["sample_rate"]
     if fs != int(fs) or fs <= 0:
         raise ValueError(f"sample_rate must be a positive integer: {fs}")
@@ -356,6 +370,10 @@ def resolve(spec):
         raise ValueError(f"sample_format: {s['sample_format']!r}")
     if not s["direct_path"] >= 0:
         raise ValueError(f"direct_path must be >= 0: {s['direct_path']}")
+    for key, size in (("emitter_resonance", 4), ("microphone_mismatch", 2)):
+        if s[key] is not None and (len(s[key]) != size or not all(
+                x >= 0 for x in s[key])):
+            raise ValueError(f"{key}: {size} values >= 0 or None")
     if s["field_of_view"] not in (None, "fan", "hemisphere"):
         raise ValueError(f"field_of_view: {s['field_of_view']!r}")
 
@@ -388,17 +406,84 @@ def recording_length(s):
     return math.ceil(last - 1e-6) + s["tail"]
 
 
+def filtered(signal, response, fs, pad=2048):
+    """@signal through the filter whose frequency response (of Hz) is
+    @response, by FFT over the signal and @pad zeros (its tail kept)."""
+    n = len(signal) + pad
+    spectrum = np.fft.rfft(signal, n) * response(np.fft.rfftfreq(n, 1 / fs))
+    return np.fft.irfft(spectrum, n)
+
+
+def air_absorption_db_per_m(f, kelvin=293.15, humidity=50.0):
+    """ISO 9613-1:1993 pure-tone absorption of air at standard pressure,
+    dB/m (eq. 3-5, B.1-B.3)."""
+    t = kelvin / 293.15
+    h = humidity * 10 ** (-6.8346 * (273.16 / kelvin) ** 1.261 + 4.6151)
+    fr_o = 24 + 4.04e4 * h * (0.02 + h) / (0.391 + h)
+    fr_n = t ** -0.5 * (9 + 280 * h * np.exp(-4.170 * (t ** (-1 / 3) - 1)))
+    return 8.686 * f ** 2 * (1.84e-11 * t ** 0.5 + t ** -2.5 * (
+        0.01275 * np.exp(-2239.1 / kelvin) / (fr_o + f ** 2 / fr_o) +
+        0.1068 * np.exp(-3352.0 / kelvin) / (fr_n + f ** 2 / fr_n)))
+
+
+def resonance(f0, q):
+    """A 2nd-order band-pass's response (1 at @f0) as a function of Hz."""
+    def response(f):
+        s = 1j * f / f0
+        return (s / q) / (s * s + s / q + 1)
+    return response
+
+
+def radiated(s):
+    """What each emitter radiates: its waveform, through its resonance
+    when emitter_resonance asks for one (the emissions file keeps the
+    waveform as written)."""
+    waves = s["waveforms"].astype(np.float64)
+    if s["emitter_resonance"] is None:
+        return waves
+    f_lo, f_hi, q_lo, q_hi = s["emitter_resonance"]
+    rng = s["rng_hardware"]
+    return np.array([filtered(w, resonance(rng.uniform(f_lo, f_hi),
+                                           rng.uniform(q_lo, q_hi)),
+                              s["sample_rate"])[:len(w) + 1024]
+                     for w in waves])
+
+
+def mismatch_microphones(recording, s):
+    """Each microphone's gain and phase off by up to microphone_mismatch's
+    [dB, degrees]: a constant phase is a rotation of the analytic signal,
+    x cos p - H{x} sin p."""
+    gain_db, phase_deg = s["microphone_mismatch"]
+    rng = s["rng_hardware"]
+    for j in range(recording.shape[1]):
+        gain = 10 ** (rng.uniform(-gain_db, gain_db) / 20)
+        phase = math.radians(rng.uniform(-phase_deg, phase_deg))
+        spectrum = np.fft.rfft(recording[:, j])
+        spectrum[1:] *= np.exp(-1j * phase)
+        recording[:, j] = gain * np.fft.irfft(spectrum, recording.shape[0])
+
+
 def render(s):
     """The recording (samples x microphones, float64): every echo of every
-    ping that falls inside it, plus the noise."""
+    ping that falls inside it, the direct path, the microphones'
+    mismatch, plus the noise."""
     n_samples = recording_length(s)
     recording = np.zeros((n_samples, len(s["microphones"])))
-    waves = [BandLimited(w) for w in s["waveforms"]]
+    sent = radiated(s)
+    waves = [BandLimited(w) for w in sent]
     for trigger in triggers(s):
         for reflector in s["reflectors"]:
-            add_echo(recording, s, waves, trigger, reflector)
+            echo_waves = waves
+            if s["air_absorption"]:
+                path = 2 * float(np.linalg.norm(reflector[0]))
+                echo_waves = [BandLimited(filtered(w, lambda f: 10 ** (
+                    -air_absorption_db_per_m(f) * path / 20),
+                    s["sample_rate"])) for w in sent]
+            add_echo(recording, s, echo_waves, trigger, reflector)
         if s["direct_path"]:
             add_direct_path(recording, s, waves, trigger)
+    if s["microphone_mismatch"] is not None:
+        mismatch_microphones(recording, s)
     recording += s["noise_rms"] * s["rng_noise"].standard_normal(
         recording.shape)
     return recording
@@ -507,6 +592,9 @@ def simulate(spec, folder):
         "n-samples": len(data), "sample-format": s["sample_format"],
         "full-scale": full_scale, "clipped-samples": clipped,
         "noise-rms": s["noise_rms"], "direct-path": s["direct_path"],
+        "air-absorption": s["air_absorption"],
+        "emitter-resonance": s["emitter_resonance"],
+        "microphone-mismatch": s["microphone_mismatch"],
         "seed": s["seed"], "pings": pings,
     }
     paths["truth"].write_text(to_json(truth))
@@ -607,6 +695,26 @@ def check_still_delays(folder):
             lag = peak_lag(recording[:, j], waves[:, 0])
             worst = max(worst, abs(lag - expected))
     return worst, elapsed
+
+
+def check_air_absorption(folder):
+    """A still reflector at 2 m, one emitter, no noise, with and without
+    air_absorption: the ratio of the echoes' spectra at 25-75 kHz against
+    ISO 9613-1 over the 4 m path. Returns the worst difference in dB."""
+    spectra = []
+    for absorb in (False, True):
+        paths = simulate({"name": f"air{int(absorb)}", "ping_period": 0.03,
+                          "emitters": [[0.05, 0.0, 0.0]], "noise_rms": 0.0,
+                          "air_absorption": absorb,
+                          "reflectors": [{"position": [0.0, 0.0, 2.0]}]},
+                         folder)
+        _, fs, recording = read_wav(paths["recording"])
+        spectra.append(np.abs(np.fft.rfft(recording[:, 0])))
+    freqs = np.fft.rfftfreq(recording.shape[0], 1.0 / fs)
+    band = (freqs >= 25e3) & (freqs <= 75e3)
+    measured = 20 * np.log10(spectra[1][band] / spectra[0][band])
+    return float(np.max(np.abs(measured + air_absorption_db_per_m(
+        freqs[band]) * 4.0)))
 
 
 def check_direct_path(folder):
@@ -736,6 +844,9 @@ def self_check(folder):
     worst = check_direct_path(folder)
     report(worst < 0.05, f"direct path: worst lag error over 8 x 32 pairs "
            f"{worst:.2g} samples")
+    worst = check_air_absorption(folder)
+    report(worst < 0.1, f"air absorption: echo spectra against ISO 9613-1 "
+           f"at 25-75 kHz, worst {worst:.3f} dB")
     elapsed = check_speed(folder)
     report(elapsed < 60, f"3 pings, 32 x 8, 4 reflectors: {elapsed:.1f} s")
     return ok
@@ -790,7 +901,11 @@ def parse_args(argv):
     for key in ("name", "description", "sample_format", "field_of_view"):
         parser.add_argument("--" + key.replace("_", "-"), dest=key,
                             help=SPEC_KEYS[key][1])
-    for key in ("inline_waveforms", "geometry_file"):
+    for key in ("emitter_resonance", "microphone_mismatch"):
+        parser.add_argument("--" + key.replace("_", "-"), dest=key,
+                            type=lambda t: [float(x) for x in t.split(",")],
+                            help=SPEC_KEYS[key][1] + " (comma-separated)")
+    for key in ("inline_waveforms", "geometry_file", "air_absorption"):
         parser.add_argument("--" + key.replace("_", "-"), dest=key,
                             action="store_const", const=True,
                             help=SPEC_KEYS[key][1])

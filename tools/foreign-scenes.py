@@ -20,12 +20,13 @@ image spans that range), one ping each.
 
 A word ELEMENT.PROP=VALUE of --compare sets another element's property
 (dopplerbank, mimobeamform, wardcluster or velocityest); a bare one is
-mimobeamform's. --direct-path G makes the sensor's microphones hear its
-emitters straight (foreign_sim.py's direct_path coupling), as a real
-sensor's do:
+mimobeamform's. --set KEY=VALUE sets a spec key of foreign_sim.py (VALUE
+in JSON) for every scene: what a real sensor's recordings hold and the
+simulator leaves out by default (direct_path, air_absorption,
+emitter_resonance, microphone_mismatch):
 
     /usr/bin/python3 tools/foreign-scenes.py --view fan --scenes 12 \\
-        --seed 3 --direct-path 0.1 --compare dopplerbank.direct-path=off
+        --seed 3 --set direct_path=0.1 --compare dopplerbank.direct-path=off
 
 --explain lists, under each scene, every object missed (its place,
 radial velocity, dB below the strongest and the nearest detection) and
@@ -185,11 +186,12 @@ def main():
                         metavar="PROPS", help="mimobeamform properties of "
                         "another run of every scene, or ELEMENT.PROP=VALUE "
                         "for another element's (repeatable)")
-    parser.add_argument("--direct-path", type=float, default=0.0,
-                        metavar="G", help="the emitters heard straight by "
-                        "the microphones, foreign_sim.py's direct_path "
-                        "coupling (0.1: 33-71 dB over a unit reflector's "
-                        "echo at 1 m); default 0, none")
+    parser.add_argument("--set", action="append", default=[],
+                        metavar="KEY=VALUE", help="a spec key of "
+                        "foreign_sim.py for every scene, VALUE in JSON "
+                        "(direct_path=0.1, air_absorption=true, "
+                        "emitter_resonance=[38e3,52e3,1.5,3], "
+                        "microphone_mismatch=[1.5,10]; repeatable)")
     parser.add_argument("--explain", action="store_true",
                         help="under each scene, the objects missed and "
                         "the false detections")
@@ -205,6 +207,13 @@ def main():
     sys.path.insert(0, str(ROOT / "tests"))
     import foreign_sim
 
+    extra = {}
+    for setting in args.set:
+        key, equals, value = setting.partition("=")
+        if not equals or key not in foreign_sim.SPEC_KEYS:
+            parser.error("--set %s: KEY=VALUE with one of foreign_sim.py's "
+                         "spec keys" % setting)
+        extra[key] = json.loads(value)
     rng = random.Random(args.seed)
     variants = [""] + args.compare
     totals = {v: [0, 0, 0] for v in variants}
@@ -216,7 +225,7 @@ def main():
                     "field_of_view": args.view,
                     **({"ping_period": 1.0 / args.ping_rate}
                        if args.ping_rate else {}),
-                    "direct_path": args.direct_path,
+                    **extra,
                     "reflectors": scene(rng, args.view, args.objects,
                                         args.spread)}
             foreign_sim.simulate(spec, folder)
@@ -244,7 +253,7 @@ def main():
                 explain(label, truth, detections, missed, false)
     print("\n%s, %d scenes of %d objects over %g dB, seed %d%s:" % (
         args.view, args.scenes, args.objects, args.spread, args.seed,
-        ", direct path %g" % args.direct_path if args.direct_path else ""))
+        "".join(", %s" % setting for setting in args.set)))
     for v in variants:
         t = totals[v]
         print("  %-24s found %d of %d, %d false" % (

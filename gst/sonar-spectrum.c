@@ -123,14 +123,6 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
  * KB of input held per worker; 8 made it 5 % slower). */
 #define SPECTRA_GROUP 16
 
-/* sonar_spectrum_process () of @count <= SPECTRA_GROUP channels of the
- * interleaved @samples (@stride a frame), channels @first on, into
- * @out (n_bins each, one after another): each frame's samples of the
- * group are read together into the group's @inputs (FFTW-aligned, as
- * @s's own; their padding's extents in @filled), then @s's plan runs on
- * each (the same plan on arrays of the same alignment: the same spectra
- * bit for bit). Reading one channel at a time read a cache line (a
- * frame) per sample, 32 times over; it was half of the stage's time. */
 /* A worker's direct-path subtraction (sonar-direct-path.h): what it
  * needs and what it found. */
 typedef struct
@@ -139,9 +131,17 @@ typedef struct
   SonarDirectPathMode mode;
   double *scratch;
   guint removed;                /* channels it was subtracted from */
-  double largest_db;            /* the largest fit over the noise */
+  double largest_db;            /* the largest fit over the rest, dB */
 } DirectPathWork;
 
+/* sonar_spectrum_process () of @count <= SPECTRA_GROUP channels of the
+ * interleaved @samples (@stride a frame), channels @first on, into
+ * @out (n_bins each, one after another): each frame's samples of the
+ * group are read together into the group's @inputs (FFTW-aligned, as
+ * @s's own; their padding's extents in @filled), each one's direct path
+ * subtracted as @direct says, then @s's plan runs on each (the same plan on arrays of the same alignment: the same spectra
+ * bit for bit). Reading one channel at a time read a cache line (a
+ * frame) per sample, 32 times over; it was half of the stage's time. */
 static void
 spectrum_process_group (SonarSpectrum * s, float *const *inputs,
     gsize * filled, guint count, const float *samples, gsize length,

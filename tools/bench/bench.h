@@ -251,6 +251,11 @@ void random_scene_init (SonarScene * scene, guint n);
  * @noise_amplitude (NOISE_AMPLITUDE; 0 for noise-free recordings). */
 SonarSimulator *bench_simulator_new (SonarSetup * setup,
     double noise_amplitude, GError ** error);
+/* What @setup's microphones hear straight from its emitters at @coupling
+ * (the simulator's direct_path), noise-free, interleaved as sonarsrc
+ * sends a ping (g_free it); NULL with @error. */
+float *direct_path_ping (SonarSetup * setup, double coupling,
+    GError ** error);
 /* @planar (@n_mics rows of @length samples) into @out, interleaved as
  * sonarsrc emits it. */
 void interleave (const float *planar, guint n_mics, gsize length,

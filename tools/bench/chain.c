@@ -434,12 +434,15 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
   ch->analyzer = sonar_channel_spectra_new (ch->band, n_mics, 0, error);
   if (!ch->analyzer)
     return FALSE;
-  ch->direct_path = sonar_direct_path_new (b->setup, c->direct_path_taps,
-      error);
-  if (!ch->direct_path)
-    return FALSE;
-  sonar_channel_spectra_set_direct_path (ch->analyzer, ch->direct_path,
-      c->direct_path_mode);
+  if (c->direct_path_mode != SONAR_DIRECT_PATH_OFF) {
+    /* As dopplerbank: its fit made at start, unless direct-path=off. */
+    ch->direct_path = sonar_direct_path_new (b->setup, c->direct_path_taps,
+        error);
+    if (!ch->direct_path)
+      return FALSE;
+    sonar_channel_spectra_set_direct_path (ch->analyzer, ch->direct_path,
+        c->direct_path_mode);
+  }
   ch->spectra = g_new (SonarComplex, (gsize) n_mics * ch->band->n_bins);
   r->mb[STAGE_SPECTRA] = heap_mb () - heap;
 
@@ -800,36 +803,6 @@ stage_stop (StageClock * clock, Result * r, guint stage)
 /* One configuration over the scene's pings: the stages of dopplerbank,
  * mimobeamform (mode=detection, or datacube), wardcluster and
  * velocityest. */
-/* What @setup's microphones hear straight from its emitters at
- * @coupling (the simulator's direct_path), interleaved as sonarsrc sends
- * a ping; NULL with @error. */
-static float *
-direct_path_ping (SonarSetup * setup, double coupling, GError ** error)
-{
-  const guint n_mics = setup->geometry.n_microphones;
-  const guint length = setup->ping_length;
-  SonarSimulatorParams params;
-  SonarScene empty = { 0 };
-  g_autoptr (SonarSimulator) sim = NULL;
-  g_autofree float *planar = g_new (float, (gsize) n_mics * length);
-  float *ping = g_new (float, (gsize) n_mics * length);
-
-  sonar_simulator_params_init_default (&params);
-  params.noise_amplitude = 0.0;
-  params.direct_path = coupling;
-  sim = sonar_simulator_new (setup, &params, error);
-  if (!sim) {
-    g_free (ping);
-    return NULL;
-  }
-  empty.dimensions = 3;
-  sonar_simulator_render (sim, &empty, 0, 0.0, planar, NULL);
-  for (guint j = 0; j < n_mics; j++)
-    for (guint i = 0; i < length; i++)
-      ping[(gsize) i * n_mics + j] = planar[(gsize) j * length + i];
-  return ping;
-}
-
 gboolean
 run_config (Bench * b, const Config * c, Result * r, GError ** error)
 {
@@ -842,7 +815,6 @@ run_config (Bench * b, const Config * c, Result * r, GError ** error)
   g_autofree double *times = NULL;
   guint total_centroids = 0;
   gboolean ok;
-
   g_autofree float *direct = NULL, *heard = NULL;
 
   if (c->direct_path > 0.0) {

@@ -99,6 +99,32 @@ render_alone (Chain * ch, SonarSimulator * quiet, const SonarSetup * setup,
   chain_spectra (ch, samples, length);
 }
 
+float *
+direct_path_ping (SonarSetup * setup, double coupling, GError ** error)
+{
+  const guint n_mics = setup->geometry.n_microphones;
+  const gsize length = setup->ping_length;
+  SonarSimulatorParams params;
+  SonarScene empty;
+  g_autoptr (SonarSimulator) sim = NULL;
+  g_autofree float *planar = NULL;
+  float *ping;
+
+  sonar_simulator_params_init_default (&params);
+  params.noise_amplitude = 0.0;
+  params.direct_path = coupling;
+  sim = sonar_simulator_new (setup, &params, error);
+  if (!sim)
+    return NULL;
+  planar = g_new (float, length * n_mics);
+  ping = g_new (float, length * n_mics);
+  sonar_scene_init_preset (&empty, SONAR_SCENE_PRESET_EMPTY);
+  sonar_simulator_render (sim, &empty, 0, 0.0, planar, NULL);
+  sonar_scene_clear (&empty);
+  interleave (planar, n_mics, length, ping);
+  return ping;
+}
+
 SonarSimulator *
 bench_simulator_new (SonarSetup * setup, double noise_amplitude,
     GError ** error)

@@ -29,14 +29,15 @@
  * explains SONAR_DIRECT_PATH_MIN_SHARE of the power recorded over the
  * samples the direct path spans (from the first emission's arrival to the
  * last one's end): echoes and noise there put about P / (b L) into such a
- * fit (P waveforms, L samples, b the band's share of the spectrum: 0.05
- * for the default sensor) and at most 0.024 on the presets and 96 foreign
- * scenes, a direct path 0.86-0.9995 (tests/foreign_sim.py, direct_path
- * 1e-4 to 1, transducer responses included). A probe, each emitter's
- * tap at its path's delay alone (N dot products instead of P), stops at half that
- * share first, so that a recording without a direct path costs N dot
- * products per microphone and is processed bit for bit as without this
- * stage.
+ * fit (P waveforms, L samples, b the band's share of the spectrum: 5 %
+ * for the default sensor) and at most 2.4 % on the presets and 96 foreign
+ * scenes, a direct path 86-99.95 % (tests/foreign_sim.py, direct_path
+ * 1e-4 to 1, transducer responses included). A probe, each emitter's tap
+ * at its path's delay alone (N dot products instead of P), stops at half
+ * that share first, so that a recording without a direct path costs N
+ * dot products per microphone and is processed bit for bit as without
+ * this stage. dopplerbank's use of it (direct-path, direct-path-taps, its info
+ * message): docs/CONTRACTS.md §1 and §10.
  */
 #ifndef SONAR_DIRECT_PATH_H
 #define SONAR_DIRECT_PATH_H

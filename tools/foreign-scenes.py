@@ -33,10 +33,14 @@ radial velocity, dB below the strongest and the nearest detection) and
 every false detection. --time measures each run of the chain (one
 gst-launch-1.0 at a time: the ping and the elements' set-up, wall and
 CPU time) and the share of the dense image's passes mimobeamform imaged
-(its GST_DEBUG line), per scene and as ranges over the scenes.
+(its GST_DEBUG line), per scene and as ranges over the scenes. --keep DIR
+keeps each scene's files (sceneK.wav, .sensor.json, .truth.json) to
+replay. The summary gives, beside the objects found, the radial velocity
+errors of those found against the truth.
 """
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -132,20 +136,21 @@ def offset(r, d):
 
 
 def score(detections, truth):
-    """The objects found, and the lists of those missed and of the false
-    detections."""
-    found, used, missed = 0, set(), []
+    """The radial velocity errors of the objects found (m/s), and the lists
+    of those missed and of the false detections."""
+    errors, used, missed = [], set(), []
     for r in truth:
         for j, d in enumerate(detections):
             if d["valid"] and j not in used and offset(r, d) < MATCH:
-                found += 1
+                errors.append(abs(d["radial_velocity"] -
+                                  r["radial_velocity"]))
                 used.add(j)
                 break
         else:
             missed.append(r)
     false = [d for j, d in enumerate(detections)
              if d["valid"] and j not in used]
-    return found, missed, false
+    return errors, missed, false
 
 
 def explain(label, truth, detections, missed, false):
@@ -195,6 +200,9 @@ def main():
     parser.add_argument("--explain", action="store_true",
                         help="under each scene, the objects missed and "
                         "the false detections")
+    parser.add_argument("--keep", metavar="DIR", help="write the scenes' "
+                        "recordings, sensor files and truths into DIR (made "
+                        "if need be) and keep them, to replay")
     parser.add_argument("--time", action="store_true",
                         help="each run's wall and CPU time (its ping and "
                         "the set-up) and share of the dense image's "
@@ -217,8 +225,12 @@ def main():
     rng = random.Random(args.seed)
     variants = [""] + args.compare
     totals = {v: [0, 0, 0] for v in variants}
+    errors = {v: [] for v in variants}
     timings = {v: [] for v in variants}
-    with tempfile.TemporaryDirectory() as folder:
+    if args.keep:
+        pathlib.Path(args.keep).mkdir(parents=True, exist_ok=True)
+    with contextlib.nullcontext(args.keep) if args.keep else \
+            tempfile.TemporaryDirectory() as folder:
         for k in range(args.scenes):
             name = "scene%d" % k
             spec = {"name": name, "n_pings": 1, "seed": args.seed * 1000 + k,
@@ -237,11 +249,12 @@ def main():
                 detections = run_chain(folder, name, v, env,
                                        timings[v] if args.time else None)
                 found, missed, false = score(detections, truth)
+                errors[v] += found
                 t = totals[v]
-                t[0] += found
+                t[0] += len(found)
                 t[1] += len(truth)
                 t[2] += len(false)
-                row.append("%d/%d, %d false" % (found, len(truth),
+                row.append("%d/%d, %d false" % (len(found), len(truth),
                                                 len(false)))
                 if args.time:
                     row[-1] += ", %.1f s wall, %.1f s CPU, %.1f %%" % \
@@ -258,6 +271,12 @@ def main():
         t = totals[v]
         print("  %-24s found %d of %d, %d false" % (
             v or "defaults", t[0], t[1], t[2]))
+        if errors[v]:
+            e = sorted(errors[v])
+            print("  %-24s radial velocity error: mean %.4f, median %.4f, "
+                  "95 %% %.4f, worst %.4f m/s" % (
+                      "", statistics.mean(e), statistics.median(e),
+                      e[min(len(e) - 1, int(0.95 * len(e)))], e[-1]))
         if args.time:
             walls, cpus, shares = zip(*timings[v])
             print("  %-24s a run: %s wall, %s CPU, %s of the dense "

@@ -8,11 +8,6 @@
 #include <math.h>
 #include <string.h>
 
-/* glibc defines C11's CMPLXF for GCC only; clang has the same builtin. */
-#ifndef CMPLXF
-#define CMPLXF(x, y) __builtin_complex ((float) (x), (float) (y))
-#endif
-
 struct _SonarInterpRebuild
 {
   gint ref_count;

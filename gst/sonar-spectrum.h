@@ -16,6 +16,11 @@ G_BEGIN_DECLS
 
 typedef float complex SonarComplex;
 
+/* glibc defines C11's CMPLXF for GCC only; clang has the same builtin. */
+#ifndef CMPLXF
+#define CMPLXF(x, y) __builtin_complex ((float) (x), (float) (y))
+#endif
+
 typedef struct
 {
   double sample_rate;           /* Hz */

@@ -290,6 +290,46 @@ sonar_imager_params_set_view (SonarImagerParams * p, SonarFieldOfView view)
   }
 }
 
+void
+sonar_imager_params_set_grid (SonarImagerParams * p,
+    const SonarImageGrid * g)
+{
+  p->azimuth_min = g->azimuth_first;
+  p->azimuth_max = g->azimuth_first + (g->n_azimuth - 1) * g->azimuth_step;
+  p->n_azimuth = g->n_azimuth;
+  p->elevation_min = g->elevation_first;
+  p->elevation_max = g->elevation_first +
+      (g->n_elevation - 1) * g->elevation_step;
+  p->n_elevation = g->n_elevation;
+  /* Half a step inside the first lag and beyond the last, and the step a
+   * hair longer: sonar_imager_new ()'s ceil and floor then land on the
+   * grid's own lags and transform size, whatever the rounding. */
+  p->range_min = g->range_first - 0.5 * g->range_step;
+  p->range_max = g->range_first + (g->n_range - 0.5) * g->range_step;
+  p->range_resolution = g->range_step * (1.0 + 1e-9);
+}
+
+static gboolean
+axis_equal (guint n_a, double first_a, double step_a, guint n_b,
+    double first_b, double step_b)
+{
+  const double tolerance = 1e-9 * MAX (fabs (step_a), 1e-6);
+
+  return n_a == n_b && fabs (first_a - first_b) <= tolerance
+      && fabs (step_a - step_b) <= tolerance;
+}
+
+gboolean
+sonar_image_grid_equal (const SonarImageGrid * a, const SonarImageGrid * b)
+{
+  return axis_equal (a->n_azimuth, a->azimuth_first, a->azimuth_step,
+      b->n_azimuth, b->azimuth_first, b->azimuth_step)
+      && axis_equal (a->n_elevation, a->elevation_first, a->elevation_step,
+      b->n_elevation, b->elevation_first, b->elevation_step)
+      && axis_equal (a->n_range, a->range_first, a->range_step, b->n_range,
+      b->range_first, b->range_step);
+}
+
 double
 sonar_imager_range_max (const SonarSetup * setup, double requested)
 {

@@ -100,6 +100,22 @@ void sonar_imager_params_init_default (SonarImagerParams * params);
 void sonar_imager_params_set_view (SonarImagerParams * params,
     SonarFieldOfView view);
 
+/* mimobeamform's default hypothesis-spacing (m/s): the Doppler hypotheses
+ * of a detection image lie at most this far apart across the bank
+ * (sonar_doppler_bank_hypotheses ()), so that an echo of any velocity is
+ * at most 0.15 m/s off one of them and loses at most about 2.5 dB. */
+#define SONAR_IMAGER_HYPOTHESIS_SPACING 0.3
+
+/* The directions and ranges of @params made those of @grid (an image
+ * another imager made, as the energyscape caps carry it): with the other
+ * fields left as they are, sonar_imager_new () makes that grid again. */
+void sonar_imager_params_set_grid (SonarImagerParams * params,
+    const SonarImageGrid * grid);
+
+/* Whether two grids are the same, to rounding (1e-9 of a step). */
+gboolean sonar_image_grid_equal (const SonarImageGrid * a,
+    const SonarImageGrid * b);
+
 /* The farthest range an image of @setup can reach: @requested (0: what
  * one ping records), or the end of the ping's window when it is beyond,
  * rounded down to the millimetre. */

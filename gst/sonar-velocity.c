@@ -2941,6 +2941,36 @@ split_first (SonarVelocityPool * pool, const SonarCentroid * centroids,
     drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }
 
+/* On a residual (pool->echo[0].spectra), whose cancelled neighbours no
+ * longer hold a blend of two unresolved echoes down, each estimate of
+ * @centroid (@results, *@count of them) is one echo or none: an echo not
+ * lone may be two (both kept when found, *@count then 2); else it is
+ * kept when it falls as one point on at least one side. Returns whether
+ * one is valid. */
+static gboolean
+judge_on_residual (SonarVelocityPool * pool, const SonarCentroid * centroid,
+    SonarVelocityEstimate * results, guint * count)
+{
+  gboolean any = FALSE;
+
+  for (guint i = 0; i < *count; i++) {
+    SonarVelocityEstimate *e = &results[i];
+    EchoShape shape;
+    guint half_width;
+    if (!e->valid)
+      continue;
+    shape = echo_shape (&pool->echo[0], centroid, e, &half_width);
+    if (shape != ECHO_LONE && *count == 1
+        && split_blend (&pool->echo[0], centroid, e, half_width, results)) {
+      *count = 2;
+      return TRUE;
+    }
+    e->valid = shape != ECHO_BLEND;
+    any |= e->valid;
+  }
+  return any;
+}
+
 /* Successive cancellation: the centroids whose estimates all failed are
  * estimated again on the spectra less the models of the echoes accepted
  * (cancel_echo ()), in rounds, each cancelling what the last accepted. */
@@ -3003,31 +3033,8 @@ pool_cancel (SonarVelocityPool * pool, const SonarCentroid * centroids,
     pool->echo[0].spectra = pool->spectra;
     for (guint f = 0; f < n_failed; f++) {
       const guint k = pool->failed_index[f];
-      gboolean any = FALSE;
-      /* On a residual, whose cancelled neighbours no longer hold a blend
-       * of two unresolved echoes down, each estimate is one echo or
-       * none. */
-      for (guint i = 0; i < pool->failed_counts[f]; i++) {
-        SonarVelocityEstimate *e = &pool->failed_results[2 * f + i];
-        EchoShape shape;
-        guint half_width;
-        if (!e->valid)
-          continue;
-        shape = echo_shape (&pool->echo[0], &pool->failed[f], e,
-            &half_width);
-        /* An echo not lone may be two: both kept when found; else it is
-         * kept when it falls as one point on one side. */
-        if (shape != ECHO_LONE && pool->failed_counts[f] == 1
-            && split_blend (&pool->echo[0], &pool->failed[f], e, half_width,
-                &pool->failed_results[2 * f])) {
-          pool->failed_counts[f] = 2;
-          any = TRUE;
-          break;
-        }
-        e->valid = shape != ECHO_BLEND;
-        any |= e->valid;
-      }
-      if (!any)
+      if (!judge_on_residual (pool, &pool->failed[f],
+              &pool->failed_results[2 * f], &pool->failed_counts[f]))
         continue;
       counts[k] = pool->failed_counts[f];
       for (guint i = 0; i < counts[k]; i++) {
@@ -3076,6 +3083,41 @@ sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     split_first (pool, centroids, n_centroids, results, counts);
     pool_cancel (pool, centroids, n_centroids, results, counts);
   }
+}
+
+void
+sonar_velocity_pool_residual (SonarVelocityPool * pool,
+    const SonarVelocityEstimate * results, const guint * counts,
+    guint n_centroids, SonarComplex * residual)
+{
+  const SonarVelocityEstimator *est = pool->estimators[0];
+  const gsize size = (gsize) est->setup->geometry.n_microphones *
+      est->band.n_bins;
+
+  echo_models_ensure (pool);
+  memcpy (pool->residual_re, pool->spectra_re, size * sizeof (float));
+  memcpy (pool->residual_im, pool->spectra_im, size * sizeof (float));
+  for (guint k = 0; k < n_centroids; k++)
+    for (guint i = 0; i < counts[k]; i++)
+      if (results[2 * k + i].valid)
+        cancel_echo (&pool->echo[0], &results[2 * k + i],
+            pool->residual_re, pool->residual_im);
+  for (gsize i = 0; i < size; i++)
+    residual[i] = CMPLXF (pool->residual_re[i], pool->residual_im[i]);
+}
+
+void
+sonar_velocity_pool_estimate_residual (SonarVelocityPool * pool,
+    const SonarComplex * residual, const SonarCentroid * centroids,
+    guint n_centroids, SonarVelocityEstimate * results, guint * counts)
+{
+  sonar_velocity_pool_estimate (pool, residual, centroids, n_centroids,
+      results, counts);
+  echo_models_ensure (pool);
+  pool->echo[0].spectra = pool->spectra;
+  for (guint k = 0; k < n_centroids; k++)
+    judge_on_residual (pool, &centroids[k], &results[2 * k], &counts[k]);
+  drop_duplicates (pool->estimators[0], n_centroids, results, counts);
 }
 
 void

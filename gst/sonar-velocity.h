@@ -256,6 +256,26 @@ void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
     const SonarComplex * mic_spectra, const SonarCentroid * centroids,
     guint n_centroids, SonarVelocityEstimate * results, guint * counts);
 
+/* The spectra of the last sonar_velocity_pool_estimate () less the model
+ * of every valid estimate of @results (2 per centroid, @counts[k] of
+ * centroid k), each fitted as the successive cancellation fits it (above):
+ * what the ping holds under its accepted echoes, into @residual
+ * (n_microphones x n_bins). Allocates only on the first ping that
+ * cancels (the workers' models), as the cancellation does. */
+void sonar_velocity_pool_residual (SonarVelocityPool * pool,
+    const SonarVelocityEstimate * results, const guint * counts,
+    guint n_centroids, SonarComplex * residual);
+
+/* sonar_velocity_pool_estimate () at @centroids of a residual (spectra
+ * less some echoes' models, as sonar_velocity_pool_residual () makes
+ * them), each valid estimate then judged as the successive cancellation
+ * judges its own on a residual: kept when it is one echo (its beam falls
+ * as a lone point's on at least one side), or two when a fit of two
+ * points finds them. */
+void sonar_velocity_pool_estimate_residual (SonarVelocityPool * pool,
+    const SonarComplex * residual, const SonarCentroid * centroids,
+    guint n_centroids, SonarVelocityEstimate * results, guint * counts);
+
 /* What one centroid costs the pool's estimators, for sonar-bench's
  * arithmetic floor. A focus (one per direction of the prescreen's search)
  * is a receive sum over the band and, with a range gate, an inverse

@@ -12,7 +12,9 @@
  * different speeds) give two detections. In a crowd, the centroids that
  * fail though they stand out of the pooled interference are estimated
  * again with the accepted echoes' models cancelled, in rounds
- * (sonar-velocity.h).
+ * (sonar-velocity.h). Then (residual-search) the ping less every accepted
+ * echo is imaged, clustered and estimated again: echoes under a stronger
+ * one's cross-talk, which made no centroid (sonar-residual.h).
  *
  * The centroids are shared out between `threads` workers
  * (SonarVelocityPool); the output does not depend on their number.
@@ -40,6 +42,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "sonar-memory.h"
+#include "sonar-residual.h"
 #include "sonar-uncertainty.h"
 #include "sonar-velocity.h"
 
@@ -50,6 +54,7 @@ GST_DEBUG_CATEGORY_STATIC (velocity_est_debug);
 #define DEFAULT_THREADS 0
 #define MAX_THREADS SONAR_VELOCITY_MAX_THREADS
 #define DEFAULT_POST_MESSAGES TRUE
+#define DEFAULT_RESIDUAL_SEARCH TRUE
 
 enum
 {
@@ -67,6 +72,8 @@ enum
   PROP_KEEP_REJECTED,
   PROP_THREADS,
   PROP_POST_MESSAGES,
+  PROP_RESIDUAL_SEARCH,
+  PROP_MAX_MEMORY,
 };
 
 struct _GstVelocityEst
@@ -80,6 +87,8 @@ struct _GstVelocityEst
   gboolean min_agreeing_set;
   gboolean keep_rejected;
   gboolean post_messages;
+  gboolean residual_search;
+  guint64 max_memory;
   gboolean retune;              /* thresholds changed while playing: at
                                  * the next ping (object lock) */
 
@@ -87,6 +96,7 @@ struct _GstVelocityEst
 
   /* Configured state. */
   SonarVelocityPool *pool;
+  SonarResidualSearch *residual;        /* NULL: residual-search=false */
   SonarNoiseMeter *noise;       /* the image's noise, for the sigmas */
   SonarImageGrid grid;
   guint hypotheses;             /* Doppler hypotheses each pixel is the maximum of */
@@ -114,8 +124,11 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
 {
   GstVelocityEst *self = GST_VELOCITY_EST (filter);
+  SonarSetup *setup = gst_sonar_filter_get_setup (filter);
+  const SonarBand *band = gst_sonar_filter_get_band (filter);
   SonarVelocityParams params;
-  gboolean min_agreeing_set;
+  gboolean min_agreeing_set, residual_search;
+  guint64 max_memory;
   guint records, threads;
 
   if (!in_caps || !sonar_energyscape_caps_parse (in_caps, &self->grid,
@@ -129,7 +142,16 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   params = self->params;
   min_agreeing_set = self->min_agreeing_set;
   threads = self->threads;
+  residual_search = self->residual_search;
+  max_memory = self->max_memory;
   GST_OBJECT_UNLOCK (self);
+  if (residual_search && !sonar_memory_check (sonar_residual_search_memory
+          (setup, band, &self->grid), max_memory, error, "velocityest: the "
+          "residual search (residual-search) on an image of %u azimuths x %u "
+          "elevations x %u ranges and %u microphones x %u band bins",
+          self->grid.n_azimuth, self->grid.n_elevation, self->grid.n_range,
+          setup->geometry.n_microphones, band->n_bins))
+    return NULL;
   self->pool = sonar_velocity_pool_new (gst_sonar_filter_get_bank (filter),
       &self->grid, &params, threads, error);
   if (!self->pool)
@@ -137,9 +159,8 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->noise = sonar_noise_meter_new (&self->grid, self->hypotheses);
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
-      gst_sonar_filter_get_setup (filter)->geometry.n_emitters;
-  self->emission_centre = sonar_setup_emission_centre
-      (gst_sonar_filter_get_setup (filter));
+      setup->geometry.n_emitters;
+  self->emission_centre = sonar_setup_emission_centre (setup);
   if (min_agreeing_set && params.min_agreeing_emitters > self->n_emitters) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
         "velocityest: min-agreeing-emitters is %u, but only %u emitters "
@@ -150,6 +171,16 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
     g_clear_pointer (&self->noise, sonar_noise_meter_free);
     return NULL;
   }
+  if (residual_search) {
+    self->residual = sonar_residual_search_new (setup, band,
+        gst_sonar_filter_get_bank (filter), &self->grid, self->n_emitters,
+        error);
+    if (!self->residual) {
+      g_clear_pointer (&self->pool, sonar_velocity_pool_free);
+      g_clear_pointer (&self->noise, sonar_noise_meter_free);
+      return NULL;
+    }
+  }
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }
 
@@ -159,6 +190,7 @@ gst_velocity_est_unconfigure (GstSonarFilter * filter)
   GstVelocityEst *self = GST_VELOCITY_EST (filter);
 
   g_clear_pointer (&self->pool, sonar_velocity_pool_free);
+  g_clear_pointer (&self->residual, sonar_residual_search_free);
   g_clear_pointer (&self->noise, sonar_noise_meter_free);
 }
 
@@ -254,6 +286,27 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   g_array_append_val (self->detections, d);
 }
 
+/* The detections of @n centroids' estimates (@results, 2 per centroid,
+ * @counts each), the centroids numbered from @first; *@noise_power is
+ * measured on the first (-1 until then). */
+static void
+add_detections (GstVelocityEst * self, const SonarCentroid * centroids,
+    guint first, guint n, const SonarVelocityEstimate * results,
+    const guint * counts, gboolean keep_rejected, GstClockTime ping_time,
+    const float *image, double *noise_power)
+{
+  for (guint k = 0; k < n; k++)
+    for (guint i = 0; i < counts[k]; i++) {
+      if (!results[2 * k + i].valid && !keep_rejected)
+        continue;
+      /* Once per ping, and only with something to report. */
+      if (*noise_power < 0.0)
+        *noise_power = sonar_noise_meter_power (self->noise, image);
+      add_detection (self, &centroids[k], first + k, &results[2 * k + i],
+          ping_time, image, *noise_power);
+    }
+}
+
 /* Removes @buffer's spectra meta, if any. */
 static void
 release_spectra (GstBuffer * buffer)
@@ -318,17 +371,22 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   }
   image = (const float *) (image_map.data + sizeof (SonarEnergyscapeHeader));
   noise_power = -1.0;
-  for (guint k = 0; k < centroids->n_centroids; k++) {
-    for (guint i = 0; i < self->counts[k]; i++) {
-      if (!self->results[2 * k + i].valid && !keep_rejected)
-        continue;
-      /* Once per ping, and only with something to report. */
-      if (noise_power < 0.0)
-        noise_power = sonar_noise_meter_power (self->noise, image);
-      add_detection (self, &centroids->centroids[k], k,
-          &self->results[2 * k + i], GST_BUFFER_PTS (buffer), image,
-          noise_power);
-    }
+  add_detections (self, centroids->centroids, 0, centroids->n_centroids,
+      self->results, self->counts, keep_rejected, GST_BUFFER_PTS (buffer),
+      image, &noise_power);
+  if (self->residual) {
+    const SonarCentroid *found;
+    const SonarVelocityEstimate *results;
+    const guint *counts;
+    /* Its spectra meta still holds the ping: the residual is the pool's
+     * copy of them less the accepted echoes. */
+    const guint n = sonar_residual_search_process (self->residual,
+        self->pool, centroids->n_centroids, self->results, self->counts,
+        &found, &results, &counts);
+    /* Its valid ones alone: what fails there is mostly what the
+     * cancellations left, not a centroid of the ping's. */
+    add_detections (self, found, centroids->n_centroids, n, results, counts,
+        FALSE, GST_BUFFER_PTS (buffer), image, &noise_power);
   }
   gst_buffer_unmap (buffer, &image_map);
 
@@ -402,6 +460,12 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       self->post_messages = g_value_get_boolean (value);
       break;
+    case PROP_RESIDUAL_SEARCH:
+      self->residual_search = g_value_get_boolean (value);
+      break;
+    case PROP_MAX_MEMORY:
+      self->max_memory = g_value_get_uint64 (value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -459,6 +523,12 @@ gst_velocity_est_get_property (GObject * object, guint prop_id,
     case PROP_POST_MESSAGES:
       g_value_set_boolean (value, self->post_messages);
       break;
+    case PROP_RESIDUAL_SEARCH:
+      g_value_set_boolean (value, self->residual_search);
+      break;
+    case PROP_MAX_MEMORY:
+      g_value_set_uint64 (value, self->max_memory);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID (object, prop_id, pspec);
       break;
@@ -484,6 +554,8 @@ gst_velocity_est_init (GstVelocityEst * self)
   self->keep_rejected = DEFAULT_KEEP_REJECTED;
   self->post_messages = DEFAULT_POST_MESSAGES;
   self->threads = DEFAULT_THREADS;
+  self->residual_search = DEFAULT_RESIDUAL_SEARCH;
+  self->max_memory = SONAR_DEFAULT_MAX_MEMORY;
   self->detections = g_array_new (FALSE, FALSE, sizeof (SonarDetection));
 }
 
@@ -596,6 +668,21 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
       g_param_spec_boolean ("post-messages", "Post messages", "Post a "
           "\"sonar-detections\" element message per ping",
           DEFAULT_POST_MESSAGES, flags));
+  g_object_class_install_property (gobject_class, PROP_RESIDUAL_SEARCH,
+      g_param_spec_boolean ("residual-search", "Residual search", "After a "
+          "ping's estimates, cancel every accepted echo from its spectra, "
+          "image and cluster what is left as mimobeamform and wardcluster "
+          "do at their defaults, and estimate at each new centroid: echoes "
+          "10-30 dB weaker within a pulse length (1.5 m) of a stronger one "
+          "lie under its cross-talk and make no centroid of their own. A "
+          "new estimate within an accepted echo's cell (2 cm, 5 degrees at "
+          "broadside, 0.15 m/s) is what its cancellation left and is "
+          "dropped, and one counts only when every emitter in the product "
+          "but one agrees. Costs about one more image and clustering per "
+          "ping with an echo",
+          DEFAULT_RESIDUAL_SEARCH, flags));
+  g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,
+      sonar_memory_param_spec (flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

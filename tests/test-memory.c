@@ -95,6 +95,25 @@ test_image_buffer_beyond_pool (void)
       "max-memory (976.6 KiB)");
 }
 
+/* velocityest's residual search holds a ping's spectra and an image of
+ * its own; without the search it holds neither. */
+static void
+test_residual_search_too_large (void)
+{
+  g_autofree char *ok = NULL;
+
+  assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank ! "
+      "mimobeamform ! wardcluster ! velocityest max-memory=1000000 ! "
+      "fakesink", "velocityest: the residual search (residual-search) on "
+      "an image of 181 azimuths x 1 elevations x 1754 ranges and 32 "
+      "microphones x 2883 band bins needs 1.9 MiB (2007944 bytes), more "
+      "than max-memory (976.6 KiB)");
+  ok = sonar_test_run_pipeline ("sonarsrc num-buffers=1 ! dopplerbank ! "
+      "mimobeamform ! wardcluster ! velocityest max-memory=1000000 "
+      "residual-search=false ! fakesink");
+  g_assert_null (ok);
+}
+
 static void
 test_recording_window_too_large (void)
 {
@@ -124,6 +143,8 @@ main (int argc, char **argv)
       test_bank_estimate_is_exact);
   g_test_add_func ("/memory/image-buffer-beyond-pool",
       test_image_buffer_beyond_pool);
+  g_test_add_func ("/memory/residual-search-too-large",
+      test_residual_search_too_large);
   g_test_add_func ("/memory/recording-window-too-large",
       test_recording_window_too_large);
   g_test_add_func ("/memory/arithmetic-saturates", test_arithmetic_saturates);

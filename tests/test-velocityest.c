@@ -280,6 +280,65 @@ test_near_far_strong_moving (void)
       " {\"range\": 2.5, \"azimuth\": 40}]}", -0.7, 0.0);
 }
 
+/* Within the pulse: a point 14 dB below a strong one (after the range
+ * compensation), 0.6 m behind it in its direction, lies under its
+ * cross-talk ridge and makes no centroid. At the defaults velocityest's
+ * residual search finds it on the ping less the strong echo, with its
+ * velocity, numbered after the ping's centroids; residual-search=false
+ * reports the strong one alone. */
+static void
+check_hidden_within_pulse (gboolean search)
+{
+  g_autofree char *scene = sonar_test_write_temp ("hidden.json",
+      "{\"dimensions\": 2, \"reflectors\": ["
+      " {\"range\": 1.0, \"azimuth\": 20, \"radial-velocity\": -0.5},"
+      " {\"range\": 1.6, \"azimuth\": 21, \"strength\": 0.2,"
+      "  \"radial-velocity\": 0.4}]}");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
+      "num-buffers=1 ! dopplerbank " NARROW_BANK " ! mimobeamform "
+      "azimuth-count=91 ! wardcluster ! velocityest residual-search=%s ! "
+      "appsink name=sink sync=false", scene, search ? "true" : "false");
+  GstSample *sample;
+  SonarTruthMeta *truth;
+  SonarDetectionsMeta *dets;
+  SonarCentroidsMeta *centroids;
+  gboolean seen[2] = { FALSE, FALSE };
+
+  run_one_ping (launch, 1, &sample);
+  truth = sample_truth (sample);
+  dets = sample_detections (sample);
+  centroids = sonar_buffer_get_centroids_meta (gst_sample_get_buffer
+      (sample));
+  g_assert_nonnull (centroids);
+  for (guint i = 0; i < dets->n_detections; i++) {
+    const SonarDetection *d = &dets->detections[i];
+    const int k = truth_of (d, truth);
+    g_test_message ("%s: %.4f m %+.2f deg, %+.4f m/s, centroid %u of %u",
+        launch, d->range, d->azimuth, d->radial_velocity, d->centroid,
+        centroids->n_centroids);
+    g_assert_true (d->valid);
+    g_assert_cmpint (k, >=, 0);
+    g_assert_false (seen[k]);
+    seen[k] = TRUE;
+    g_assert_cmpfloat (fabs (d->radial_velocity -
+            truth->truths[k].radial_velocity), <=, k == 0 ? 0.01 : 0.03);
+    if (k == 0)
+      g_assert_cmpuint (d->centroid, <, centroids->n_centroids);
+    else
+      g_assert_cmpuint (d->centroid, >=, centroids->n_centroids);
+  }
+  g_assert_true (seen[0]);
+  g_assert_true (seen[1] == search);
+  gst_sample_unref (sample);
+}
+
+static void
+test_hidden_within_pulse (void)
+{
+  check_hidden_within_pulse (TRUE);
+  check_hidden_within_pulse (FALSE);
+}
+
 /* 3-D, at mimobeamform's hemisphere defaults (2-degree grid, coarse 6):
  * an object 30 dB below a near one in the range-compensated image, far
  * below refine-db, between coarse directions (-21, 9: 3 degrees from the
@@ -1073,6 +1132,8 @@ main (int argc, char **argv)
       test_faint_far_object);
   g_test_add_func ("/velocityest/sensitivity/noise-only",
       test_noise_only_no_false_objects);
+  g_test_add_func ("/velocityest/near-far/hidden-within-pulse",
+      test_hidden_within_pulse);
   g_test_add_func ("/velocityest/near-far/strong-still",
       test_near_far_strong_still);
   g_test_add_func ("/velocityest/near-far/strong-moving",

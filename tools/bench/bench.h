@@ -30,6 +30,7 @@
 #include "sonar-imager.h"
 #include "sonar-simulator.h"
 #include "sonar-direct-path.h"
+#include "sonar-residual.h"
 #include "sonar-spectrum.h"
 #include "sonar-track.h"
 #include "sonar-velocity.h"
@@ -121,6 +122,8 @@ typedef struct
   double direct_path;
   SonarDirectPathMode direct_path_mode;
   guint direct_path_taps;
+  /* velocityest's residual-search (part of the velocity stage). */
+  gboolean residual_search;
 } Config;
 
 typedef struct
@@ -218,6 +221,7 @@ typedef struct
   SonarImager *imager;
   SonarClusterer *clusterer;
   SonarVelocityPool *workers;   /* METHOD_PROPOSED */
+  SonarResidualSearch *residual;        /* Config.residual_search */
   SonarEgoEstimator *ego;
   SonarTracker *tracker;
   SonarSigmaModel sigma;

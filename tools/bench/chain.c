@@ -339,7 +339,9 @@ fft_flops (double n)
  *               emitter: the dot product's block sums (14 per bin of the
  *               gate) and the lags read (8 per block and lag: the
  *               window's, and 8 more around its best in window_peak ()).
- *               The prescreen's evaluations read the window's lags only. */
+ *               The prescreen's evaluations read the window's lags only.
+ *               With the residual search, its image as imaging's and
+ *               its centroids as the others. */
 static void
 arithmetic_floors (const Bench * b, const Chain * ch, guint units,
     guint passes, guint centroids, double evaluations, double *floor_ms)
@@ -358,13 +360,24 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   const double lags = 2.0 * vp->window_ranges + 1;
   const double cores = g_get_num_processors ();
   const double per_core_ms = 1.0 / (b->peak_gflops * 1e6);
-  double flops[N_STAGES], focus, screen, evaluation;
+  double flops[N_STAGES], focus, screen, evaluation, residual_ms;
   SonarVelocityWork work;
 
   flops[STAGE_SPECTRA] = J * 0.5 * fft_flops (F);
   flops[STAGE_IMAGING] = units * 8.0 * (J + N) * K + passes * (42.0 * K +
       fft_flops (M) + 3.0 * R);
   flops[STAGE_CLUSTERING] = 0.0;
+  residual_ms = 0.0;
+  if (ch->residual) {
+    guint residual_units, residual_passes, estimated;
+    sonar_residual_search_last_work (ch->residual, &residual_units,
+        &residual_passes, &estimated);
+    residual_ms = (residual_units * 8.0 * (J + N) * K + residual_passes *
+        (42.0 * K + fft_flops (M) + 3.0 * R)) * per_core_ms / cores +
+        (residual_passes ? 2.0 * sonar_image_grid_size (ch->grid) *
+        sizeof (float) / (b->read_gbs * 1e6) / cores : 0.0);
+    centroids += estimated;
+  }
   sonar_velocity_pool_work (ch->workers, &work);
   focus = 8.0 * J * K + (work.gate_inverse ? fft_flops (work.gate_inverse) +
       fft_flops (work.gate_forward) : 0.0);
@@ -379,7 +392,7 @@ arithmetic_floors (const Bench * b, const Chain * ch, guint units,
   floor_ms[STAGE_CLUSTERING] = 2.0 * sonar_image_grid_size (ch->grid) *
       sizeof (float) / (b->read_gbs * 1e6) / cores;
   floor_ms[STAGE_VELOCITY] = flops[STAGE_VELOCITY] * per_core_ms /
-      MIN (cores, b->n_threads);
+      MIN (cores, b->n_threads) + residual_ms;
   /* Tracking's is a few small matrices per track: none is counted. */
   floor_ms[STAGE_TRACKING] = 0.0;
 }
@@ -393,6 +406,7 @@ chain_clear (Chain * ch)
   g_clear_pointer (&ch->direct_path, sonar_direct_path_free);
   g_clear_pointer (&ch->imager, sonar_imager_free);
   g_clear_pointer (&ch->clusterer, sonar_clusterer_free);
+  g_clear_pointer (&ch->residual, sonar_residual_search_free);
   g_clear_pointer (&ch->workers, sonar_velocity_pool_free);
   g_clear_pointer (&ch->ego, sonar_ego_estimator_free);
   g_clear_pointer (&ch->tracker, sonar_tracker_free);
@@ -487,6 +501,12 @@ chain_init (Chain * ch, Bench * b, const Config * c, Result * r,
         b->n_threads, error);
     if (!ch->workers)
       return FALSE;
+    if (c->residual_search) {
+      ch->residual = sonar_residual_search_new (b->setup, ch->band, bank,
+          ch->grid, ch->n_emitters, error);
+      if (!ch->residual)
+        return FALSE;
+    }
   }
   r->mb[STAGE_VELOCITY] = heap_mb () - heap;
 
@@ -611,6 +631,27 @@ cube_curve_velocity (Chain * ch)
   return v;
 }
 
+/* The valid estimates of @n centroids (2 per centroid, @counts each) as
+ * detections, and their bank evaluations. */
+static void
+add_detections (Chain * ch, guint n, const SonarVelocityEstimate * results,
+    const guint * counts)
+{
+  for (guint k = 0; k < n; k++) {
+    const SonarVelocityEstimate *e = &results[2 * k];
+
+    ch->evaluated_velocities += e[0].evaluated_velocities;
+    for (guint i = 0; i < counts[k]; i++) {
+      if (!e[i].valid || ch->n_detections == G_N_ELEMENTS (ch->positions))
+        continue;
+      ch->positions[ch->n_detections] = sonar_vec3_scale
+          (sonar_vec3_from_direction (e[i].echo_azimuth,
+              e[i].echo_elevation), e[i].echo_range);
+      ch->velocities[ch->n_detections++] = e[i].radial_velocity;
+    }
+  }
+}
+
 /* The ping's detections: the estimator's valid ones, or every datacube
  * centroid at its curve's peak (the datacube has no false-positive test). */
 static void
@@ -631,18 +672,15 @@ chain_velocity (Chain * ch, guint n_centroids)
   sonar_velocity_pool_estimate (ch->workers, ch->spectra, ch->centroids,
       n_centroids, ch->results, ch->counts);
   ch->evaluated_velocities = 0;
-  for (guint k = 0; k < n_centroids; k++) {
-    const SonarVelocityEstimate *e = &ch->results[2 * k];
-
-    ch->evaluated_velocities += e[0].evaluated_velocities;
-    for (guint i = 0; i < ch->counts[k]; i++) {
-      if (!e[i].valid)
-        continue;
-      ch->positions[ch->n_detections] = sonar_vec3_scale
-          (sonar_vec3_from_direction (e[i].echo_azimuth,
-              e[i].echo_elevation), e[i].echo_range);
-      ch->velocities[ch->n_detections++] = e[i].radial_velocity;
-    }
+  add_detections (ch, n_centroids, ch->results, ch->counts);
+  if (ch->residual) {
+    const SonarCentroid *found;
+    const SonarVelocityEstimate *results;
+    const guint *counts;
+    const guint n = sonar_residual_search_process (ch->residual,
+        ch->workers, n_centroids, ch->results, ch->counts, &found, &results,
+        &counts);
+    add_detections (ch, n, results, counts);
   }
 }
 

@@ -57,6 +57,7 @@ config_init (Config * c, BenchScene * scene)
   c->direct_path = 0.0;
   c->direct_path_mode = SONAR_DIRECT_PATH_AUTO;
   c->direct_path_taps = SONAR_DIRECT_PATH_TAPS;
+  c->residual_search = TRUE;
 }
 
 /* Everything that makes a run: equal keys, equal results. */
@@ -70,7 +71,7 @@ config_key (const Config * c)
   return g_strdup_printf ("%s %u %d %d | %.17g %.17g %.17g %d %.17g | "
       "%.17g %.17g %u %.17g %.17g %u %.17g %.17g %.17g %u %.17g %.17g %.17g %.17g %.17g | %d "
       "%.17g %.17g "
-      "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u | %.17g %d %u",
+      "%d %d %.17g %u %.17g %u | %u %u %d %.17g %u %.17g %.17g %u | %.17g %d %u %d",
       c->scene->name, c->n_pings, c->method, c->measure_curves, c->v_min,
       c->v_max, c->v_step, c->template_interp, c->hypothesis_spacing,
       i->azimuth_min, i->azimuth_max, i->n_azimuth, i->elevation_min,
@@ -81,7 +82,8 @@ config_key (const Config * c)
       k->inconsistency, k->depth, k->distance, k->max_peaks,
       v->window_directions, v->window_ranges, v->refine, v->min_variance,
       v->min_agreeing_emitters, v->min_coherence, v->second_peak_db,
-      v->emitters, c->direct_path, c->direct_path_mode, c->direct_path_taps);
+      v->emitters, c->direct_path, c->direct_path_mode, c->direct_path_taps,
+      c->residual_search);
 }
 
 void
@@ -345,6 +347,21 @@ apply_direct_path (Config * c, guint i, char *label, gsize size)
       taps[i] == SONAR_DIRECT_PATH_TAPS ? "" : taps[i] == 16 ? " 16" : " 41");
 }
 
+/* velocityest's residual search on and off, on the presets and the
+ * random scenes of 20 and 50 reflectors. */
+static void
+apply_residual_search (Config * c, guint i, char *label, gsize size)
+{
+  static const guint scene_of[] = { SCENE_FIG10, SCENE_FIG9, SCENE_CROSSING,
+    SCENE_RANDOM_FIRST + 3, SCENE_RANDOM_FIRST + 4
+  };
+
+  config_init (c, &scenes[scene_of[i / 2]]);
+  c->residual_search = i % 2 == 0;
+  g_snprintf (label, size, "%s %s", c->scene->name,
+      c->residual_search ? "on" : "off");
+}
+
 const Sweep sweeps[] = {
   {"baseline", SCENE_FIG10, SCENE_CROSSING + 1, apply_baseline},
   {"linkage", SCENE_FIG10, SONAR_LINKAGE_CENTROID + 1, apply_linkage},
@@ -365,6 +382,7 @@ const Sweep sweeps[] = {
   {"coarse-spacing", SCENE_FIG10, 5, apply_coarse_spacing},
   {"refine-db", SCENE_FIG10, 4, apply_refine_db},
   {"direct-path", SCENE_FIG10, 9, apply_direct_path},
+  {"residual-search", SCENE_FIG10, 10, apply_residual_search},
   {"refine-pfa", SCENE_FIG9, 4, apply_refine_pfa},
   {"coarse-band", SCENE_FIG9, 5, apply_coarse_band},
   {"coarse-band-pfa", SCENE_FIG9, 3, apply_coarse_band_pfa},

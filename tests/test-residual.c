@@ -1,0 +1,264 @@
+/* test-residual.c: the residual search (sonar-residual.h) through the
+ * core: an echo hidden within a stronger one's pulse, found on the ping
+ * less the accepted echoes; a ping with nothing accepted costs nothing;
+ * the imager makes a grid again from the grid alone. */
+#include <math.h>
+
+#include "sonar-cluster.h"
+#include "sonar-imager.h"
+#include "sonar-residual.h"
+#include "sonar-test-util.h"
+#include "sonar-velocity.h"
+
+#define NOISE 0.01
+#define MATCH_DISTANCE 0.05
+#define MAX_CENTROIDS 1024
+
+typedef struct
+{
+  SonarTestChain chain;
+  SonarImager *imager;
+  const SonarImageGrid *grid;
+  guint n_hypotheses;
+  SonarHypothesis *hypotheses;
+  SonarClusterer *clusterer;
+  SonarVelocityPool *pool;
+  SonarResidualSearch *search;
+  float *image;
+  SonarCentroid centroids[MAX_CENTROIDS];
+  SonarVelocityEstimate results[2 * MAX_CENTROIDS];
+  guint counts[MAX_CENTROIDS];
+  guint n_centroids;
+} Fixture;
+
+/* The elements' defaults on a -1.5..1.5 m/s bank. */
+static void
+fixture_init (Fixture * f)
+{
+  g_autoptr (GError) error = NULL;
+  g_autofree guint *indices = NULL;
+  SonarImagerParams ip;
+  SonarClusterParams cp;
+  SonarVelocityParams vp;
+
+  sonar_test_chain_init_with_bank (&f->chain, -1.5, 1.5, 0.05);
+  sonar_imager_params_init_default (&ip);
+  f->imager = sonar_imager_new (f->chain.setup, &f->chain.band, &ip,
+      &error);
+  g_assert_no_error (error);
+  f->grid = sonar_imager_grid (f->imager);
+  indices = g_new (guint, sonar_doppler_bank_n_velocities (f->chain.bank) +
+      2);
+  f->n_hypotheses = sonar_doppler_bank_hypotheses (f->chain.bank,
+      SONAR_IMAGER_HYPOTHESIS_SPACING, indices);
+  f->hypotheses = g_new (SonarHypothesis, f->n_hypotheses);
+  for (guint h = 0; h < f->n_hypotheses; h++)
+    f->hypotheses[h] = sonar_doppler_bank_hypothesis (f->chain.bank,
+        indices[h]);
+  sonar_cluster_params_init_default (&cp);
+  cp.hypotheses = f->n_hypotheses;
+  f->clusterer = sonar_clusterer_new (f->grid, &cp, &error);
+  g_assert_no_error (error);
+  sonar_velocity_params_init_default (&vp);
+  f->pool = sonar_velocity_pool_new (f->chain.bank, f->grid, &vp, 0, &error);
+  g_assert_no_error (error);
+  f->search = sonar_residual_search_new (f->chain.setup, &f->chain.band,
+      f->chain.bank, f->grid, f->chain.setup->geometry.n_emitters, &error);
+  g_assert_no_error (error);
+  f->image = g_new (float, sonar_image_grid_size (f->grid));
+}
+
+static void
+fixture_clear (Fixture * f)
+{
+  g_free (f->image);
+  sonar_residual_search_free (f->search);
+  sonar_velocity_pool_free (f->pool);
+  sonar_clusterer_free (f->clusterer);
+  g_free (f->hypotheses);
+  sonar_imager_free (f->imager);
+  sonar_test_chain_clear (&f->chain);
+}
+
+/* The ping of @json through the image, the clusters and the estimates, as
+ * the elements make them before the search. */
+static void
+first_estimates (Fixture * f, const char *json)
+{
+  sonar_test_chain_simulate (&f->chain, json, NOISE);
+  sonar_imager_process (f->imager, f->chain.mic_spectra, f->n_hypotheses,
+      f->hypotheses, -1, f->image);
+  f->n_centroids = sonar_clusterer_process (f->clusterer, f->image,
+      f->centroids, MAX_CENTROIDS);
+  sonar_velocity_pool_estimate (f->pool, f->chain.mic_spectra, f->centroids,
+      f->n_centroids, f->results, f->counts);
+}
+
+static SonarVec3
+position_of (const SonarVelocityEstimate * e)
+{
+  return sonar_vec3_scale (sonar_vec3_from_direction (e->echo_azimuth,
+          e->echo_elevation), e->echo_range);
+}
+
+/* The valid estimates of @n centroids within MATCH_DISTANCE of @where:
+ * their number, the last in *@match. */
+static guint
+valid_near (const SonarVelocityEstimate * results, const guint * counts,
+    guint n, SonarVec3 where, const SonarVelocityEstimate ** match)
+{
+  guint found = 0;
+
+  for (guint k = 0; k < n; k++)
+    for (guint i = 0; i < counts[k]; i++) {
+      const SonarVelocityEstimate *e = &results[2 * k + i];
+      if (e->valid && sonar_vec3_norm (sonar_vec3_sub (position_of (e),
+                  where)) < MATCH_DISTANCE) {
+        found++;
+        *match = e;
+      }
+    }
+  return found;
+}
+
+static guint
+count_valid (const SonarVelocityEstimate * results, const guint * counts,
+    guint n)
+{
+  guint valid = 0;
+
+  for (guint k = 0; k < n; k++)
+    for (guint i = 0; i < counts[k]; i++)
+      valid += results[2 * k + i].valid;
+  return valid;
+}
+
+/* Where @range m and @azimuth degrees (in the fan) are. */
+static SonarVec3
+point (double range, double azimuth)
+{
+  return sonar_vec3_scale (sonar_vec3_from_direction (azimuth, 0.0), range);
+}
+
+/* A point 14 dB below a strong one (strength 0.2 against 1 at 1.0 and 1.6
+ * m: equal after the range compensation, less 14 dB), 0.6 m behind it in
+ * its direction: within its pulse (1.5 m), under its cross-talk ridge. The
+ * first estimates see the strong one alone; the search finds the other,
+ * its velocity within 0.03 m/s (an echo accepted on a residual carries
+ * the cancelled model's errors), and nothing at the strong one's own
+ * cell (what its cancellation left). */
+static void
+test_hidden_within_pulse (void)
+{
+  Fixture f;
+  const SonarCentroid *found;
+  const SonarVelocityEstimate *results, *e = NULL;
+  const guint *counts;
+  guint n, units, passes, estimated;
+
+  fixture_init (&f);
+  first_estimates (&f, "{\"dimensions\": 2, \"reflectors\": ["
+      "{\"range\": 1.0, \"azimuth\": 20, \"strength\": 1,"
+      " \"radial-velocity\": -0.5},"
+      "{\"range\": 1.6, \"azimuth\": 21, \"strength\": 0.2,"
+      " \"radial-velocity\": 0.4}]}");
+  g_assert_cmpuint (count_valid (f.results, f.counts, f.n_centroids), ==, 1);
+  g_assert_cmpuint (valid_near (f.results, f.counts, f.n_centroids,
+          point (1.0, 20.0), &e), ==, 1);
+  g_assert_cmpfloat (fabs (e->radial_velocity + 0.5), <, 0.01);
+  g_assert_cmpuint (valid_near (f.results, f.counts, f.n_centroids,
+          point (1.6, 21.0), &e), ==, 0);
+
+  n = sonar_residual_search_process (f.search, f.pool, f.n_centroids,
+      f.results, f.counts, &found, &results, &counts);
+  sonar_residual_search_last_work (f.search, &units, &passes, &estimated);
+  g_test_message ("residual: %u centroids estimated, %u units, %u passes",
+      estimated, units, passes);
+  g_assert_cmpuint (n, ==, estimated);
+  g_assert_cmpuint (units, >, 0);
+  g_assert_cmpuint (count_valid (results, counts, n), ==, 1);
+  g_assert_cmpuint (valid_near (results, counts, n, point (1.6, 21.0), &e),
+      ==, 1);
+  g_test_message ("hidden echo: %.4f m, %.2f deg, %+.4f m/s",
+      e->echo_range, e->echo_azimuth, e->radial_velocity);
+  g_assert_cmpfloat (fabs (e->radial_velocity - 0.4), <, 0.03);
+  fixture_clear (&f);
+}
+
+/* Noise alone: nothing accepted, so nothing is imaged again. */
+static void
+test_nothing_accepted (void)
+{
+  Fixture f;
+  const SonarCentroid *found;
+  const SonarVelocityEstimate *results;
+  const guint *counts;
+  guint units, passes, estimated;
+
+  fixture_init (&f);
+  first_estimates (&f, "{\"dimensions\": 2, \"reflectors\": []}");
+  g_assert_cmpuint (count_valid (f.results, f.counts, f.n_centroids), ==, 0);
+  g_assert_cmpuint (sonar_residual_search_process (f.search, f.pool,
+          f.n_centroids, f.results, f.counts, &found, &results, &counts), ==,
+      0);
+  sonar_residual_search_last_work (f.search, &units, &passes, &estimated);
+  g_assert_cmpuint (units, ==, 0);
+  g_assert_cmpuint (passes, ==, 0);
+  g_assert_cmpuint (estimated, ==, 0);
+  fixture_clear (&f);
+}
+
+/* sonar_imager_params_set_grid (): the grid alone makes the same grid
+ * again, on the fan, the hemisphere and a narrow fan of odd range
+ * settings (what mimobeamform's properties may give). */
+static void
+test_grid_round_trip (void)
+{
+  SonarTestChain chain;
+  SonarImagerParams params[3];
+
+  sonar_test_chain_init (&chain, 4000);
+  sonar_imager_params_init_default (&params[0]);
+  sonar_imager_params_init_default (&params[1]);
+  sonar_imager_params_set_view (&params[1], SONAR_FIELD_OF_VIEW_HEMISPHERE);
+  sonar_imager_params_init_default (&params[2]);
+  params[2].azimuth_min = -61.3;
+  params[2].azimuth_max = 47.9;
+  params[2].n_azimuth = 37;
+  params[2].range_min = 0.4567;
+  params[2].range_max = 3.21;
+  params[2].range_resolution = 0.0031;
+  for (guint i = 0; i < G_N_ELEMENTS (params); i++) {
+    g_autoptr (GError) error = NULL;
+    g_autoptr (SonarImager) a = sonar_imager_new (chain.setup, &chain.band,
+        &params[i], &error);
+    g_autoptr (SonarImager) b = NULL;
+    SonarImagerParams again;
+    const SonarImageGrid *ga, *gb;
+
+    g_assert_no_error (error);
+    ga = sonar_imager_grid (a);
+    sonar_imager_params_init_default (&again);
+    sonar_imager_params_set_grid (&again, ga);
+    b = sonar_imager_new (chain.setup, &chain.band, &again, &error);
+    g_assert_no_error (error);
+    gb = sonar_imager_grid (b);
+    g_assert_true (sonar_image_grid_equal (ga, gb));
+    g_assert_cmpuint (ga->n_range, ==, gb->n_range);
+    g_assert_cmpuint (ga->n_azimuth, ==, gb->n_azimuth);
+    g_assert_cmpuint (ga->n_elevation, ==, gb->n_elevation);
+    g_assert_cmpfloat (fabs (ga->range_first - gb->range_first), <, 1e-12);
+    g_assert_cmpfloat (fabs (ga->range_step - gb->range_step), <, 1e-15);
+  }
+  sonar_test_chain_clear (&chain);
+}
+
+int
+main (int argc, char **argv)
+{
+  g_test_init (&argc, &argv, NULL);
+  g_test_add_func ("/residual/hidden-within-pulse", test_hidden_within_pulse);
+  g_test_add_func ("/residual/nothing-accepted", test_nothing_accepted);
+  g_test_add_func ("/residual/grid-round-trip", test_grid_round_trip);
+  return g_test_run ();
+}

@@ -1,5 +1,6 @@
 /* test-steady-state.c: once a stream's stages are made, a ping through the
- * DSP core (spectra, image, centroids, velocities) allocates nothing on
+ * DSP core (spectra, image, centroids, velocities, the residual search)
+ * allocates nothing on
  * the heap: every allocation in the process is counted while pings run.
  *
  * The counter replaces malloc and its relatives in this program, which
@@ -15,6 +16,7 @@
 #include "sonar-cluster.h"
 #include "sonar-direct-path.h"
 #include "sonar-imager.h"
+#include "sonar-residual.h"
 #include "sonar-simulator.h"
 #include "sonar-velocity.h"
 
@@ -123,6 +125,7 @@ check_ping_allocates_nothing (double coarse_band, double direct_path)
   g_autoptr (SonarImager) imager = NULL;
   g_autoptr (SonarClusterer) clusterer = NULL;
   g_autoptr (SonarVelocityPool) pool = NULL;
+  g_autoptr (SonarResidualSearch) search = NULL;
   g_autoptr (SonarChannelSpectra) analyzer = NULL;
   g_autoptr (SonarDirectPath) direct = NULL;
   g_autofree float *interleaved = NULL;
@@ -156,6 +159,9 @@ check_ping_allocates_nothing (double coarse_band, double direct_path)
   sonar_velocity_params_init_default (&vp);
   pool = sonar_velocity_pool_new (chain.bank, sonar_imager_grid (imager), &vp,
       2, &error);
+  g_assert_no_error (error);
+  search = sonar_residual_search_new (chain.setup, &chain.band, chain.bank,
+      sonar_imager_grid (imager), chain.setup->geometry.n_emitters, &error);
   g_assert_no_error (error);
   image = g_new (float, sonar_image_grid_size (sonar_imager_grid (imager)));
   sonar_test_chain_simulate (&chain, scene_json, 0.01);
@@ -198,7 +204,10 @@ check_ping_allocates_nothing (double coarse_band, double direct_path)
   /* Ping 0 warms up (grows what grows with the first call's sizes); the
    * next pings are steady state. */
   for (guint ping = 0; ping < 3; ping++) {
-    guint n_centroids, found = 0;
+    guint n_centroids, found = 0, units, passes, estimated;
+    const SonarCentroid *more;
+    const SonarVelocityEstimate *more_results;
+    const guint *more_counts;
 
     g_atomic_int_set (&allocations, 0);
     g_atomic_int_set (&counting, ping > 0);
@@ -212,7 +221,12 @@ check_ping_allocates_nothing (double coarse_band, double direct_path)
         MAX_CENTROIDS);
     sonar_velocity_pool_estimate (pool, chain.mic_spectra, centroids,
         n_centroids, results, counts);
+    sonar_residual_search_process (search, pool, n_centroids, results,
+        counts, &more, &more_results, &more_counts);
     g_atomic_int_set (&counting, 0);
+    /* The search imaged the ping less its three echoes. */
+    sonar_residual_search_last_work (search, &units, &passes, &estimated);
+    g_assert_cmpuint (units, >, 0);
     for (guint k = 0; k < n_centroids; k++)
       for (guint i = 0; i < counts[k]; i++)
         found += results[2 * k + i].valid;

@@ -172,14 +172,16 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
     return NULL;
   }
   if (residual_search) {
+    /* An energyscape whose grid the search cannot image again loses the
+     * search, not the stream. */
+    g_autoptr (GError) why = NULL;
     self->residual = sonar_residual_search_new (setup, band,
         gst_sonar_filter_get_bank (filter), &self->grid, self->n_emitters,
-        error);
-    if (!self->residual) {
-      g_clear_pointer (&self->pool, sonar_velocity_pool_free);
-      g_clear_pointer (&self->noise, sonar_noise_meter_free);
-      return NULL;
-    }
+        &why);
+    if (!self->residual)
+      GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("velocityest: %s: "
+              "residual-search is off for this stream", why->message),
+          (NULL));
   }
   return gst_caps_from_string (SONAR_DETECTIONS_CAPS);
 }

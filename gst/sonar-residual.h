@@ -4,8 +4,9 @@
  * Within a pulse length (c T / 2, 1.5 m) of a strong echo, its cross-talk
  * through the other emitters' templates covers the image with a
  * noise-like ridge about 20 dB below it, at every direction its
- * sidelobes reach (physics notes; README, near-far: the dynamic range
- * within the pulse is 10 dB). An echo 10-30 dB weaker there makes no
+ * sidelobes reach (physics notes; README, near-far: the image alone
+ * keeps a dynamic range of 10 dB within the pulse, this search 20 dB).
+ * An echo 10-30 dB weaker there makes no
  * peak of its own, whatever wardcluster's thresholds: on 48 foreign
  * scenes of 6 objects over 30 dB, 12 of 288 objects had no centroid, and
  * each was found on a recording of the missed objects alone.
@@ -18,7 +19,9 @@
  * the ping's own grid, clusters it as wardcluster does at its defaults,
  * and estimates at each centroid that is not an accepted echo's residue
  * (below), with every test of the first estimates (and their successive
- * cancellation among themselves).
+ * cancellation among themselves), each estimate then judged as the
+ * cancellation rounds judge theirs on a residual: one echo, or two
+ * (sonar_velocity_pool_estimate_residual ()).
  *
  * A model leaves a little of its echo: a residue at the echo's range and
  * velocity, as two lobes 1.5-2.2 degrees either side of its direction (a

@@ -14,8 +14,9 @@ G_BEGIN_DECLS
 
 /* The max-memory property (bytes, default SONAR_DEFAULT_MAX_MEMORY) of the
  * elements that allocate by sizes their settings give: dopplerbank (the
- * bank and its spectra), mimobeamform (the images), sonarsrc (the
- * recording window); docs/CONTRACTS.md, section 11. */
+ * bank and its spectra), mimobeamform (the images), velocityest (the
+ * residual search's spectra and image), sonarsrc (the recording window);
+ * docs/CONTRACTS.md, section 11. */
 GParamSpec *sonar_memory_param_spec (GParamFlags flags);
 
 /* @count elements of @size bytes, and sums of such, saturating at

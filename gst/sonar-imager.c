@@ -258,6 +258,7 @@ sonar_imager_params_init_default (SonarImagerParams * p)
   p->range_max = 0.0;
   p->range_resolution = 0.005;
   p->focus_zones = 4;
+  p->coarse_lobes = 0.0;
   p->refine_db = 20.0;
   p->refine_pfa = DEFAULT_REFINE_PFA;
   p->coarse_band = 1.0;
@@ -288,6 +289,12 @@ sonar_imager_params_set_view (SonarImagerParams * p, SonarFieldOfView view)
      * every object of Fig. 9 and 10 with the dense image's errors. */
     p->coarse_spacing = 3.0;
   }
+}
+
+void
+sonar_imager_params_fit_beam (SonarImagerParams * p, SonarFieldOfView view)
+{
+  p->coarse_lobes = view == SONAR_FIELD_OF_VIEW_HEMISPHERE ? 2.0 : 1.0;
 }
 
 void
@@ -375,6 +382,8 @@ validate_params (const SonarImagerParams * p, double range_max,
     problem = "focus zones must be 1 to 64";
   else if (!(p->coarse_spacing >= 0.0 && p->coarse_spacing <= 90.0))
     problem = "the coarse spacing must be 0 to 90 degrees";
+  else if (!(p->coarse_lobes >= 0.0 && p->coarse_lobes <= 30.0))
+    problem = "the coarse spacing must be 0 to 30 main lobes";
   else if (!(p->coarse_band > 0.0 && p->coarse_band <= 1.0))
     problem = "the coarse band must be in (0, 1]";
   else if (!(p->coarse_pfa > 0.0 && p->coarse_pfa < 1.0))
@@ -456,6 +465,26 @@ static void coarse_corners (const SonarImager * im, guint d,
  * points; 2 for 961, 1536 points); the coarse hypotheses every sub_step-th, sub_step
  * the band's top frequency over the sub-band's (a stretch mismatch turns
  * the phase of the highest frequencies fastest: 80 / 30 kHz, 3). */
+/* Degrees of @p's coarse_lobes main lobes of the array's beam, the
+ * narrowest along the grid's axes of more than one direction (90: a
+ * grid of one direction, which has no coarse pass). */
+static double
+coarse_lobes_spacing (const SonarImager * im, const SonarImagerParams * p)
+{
+  /* Wider than any array's main lobe a grid is set for: the search for
+   * the 6 dB point starts there. */
+  const double widest = 30.0;
+  double width = widest;
+
+  if (p->n_azimuth > 1)
+    width = MIN (width, sonar_scaled_transmit_lobe_width (im->transmit,
+            FALSE, widest));
+  if (p->n_elevation > 1)
+    width = MIN (width, sonar_scaled_transmit_lobe_width (im->transmit,
+            TRUE, widest));
+  return MIN (p->coarse_lobes * width, 90.0);
+}
+
 static void
 init_sub (SonarImager * im, double coarse_band)
 {
@@ -503,7 +532,7 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   const double range_max = sonar_imager_range_max (setup, p->range_max);
   SonarImager *im;
   SonarImageGrid *grid;
-  double lag_range, period_range;
+  double lag_range, period_range, spacing;
   guint min_ifft;
 
   if (!validate_params (p, range_max, error))
@@ -548,10 +577,12 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
 
   /* The coarse grid is every k-th direction, k steps nearest the
    * spacing; 1 (no coarse pass) on grids as coarse as it. */
+  spacing = p->coarse_lobes > 0.0 ? coarse_lobes_spacing (im, p) :
+      p->coarse_spacing;
   im->coarse_azimuth = grid->azimuth_step > 0.0 ? (guint) CLAMP (round
-      (p->coarse_spacing / grid->azimuth_step), 1, 64) : 1;
+      (spacing / grid->azimuth_step), 1, 64) : 1;
   im->coarse_elevation = grid->elevation_step > 0.0 ? (guint) CLAMP (round
-      (p->coarse_spacing / grid->elevation_step), 1, 64) : 1;
+      (spacing / grid->elevation_step), 1, 64) : 1;
   init_zones (im, p, range_max);
   im->refine_ratio = (float) pow (10.0, -p->refine_db / 20.0);
   im->refine_pfa = p->refine_pfa;

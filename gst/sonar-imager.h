@@ -52,6 +52,11 @@ typedef struct
   guint focus_zones;            /* >= 1 */
   double coarse_spacing;        /* degrees; 0 or less than 1.5 grid steps:
                                  * every direction in full */
+  /* > 0: the coarse spacing is this many main lobes of the array's beam
+   * (sonar_scaled_transmit_lobe_width (), the narrowest along the grid's
+   * axes) instead of coarse_spacing: the array sets it, not a number of
+   * degrees (sonar_imager_params_fit_beam ()). 0: coarse_spacing. */
+  double coarse_lobes;
   double refine_db;             /* > 0: level below the coarse maximum (r^2
                                  * weighted) that is imaged in full */
   /* [0, 1): also imaged in full around a coarse direction where one of
@@ -98,6 +103,19 @@ void sonar_imager_params_init_default (SonarImagerParams * params);
  * above; the hemisphere, -90..90 degrees in azimuth and elevation every 2
  * degrees (91 x 91), coarse spacing 6 degrees. */
 void sonar_imager_params_set_view (SonarImagerParams * params,
+    SonarFieldOfView view);
+
+/* The coarse spacing of @view's default, in main lobes of the array's
+ * beam (SonarImagerParams.coarse_lobes): one for the fan (a point
+ * halfway between coarse directions 6 dB down), two for the hemisphere
+ * (its refine level covers the loss: sonar_imager_params_set_view ()'s
+ * comments). On the eRTIS array they are the set_view ()'s 3 and 6
+ * degrees; on an array twice as wide, half of them: a coarse grid of
+ * fixed degrees would lose 20 dB between its directions there, and miss
+ * echoes (a 19 x 10 cm array, tools/foreign-scenes.py: 70 of 72 objects
+ * and a false one, against 71 and none at half the spacing). mimobeamform
+ * and the residual search image so unless coarse-spacing is set. */
+void sonar_imager_params_fit_beam (SonarImagerParams * params,
     SonarFieldOfView view);
 
 /* mimobeamform's default hypothesis-spacing (m/s): the Doppler hypotheses

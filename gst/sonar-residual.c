@@ -53,6 +53,7 @@ sonar_residual_search_new (SonarSetup * setup, const SonarBand * band,
 
   sonar_imager_params_init_default (&imaging);
   sonar_imager_params_set_view (&imaging, setup->field_of_view);
+  sonar_imager_params_fit_beam (&imaging, setup->field_of_view);
   sonar_imager_params_set_grid (&imaging, grid);
   imaging.refine_db = REFINE_DB;
   s->imager = sonar_imager_new (setup, band, &imaging, error);

@@ -415,3 +415,11 @@ sonar_scaled_transmit_step_factor (const SonarScaledTransmit * t,
   }
   return lo;
 }
+
+double
+sonar_scaled_transmit_lobe_width (const SonarScaledTransmit * t,
+    gboolean elevation, double at_most)
+{
+  return at_most * sonar_scaled_transmit_step_factor (t, elevation ? 0.0 :
+      at_most, elevation ? at_most : 0.0, 6.0);
+}

@@ -208,6 +208,14 @@ double sonar_scaled_transmit_sampling_loss (const SonarScaledTransmit *
 double sonar_scaled_transmit_step_factor (const SonarScaledTransmit *
     transmit, double azimuth_step, double elevation_step, double loss_db);
 
+/* The width of the MIMO beam's main lobe along azimuth (or, when
+ * @elevation, along elevation), degrees: the step of a grid along that
+ * axis whose point halfway between two directions loses 6 dB at
+ * boresight (sonar_scaled_transmit_sampling_loss ()). The default eRTIS
+ * sensor: 3.03 degrees along azimuth. At most @at_most. */
+double sonar_scaled_transmit_lobe_width (const SonarScaledTransmit *
+    transmit, gboolean elevation, double at_most);
+
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarScaledTransmit, sonar_scaled_transmit_free)
 
 G_END_DECLS

@@ -618,6 +618,119 @@ test_threads (void)
   sonar_test_chain_clear (&c);
 }
 
+/* The coarse spacing in main lobes of the array's beam
+ * (sonar_imager_params_fit_beam ()): on the eRTIS array the views'
+ * degrees, 3 for the fan and 6 for a 3-D grid, the same image bit for
+ * bit; on an array twice as large (a 1.5 degree lobe) every other
+ * direction of the fan is coarse, not every third: 91 coarse units on
+ * noise, not 61. */
+static void
+test_coarse_lobes (void)
+{
+  const char *scene = "{\"reflectors\": [{\"range\": 1.8, \"azimuth\": "
+      "-30, \"elevation\": -30, \"radial-velocity\": 0.4}]}";
+  guint hypotheses[64], n_hypotheses, units[2], dense_units, passes,
+      dense_passes;
+
+  for (guint view = 0; view < 2; view++) {
+    Chain c;
+    g_autoptr (SonarDopplerBank) bank = NULL;
+    const SonarImageGrid *grid;
+    SonarImagerParams p;
+    float *image[2];
+    SonarImager *imager[2];
+
+    sonar_test_chain_init (&c, 4200);
+    bank = sonar_doppler_bank_new (c.setup, -1.0, 1.0, 0.05, NULL);
+    n_hypotheses = sonar_doppler_bank_hypotheses (bank, 0.3, hypotheses);
+    sonar_test_chain_simulate (&c, scene, 0.01);
+    if (view) {
+      small_3d_grid (&p);
+      p.coarse_spacing = 6.0;
+    } else
+      sonar_imager_params_init_default (&p);
+    for (guint k = 0; k < 2; k++) {
+      if (k)
+        sonar_imager_params_fit_beam (&p, view ?
+            SONAR_FIELD_OF_VIEW_HEMISPHERE : SONAR_FIELD_OF_VIEW_FAN);
+      image[k] = chain_image (&c, bank, hypotheses, n_hypotheses, -1, &p,
+          &grid, &imager[k]);
+      sonar_imager_last_work (imager[k], &units[k], &dense_units, &passes,
+          &dense_passes);
+    }
+    g_test_message ("%s: %u and %u units, degrees and lobes", view ? "3-D" :
+        "fan", units[0], units[1]);
+    g_assert_cmpuint (units[0], <, dense_units);
+    g_assert_cmpuint (units[1], ==, units[0]);
+    g_assert_cmpmem (image[1], sonar_image_grid_size (grid) * sizeof (float),
+        image[0], sonar_image_grid_size (grid) * sizeof (float));
+    for (guint k = 0; k < 2; k++) {
+      g_free (image[k]);
+      sonar_imager_free (imager[k]);
+    }
+    sonar_test_chain_clear (&c);
+  }
+
+  {
+    SonarGeometry g;
+    g_autoptr (SonarSetup) wide = NULL;
+    SonarBand band;
+    SonarImagerParams p;
+    SonarImager *imager;
+    g_autoptr (SonarDopplerBank) bank = NULL;
+    SonarHypothesis still;
+    SonarComplex *noise;
+    float *image;
+
+    sonar_geometry_init_default (&g);
+    for (guint j = 0; j < g.n_microphones; j++)
+      g.microphones[j] = sonar_vec3_scale (g.microphones[j], 2.0);
+    for (guint n = 0; n < g.n_emitters; n++)
+      g.emitters[n] = sonar_vec3_scale (g.emitters[n], 2.0);
+    wide = sonar_test_setup_new (&g, 17500);
+    sonar_geometry_clear (&g);
+    bank = sonar_doppler_bank_new (wide, 0.0, 0.0, 0.05, NULL);
+    sonar_band_init (&band, wide->sample_rate, wide->ping_length +
+        sonar_doppler_bank_max_length (bank), wide->band_low,
+        wide->band_high);
+    sonar_doppler_bank_prepare_band (bank, &band);
+    still = sonar_doppler_bank_hypothesis (bank, 0);
+    noise = g_new (SonarComplex, (gsize) wide->geometry.n_microphones *
+        band.n_bins);
+    {
+      g_autoptr (GRand) rand = g_rand_new_with_seed (7);
+      for (gsize i = 0; i < (gsize) wide->geometry.n_microphones *
+          band.n_bins; i++)
+        noise[i] = CMPLXF (g_rand_double (rand) - 0.5,
+            g_rand_double (rand) - 0.5);
+    }
+    /* Refined around the maximum alone: the coarse units and a few. */
+    sonar_imager_params_init_default (&p);
+    p.refine_db = 0.1;
+    p.refine_pfa = 0.0;
+    for (guint k = 0; k < 2; k++) {
+      if (k)
+        sonar_imager_params_fit_beam (&p, SONAR_FIELD_OF_VIEW_FAN);
+      imager = sonar_imager_new (wide, &band, &p, NULL);
+      g_assert_nonnull (imager);
+      image = g_new (float, sonar_image_grid_size (sonar_imager_grid
+              (imager)));
+      sonar_imager_process (imager, noise, 1, &still, -1, image);
+      sonar_imager_last_work (imager, &units[k], &dense_units, &passes,
+          &dense_passes);
+      g_free (image);
+      sonar_imager_free (imager);
+    }
+    g_test_message ("twice as large, noise: %u and %u units, degrees and "
+        "lobes", units[0], units[1]);
+    g_assert_cmpuint (units[0], >=, 61);
+    g_assert_cmpuint (units[0], <, 61 + 12);
+    g_assert_cmpuint (units[1], >=, 91);
+    g_assert_cmpuint (units[1], <, 91 + 12);
+    g_free (noise);
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -634,5 +747,6 @@ main (int argc, char **argv)
       test_coarse_to_fine_faint_mover);
   g_test_add_func ("/imaging/coarse-band", test_coarse_band);
   g_test_add_func ("/imaging/threads", test_threads);
+  g_test_add_func ("/imaging/coarse-lobes", test_coarse_lobes);
   return g_test_run ();
 }

@@ -547,6 +547,53 @@ test_sampling_loss (void)
   transmit_fixture_clear (&fixture);
 }
 
+/* The main lobe's width (sonar_scaled_transmit_lobe_width ()): on the
+ * eRTIS array 3.0-3.1 degrees along azimuth, where a grid of that step
+ * loses 6 dB, and wider along elevation (the array is 8 cm wide, 4 cm
+ * high); on the same array twice as large, half as wide (the main lobe
+ * narrows as the aperture grows). */
+static void
+test_lobe_width (void)
+{
+  double width[2][2];
+
+  for (guint scale = 0; scale < 2; scale++) {
+    SonarGeometry g;
+    SonarSetup *setup;
+    TransmitFixture fixture;
+
+    sonar_geometry_init_default (&g);
+    for (guint j = 0; j < g.n_microphones; j++)
+      g.microphones[j] = sonar_vec3_scale (g.microphones[j], 1.0 + scale);
+    for (guint n = 0; n < g.n_emitters; n++)
+      g.emitters[n] = sonar_vec3_scale (g.emitters[n], 1.0 + scale);
+    setup = sonar_test_setup_new (&g, 17262);
+    transmit_fixture_init (&fixture, setup, 0.0, 0.0);
+    for (guint axis = 0; axis < 2; axis++)
+      width[scale][axis] = sonar_scaled_transmit_lobe_width
+          (fixture.transmit, axis, 30.0);
+    /* At most what it is asked for. */
+    g_assert_cmpfloat (sonar_scaled_transmit_lobe_width (fixture.transmit,
+            FALSE, 1.0), ==, 1.0);
+    g_test_message ("array x %u: main lobe %.3f degrees along azimuth, "
+        "%.3f along elevation", 1 + scale, width[scale][0],
+        width[scale][1]);
+    g_assert_cmpfloat (fabs (sonar_scaled_transmit_sampling_loss
+            (fixture.transmit, width[scale][0], 0.0) - 6.0), <, 0.05);
+    g_assert_cmpfloat (fabs (sonar_scaled_transmit_sampling_loss
+            (fixture.transmit, 0.0, width[scale][1]) - 6.0), <, 0.05);
+    transmit_fixture_clear (&fixture);
+    sonar_setup_unref (setup);
+    sonar_geometry_clear (&g);
+  }
+  g_assert_cmpfloat (width[0][0], >, 3.0);
+  g_assert_cmpfloat (width[0][0], <, 3.1);
+  g_assert_cmpfloat (width[0][1], >, 1.2 * width[0][0]);
+  for (guint axis = 0; axis < 2; axis++)
+    g_assert_cmpfloat (fabs (width[1][axis] / width[0][axis] - 0.5), <,
+        0.02);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -560,5 +607,6 @@ main (int argc, char **argv)
   g_test_add_func ("/steering/emitter-output-at-lag",
       test_emitter_output_at_lag);
   g_test_add_func ("/steering/sampling-loss", test_sampling_loss);
+  g_test_add_func ("/steering/lobe-width", test_lobe_width);
   return g_test_run ();
 }

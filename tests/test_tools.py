@@ -733,6 +733,30 @@ def foreign_scenes_times_the_chain():
 
 
 @test
+def foreign_scenes_wide_array():
+    """tools/foreign-scenes.py --array-scale 2.5,2: the eRTIS layout 2.5
+    times as wide, whose main lobe (1.4 degrees) is under two of the
+    fan's 1 degree steps: mimobeamform's coarse pass is its beam's, so
+    the fan is imaged in full; a malformed scale is refused"""
+    env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
+    result = subprocess.run(
+        [PYTHON, str(TOOLS / "foreign-scenes.py"), "--view", "fan",
+         "--scenes", "1", "--seed", "3", "--array-scale", "2.5,2",
+         "--time"],
+        capture_output=True, text=True, timeout=120, env=env)
+    assert result.returncode == 0, result.stderr
+    assert "seed 3, array scaled 2.5,2:" in result.stdout, result.stdout
+    assert re.search(r"^scene0: 6/6, 0 false, [0-9.]+ s wall, [0-9.]+ s "
+                     r"CPU, 100.0 %$", result.stdout, re.MULTILINE), \
+        result.stdout
+    result = subprocess.run(
+        [PYTHON, str(TOOLS / "foreign-scenes.py"), "--array-scale", "2.5"],
+        capture_output=True, text=True, timeout=120, env=env)
+    assert result.returncode == 2 and "--array-scale 2.5: two factors, " \
+        "MICS,EMITTERS" in result.stderr, result.stderr
+
+
+@test
 def direction_errors_3d():
     """tools/direction-errors-3d.py on 12 still points at random 3-D
     directions (seed 2, one ping): every one found, nothing else,

@@ -28,6 +28,10 @@ emitter_resonance, microphone_mismatch):
     /usr/bin/python3 tools/foreign-scenes.py --view fan --scenes 12 \\
         --seed 3 --set direct_path=0.1 --compare dopplerbank.direct-path=off
 
+--array-scale MICS,EMITTERS scales the eRTIS microphones and the default
+emitters' ellipse (2.5,2: an array 2.5 times as wide, whose main lobe is
+1.4 degrees against eRTIS's 3.0).
+
 --explain lists, under each scene, every object missed (its place,
 radial velocity, dB below the strongest and the nearest detection) and
 every false detection. --time measures each run of the chain (one
@@ -197,6 +201,10 @@ def main():
                         "(direct_path=0.1, air_absorption=true, "
                         "emitter_resonance=[38e3,52e3,1.5,3], "
                         "microphone_mismatch=[1.5,10]; repeatable)")
+    parser.add_argument("--array-scale", metavar="MICS,EMITTERS",
+                        help="the eRTIS microphones and the default "
+                        "emitters' ellipse scaled by these factors (2.5,2: "
+                        "an array 2.5 times as wide)")
     parser.add_argument("--explain", action="store_true",
                         help="under each scene, the objects missed and "
                         "the false detections")
@@ -222,6 +230,16 @@ def main():
             parser.error("--set %s: KEY=VALUE with one of foreign_sim.py's "
                          "spec keys" % setting)
         extra[key] = json.loads(value)
+    if args.array_scale:
+        try:
+            mics, emitters = (float(f) for f in args.array_scale.split(","))
+        except ValueError:
+            parser.error("--array-scale %s: two factors, MICS,EMITTERS" %
+                         args.array_scale)
+        extra["microphones"] = (mics *
+                                foreign_sim.ertis_microphones()).tolist()
+        extra["emitters"] = (emitters *
+                             foreign_sim.ellipse_emitters()).tolist()
     rng = random.Random(args.seed)
     variants = [""] + args.compare
     totals = {v: [0, 0, 0] for v in variants}
@@ -266,7 +284,9 @@ def main():
                 explain(label, truth, detections, missed, false)
     print("\n%s, %d scenes of %d objects over %g dB, seed %d%s:" % (
         args.view, args.scenes, args.objects, args.spread, args.seed,
-        "".join(", %s" % setting for setting in args.set)))
+        "".join(", %s" % setting for setting in args.set +
+                ["array scaled %s" % args.array_scale] * bool(
+                    args.array_scale))))
     for v in variants:
         t = totals[v]
         print("  %-24s found %d of %d, %d false" % (

@@ -258,8 +258,13 @@ void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
 
 /* The spectra of the last sonar_velocity_pool_estimate () less the model
  * of every valid estimate of @results (2 per centroid, @counts[k] of
- * centroid k), each fitted as the successive cancellation fits it (above):
- * what the ping holds under its accepted echoes, into @residual
+ * centroid k), each fitted as the successive cancellation fits it (above)
+ * but with each template's amplitude a cubic polynomial in frequency
+ * where the data show one (an F test): a real echo's spectrum is the
+ * emissions' tilted by the air and the transducers, and one amplitude
+ * leaves that behind (air's absorption at 4 m: -9 dB of the echo in the
+ * image, against -43 dB; tests/test-residual.c). What the ping holds
+ * under its accepted echoes, into @residual
  * (n_microphones x n_bins). Allocates only on the first ping that
  * cancels (the workers' models), as the cancellation does. */
 void sonar_velocity_pool_residual (SonarVelocityPool * pool,

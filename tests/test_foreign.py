@@ -240,6 +240,27 @@ CASES = {
             {"position": [0.742053, 0.0, 1.018675],
              "velocity": [-0.316317, 0.0, -0.434233],
              "strength": 1.188179}]},
+    "deeply-hidden": {
+        # An object 36 dB under the strongest, 17 cm nearer in nearly its
+        # direction (0.5 degrees): found on the residual once the strong
+        # echo's model takes its spectrum's shape, not with one amplitude
+        # over the band. (Scene 4 of tools/foreign-scenes.py --seed 21
+        # --spread 40.)
+        "name": "deeply-hidden", "field_of_view": "fan", "seed": 21004,
+        "reflectors": [
+            {"position": [-3.480182, 0.0, 4.071186],
+             "velocity": [1.679020, 0.0, -1.964151], "strength": 0.049031},
+            {"position": [-0.169988, 0.0, 4.821371],
+             "velocity": [-0.071245, 0.0, 2.020737], "strength": 1.572833},
+            {"position": [-0.912306, 0.0, 1.937428],
+             "velocity": [0.205635, 0.0, -0.436699], "strength": 0.911529},
+            {"position": [-0.386263, 0.0, 1.095017],
+             "velocity": [-0.796670, 0.0, 2.258478], "strength": 0.021584},
+            {"position": [-0.205963, 0.0, 4.673872],
+             "velocity": [0.065451, 0.0, -1.485270], "strength": 0.024170},
+            {"position": [1.627815, 0.0, 3.135949],
+             "velocity": [-1.303907, 0.0, -2.511947],
+             "strength": 0.753090}]},
     "int16": {
         # 16-bit PCM at 400 kHz (32000 samples per ping).
         "name": "int16", "sample_format": "int16", "sample_rate": 400000,
@@ -607,6 +628,13 @@ def chain_wide_array():
     """chain: an array 2.5 times as wide as eRTIS: the coarse passes one
     main lobe of its beam, every object found"""
     check_case("wide-array")
+
+
+@test
+def chain_deeply_hidden():
+    """chain: an object 36 dB under the strongest, 17 cm nearer: found on
+    the residual, whose models take each echo's spectral shape"""
+    check_case("deeply-hidden")
 
 
 @test

@@ -185,7 +185,7 @@ sonar_residual_search_process (SonarResidualSearch * s,
   for (guint k = 0; k < n; k++)
     for (guint i = 0; i < s->counts[k]; i++) {
       SonarVelocityEstimate *e = &s->results[2 * k + i];
-      if (e->valid && (e->agreeing_emitters + 1 < s->n_emitters
+      if (e->valid && (e->agreeing_emitters < s->n_emitters
               || residue (n_centroids, results, counts, e->echo_range,
                   sonar_vec3_from_direction (e->echo_azimuth,
                       e->echo_elevation), e->radial_velocity)))

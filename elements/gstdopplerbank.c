@@ -503,8 +503,11 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
           "emissions' direct path to the microphones (from ping %"
           G_GUINT64_FORMAT ", on %u of %u, up to %.0f dB over the rest of "
           "what they record meanwhile); it is subtracted before the matched "
-          "filters (direct-path=off keeps it)", index, removed,
-          self->channels, largest_db);
+          "filters%s (direct-path=off keeps it)", index, removed,
+          self->channels, largest_db,
+          sonar_direct_path_rang (self->direct_path) ? ", with "
+          G_STRINGIFY (SONAR_DIRECT_PATH_RINGING_TAPS) " taps where the "
+          "emitters ring past direct-path-taps" : "");
       g_autoptr (GError) info = g_error_new_literal (GST_STREAM_ERROR,
           GST_STREAM_ERROR_FORMAT, text);
       GST_INFO_OBJECT (self, "%s", text);

@@ -55,6 +55,21 @@ G_BEGIN_DECLS
 /* AUTO: the share of the power over the direct path's samples that the
  * fit must explain (the probe's stop: half of it). */
 #define SONAR_DIRECT_PATH_MIN_SHARE 0.2
+/* An emitter that rings longer than the taps: where the fit leaves more
+ * than RINGING_LEFT of what it explained over the direct path's samples
+ * (-20 dB; a resonance of Q 3 the waveforms lack leaves -8 dB at 7 taps,
+ * echoes and noise under a direct path 33 dB or more over a unit echo at
+ * 1 m far less), and the waveforms explain what it left just past its
+ * taps RINGING_F times more per column than it leaves per sample (an F
+ * ratio: 0.01-0.33 without ringing, 2.7-20 with it; sonar-direct-path.c,
+ * rings ()), what is left is fitted again with RINGING_TAPS taps (-41 dB
+ * of that resonance); from then on, every microphone whose fit leaves
+ * that much (ringing is the emitters'). Their factors (27.5 MB for 32
+ * microphones and 8 emitters) are made on the first ping that needs
+ * them. */
+#define SONAR_DIRECT_PATH_RINGING_LEFT 0.01
+#define SONAR_DIRECT_PATH_RINGING_F 1.0
+#define SONAR_DIRECT_PATH_RINGING_TAPS 41
 
 /* The fit of @setup's emissions to each of its microphones, @n_taps
  * taps a path. NULL with @error (SONAR_ERROR_SETTINGS) when a ping is too
@@ -63,9 +78,10 @@ SonarDirectPath *sonar_direct_path_new (SonarSetup * setup, guint n_taps,
     GError ** error);
 void sonar_direct_path_free (SonarDirectPath * dp);
 
-/* Bytes sonar_direct_path_new () holds for @setup: a factor of (N
- * n_taps)^2 doubles per microphone (0.8 MB for 32 microphones and 8
- * emitters at 7 taps, 27.5 MB at 41). */
+/* Bytes sonar_direct_path_new () holds for @setup at most: a factor of
+ * (N n_taps)^2 doubles per microphone (0.8 MB for 32 microphones and 8
+ * emitters at 7 taps, 27.5 MB at 41), and below RINGING_TAPS taps the
+ * ringing fit's, which the emitters' ringing makes (28.3 MB at 7). */
 guint64 sonar_direct_path_memory (const SonarSetup * setup, guint n_taps);
 
 /* Doubles of scratch a caller of sonar_direct_path_remove () provides
@@ -82,6 +98,10 @@ gsize sonar_direct_path_scratch_size (const SonarDirectPath * dp);
 double sonar_direct_path_remove (const SonarDirectPath * dp, guint mic,
     float *signal, gsize length, SonarDirectPathMode mode, double *scratch,
     gboolean * removed);
+
+/* Whether a microphone's path rang past @dp's taps on some ping, and was
+ * fitted again with SONAR_DIRECT_PATH_RINGING_TAPS taps. */
+gboolean sonar_direct_path_rang (const SonarDirectPath * dp);
 
 G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarDirectPath, sonar_direct_path_free)
 

@@ -30,12 +30,12 @@ test_bank_too_large (void)
       "velocities (velocity-min -7, velocity-max 7, velocity-step 0.0007 "
       "m/s) for 8 emitters, the direct path's fit (direct-path) and 2 "
       "output buffers of 32 microphones x 2883 band bins needs 5.9 GiB "
-      "(6359718048 bytes), more than max-memory (4.0 GiB)");
+      "(6387260832 bytes), more than max-memory (4.0 GiB)");
   assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
       "max-memory=10000000 ! fakesink", "dopplerbank: a bank of 281 "
       "velocities (velocity-min -7, velocity-max 7, velocity-step 0.05 m/s) "
       "for 8 emitters, the direct path's fit (direct-path) and 2 output "
-      "buffers of 32 microphones x 2883 band bins needs 87.4 MiB (91597728 "
+      "buffers of 32 microphones x 2883 band bins needs 113.6 MiB (119140512 "
       "bytes), more than max-memory (9.5 MiB)");
   assert_pipeline_error ("sonarsrc num-buffers=1 ! dopplerbank "
       "max-memory=10000000 direct-path=off ! fakesink", "dopplerbank: a "

@@ -2558,12 +2558,14 @@ fit_echo (EchoWorker * ew, const SonarVelocityEstimate * e,
     echo_model (ew, e, b1, ew->transmit2_re, ew->transmit2_im);
   sonar_steering_receive_sum (st, spectra, ew->mic_legs,
       ew->receive_re, ew->receive_im);
-  energy = spectra_energy (spectra, (gsize) n_mics * nb);
+  /* The F test's (the rounds' fits of one shape need none). */
+  if (shapes > 1)
+    energy = spectra_energy (spectra, (gsize) n_mics * nb);
   /* Model i = (template i / MODEL_SHAPES, shape i % MODEL_SHAPES):
-   * dots[i] = <X, m_i>, gram[i][i'] = <m_i', m_i> / n_mics = sum_k g_p g_p' t_b
-   * conj (t_b'), gathered per template pair (b, b') and shape pair p <= p'
-   * (g_p g_p' is symmetric): |t_0|^2, |t_1|^2 and t_0 conj (t_1) once a
-   * bin. */
+   * dots[i] = <X, m_i>, gram[i][i'] = <m_i', m_i> / n_mics
+   * = sum_k g_p g_p' t_b conj (t_b'), gathered per template pair (b, b')
+   * and shape pair p <= p' < @shapes (g_p g_p' is symmetric): |t_0|^2,
+   * |t_1|^2 and t_0 conj (t_1) once a bin. */
   for (guint k = 0; k < nb; k++) {
     const double rr = ew->receive_re[k], ri = ew->receive_im[k];
     const double t0r = t_re[0][k], t0i = t_im[0][k];
@@ -2573,7 +2575,7 @@ fit_echo (EchoWorker * ew, const SonarVelocityEstimate * e,
     const double w00 = t0r * t0r + t0i * t0i;
     double g[MODEL_SHAPES], q;
     model_shapes (k, nb, g);
-    for (guint p = 0; p < MODEL_SHAPES; p++) {
+    for (guint p = 0; p < shapes; p++) {
       dots[p] += g[p] * (d0r + I * d0i);
       for (guint p2 = 0; p2 <= p; p2++)
         g00[p][p2] += g[p] * g[p2] * w00;
@@ -2585,7 +2587,7 @@ fit_echo (EchoWorker * ew, const SonarVelocityEstimate * e,
       const double w11 = t1r * t1r + t1i * t1i;
       /* t_1 conj (t_0) */
       const double w10r = t1r * t0r + t1i * t0i, w10i = t1i * t0r - t1r * t0i;
-      for (guint p = 0; p < MODEL_SHAPES; p++) {
+      for (guint p = 0; p < shapes; p++) {
         dots[MODEL_SHAPES + p] += g[p] * (d1r + I * d1i);
         for (guint p2 = 0; p2 <= p; p2++) {
           const double gg = g[p] * g[p2];
@@ -2599,7 +2601,7 @@ fit_echo (EchoWorker * ew, const SonarVelocityEstimate * e,
     pi = pr * si + pi * sr;
     pr = q;
   }
-  for (guint p = 0; p < MODEL_SHAPES; p++)
+  for (guint p = 0; p < shapes; p++)
     for (guint p2 = 0; p2 <= p; p2++) {
       gram[p][p2] = g00[p][p2];
       gram[MODEL_SHAPES + p][MODEL_SHAPES + p2] = g11[p][p2];
@@ -2642,7 +2644,7 @@ fit_echo (EchoWorker * ew, const SonarVelocityEstimate * e,
     model_shapes (k, nb, g);
     for (guint b = 0; b < n_templates; b++) {
       double complex amplitude = 0.0;
-      for (guint p = 0; p < MODEL_SHAPES; p++)
+      for (guint p = 0; p < shapes; p++)
         amplitude += g[p] * amplitudes[b * MODEL_SHAPES + p];
       sum += conj (amplitude) * (t_re[b][k] + I * t_im[b][k]);
     }

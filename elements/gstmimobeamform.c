@@ -251,7 +251,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
       params.n_elevation = view.n_elevation;
     }
     if (!self->coarse_spacing_set)
-      sonar_imager_params_fit_beam (&params, setup->field_of_view);
+      sonar_imager_params_fit_beam (&params);
   }
   self->active_mode = self->mode;
   self->active_emitter = self->emitter;
@@ -693,8 +693,9 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "rest interpolated; 0: every direction in full. Default: one "
           "main lobe of the array's beam (the step whose point halfway "
           "between two directions is imaged 6 dB down: 3 on the eRTIS "
-          "array), two for a hemisphere (6 on eRTIS); the property then "
-          "reads 3", 0.0, 90.0,
+          "array), two on a grid of rows and columns, as the hemisphere (6 "
+          "on eRTIS), whatever the set-up's field of view; the property "
+          "then reads 3", 0.0, 90.0,
           d.coarse_spacing, flags));
   g_object_class_install_property (gobject_class, PROP_REFINE_DB,
       g_param_spec_double ("refine-db", "Refine level", "dB below the "

@@ -292,9 +292,9 @@ sonar_imager_params_set_view (SonarImagerParams * p, SonarFieldOfView view)
 }
 
 void
-sonar_imager_params_fit_beam (SonarImagerParams * p, SonarFieldOfView view)
+sonar_imager_params_fit_beam (SonarImagerParams * p)
 {
-  p->coarse_lobes = view == SONAR_FIELD_OF_VIEW_HEMISPHERE ? 2.0 : 1.0;
+  p->coarse_lobes = p->n_azimuth > 1 && p->n_elevation > 1 ? 2.0 : 1.0;
 }
 
 void
@@ -772,6 +772,17 @@ sonar_imager_sampling_loss (const SonarImager * im)
   grid_steps (im, &azimuth, &elevation);
   return sonar_scaled_transmit_sampling_loss (im->transmit, azimuth,
       elevation);
+}
+
+void
+sonar_imager_coarse_spacing (const SonarImager * im, double *azimuth,
+    double *elevation)
+{
+  const gboolean coarse = im->coarse_azimuth * im->coarse_elevation > 1;
+
+  grid_steps (im, azimuth, elevation);
+  *azimuth = coarse ? *azimuth * im->coarse_azimuth : 0.0;
+  *elevation = coarse ? *elevation * im->coarse_elevation : 0.0;
 }
 
 double

@@ -105,18 +105,21 @@ void sonar_imager_params_init_default (SonarImagerParams * params);
 void sonar_imager_params_set_view (SonarImagerParams * params,
     SonarFieldOfView view);
 
-/* The coarse spacing of @view's default, in main lobes of the array's
- * beam (SonarImagerParams.coarse_lobes): one for the fan (a point
- * halfway between coarse directions 6 dB down), two for the hemisphere
- * (its refine level covers the loss: sonar_imager_params_set_view ()'s
- * comments). On the eRTIS array they are the set_view ()'s 3 and 6
- * degrees; on an array twice as wide, half of them: a coarse grid of
- * fixed degrees would lose 20 dB between its directions there, and miss
- * echoes (a 19 x 10 cm array, tools/foreign-scenes.py: 70 of 72 objects
- * and a false one, against 71 and none at half the spacing). mimobeamform
- * and the residual search image so unless coarse-spacing is set. */
-void sonar_imager_params_fit_beam (SonarImagerParams * params,
-    SonarFieldOfView view);
+/* The coarse spacing of @params' directions, in main lobes of the
+ * array's beam (SonarImagerParams.coarse_lobes): one for a row of
+ * directions, as the fan (a point halfway between coarse directions 6 dB
+ * down), two for a grid of rows and columns, as the hemisphere (its
+ * refine level covers the loss: sonar_imager_params_set_view ()'s
+ * comments). The directions decide, not the set-up's field of view: a
+ * 3-D grid asked of a fan's set-up is imaged as a 3-D grid. On the eRTIS
+ * array they are the set_view ()'s 3 and 6 degrees; on an array twice as
+ * wide, half of them: a coarse grid of fixed degrees would lose 20 dB
+ * between its directions there, and miss echoes (a 19 x 10 cm array,
+ * tools/foreign-scenes.py: 70 of 72 objects and a false one, against 71
+ * and none at half the spacing). mimobeamform and the residual search
+ * image so unless coarse-spacing is set. Call it once the directions are
+ * set. */
+void sonar_imager_params_fit_beam (SonarImagerParams * params);
 
 /* mimobeamform's default hypothesis-spacing (m/s): the Doppler hypotheses
  * of a detection image lie at most this far apart across the bank
@@ -151,6 +154,12 @@ const SonarImageGrid *sonar_imager_grid (const SonarImager * imager);
  * its own peak a point halfway between them is imaged, dB
  * (sonar_scaled_transmit_sampling_loss () at the grid's steps). */
 double sonar_imager_sampling_loss (const SonarImager * imager);
+
+/* Degrees between the coarse pass's directions along azimuth and
+ * elevation: a whole number of the grid's steps; an axis of one
+ * direction, or a grid imaged in full, has none (0). */
+void sonar_imager_coarse_spacing (const SonarImager * imager,
+    double *azimuth, double *elevation);
 /* The factor of the grid's steps that loses @loss_db
  * (sonar_scaled_transmit_step_factor ()): 1 when they lose no more. */
 double sonar_imager_step_factor (const SonarImager * imager,

@@ -53,8 +53,8 @@ sonar_residual_search_new (SonarSetup * setup, const SonarBand * band,
 
   sonar_imager_params_init_default (&imaging);
   sonar_imager_params_set_view (&imaging, setup->field_of_view);
-  sonar_imager_params_fit_beam (&imaging, setup->field_of_view);
   sonar_imager_params_set_grid (&imaging, grid);
+  sonar_imager_params_fit_beam (&imaging);
   imaging.refine_db = REFINE_DB;
   s->imager = sonar_imager_new (setup, band, &imaging, error);
   if (!s->imager)
@@ -192,6 +192,12 @@ sonar_residual_search_process (SonarResidualSearch * s,
         e->valid = FALSE;
     }
   return n;
+}
+
+const SonarImager *
+sonar_residual_search_imager (const SonarResidualSearch * s)
+{
+  return s->imager;
 }
 
 void

@@ -53,6 +53,7 @@
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-image-grid.h"
+#include "sonar-imager.h"
 #include "sonar-setup.h"
 #include "sonar-velocity.h"
 
@@ -81,8 +82,7 @@ guint64 sonar_residual_search_memory (const SonarSetup * setup,
     const SonarBand * band, const SonarImageGrid * grid);
 
 /* A search on the images of @grid (the energyscape's: its imager is made
- * with that grid, the other settings mimobeamform's defaults for @setup's
- * field of view); @bank the ping's Doppler bank, @n_emitters those in the
+ * with that grid, the other settings mimobeamform's defaults for it); @bank the ping's Doppler bank, @n_emitters those in the
  * velocity product (SonarVelocityParams.emitters, or all). NULL with
  * @error when the imager cannot make that grid again. */
 SonarResidualSearch *sonar_residual_search_new (SonarSetup * setup,
@@ -105,6 +105,12 @@ guint sonar_residual_search_process (SonarResidualSearch * search,
     const SonarVelocityEstimate * results, const guint * counts,
     const SonarCentroid ** new_centroids,
     const SonarVelocityEstimate ** new_results, const guint ** new_counts);
+
+/* The imager of @search's residual images: the energyscape's grid, and
+ * mimobeamform's default coarse spacing for that grid
+ * (sonar_imager_params_fit_beam ()). */
+const SonarImager *sonar_residual_search_imager (const SonarResidualSearch *
+    search);
 
 /* The work of the last process (): its image's units and passes
  * (sonar_imager_last_work (); 0 when it imaged nothing) and the centroids

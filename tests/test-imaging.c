@@ -651,8 +651,7 @@ test_coarse_lobes (void)
       sonar_imager_params_init_default (&p);
     for (guint k = 0; k < 2; k++) {
       if (k)
-        sonar_imager_params_fit_beam (&p, view ?
-            SONAR_FIELD_OF_VIEW_HEMISPHERE : SONAR_FIELD_OF_VIEW_FAN);
+        sonar_imager_params_fit_beam (&p);
       image[k] = chain_image (&c, bank, hypotheses, n_hypotheses, -1, &p,
           &grid, &imager[k]);
       sonar_imager_last_work (imager[k], &units[k], &dense_units, &passes,
@@ -660,6 +659,14 @@ test_coarse_lobes (void)
     }
     g_test_message ("%s: %u and %u units, degrees and lobes", view ? "3-D" :
         "fan", units[0], units[1]);
+    /* The set-up (the test chain's: a fan) does not decide: a grid of
+     * rows and columns is coarse by two lobes, a row by one. */
+    for (guint k = 0; k < 2; k++) {
+      double azimuth, elevation;
+      sonar_imager_coarse_spacing (imager[k], &azimuth, &elevation);
+      g_assert_cmpfloat (azimuth, ==, view ? 6.0 : 3.0);
+      g_assert_cmpfloat (elevation, ==, view ? 6.0 : 0.0);
+    }
     g_assert_cmpuint (units[0], <, dense_units);
     g_assert_cmpuint (units[1], ==, units[0]);
     g_assert_cmpmem (image[1], sonar_image_grid_size (grid) * sizeof (float),
@@ -710,7 +717,7 @@ test_coarse_lobes (void)
     p.refine_pfa = 0.0;
     for (guint k = 0; k < 2; k++) {
       if (k)
-        sonar_imager_params_fit_beam (&p, SONAR_FIELD_OF_VIEW_FAN);
+        sonar_imager_params_fit_beam (&p);
       imager = sonar_imager_new (wide, &band, &p, NULL);
       g_assert_nonnull (imager);
       image = g_new (float, sonar_image_grid_size (sonar_imager_grid

@@ -327,6 +327,51 @@ test_grid_round_trip (void)
   sonar_test_chain_clear (&chain);
 }
 
+/* The search images the energyscape's grid as mimobeamform does by
+ * default, whatever the set-up's field of view: on the test chain's fan
+ * set-up, a 3-D grid coarse by two main lobes of the eRTIS beam (6
+ * degrees, as mimobeamform's 3-D image) and the fan by one (3). With one
+ * lobe on the 2-degree 3-D grid its coarse pass was 4 degrees: 2.2 times
+ * the coarse directions of the image it searches again, on every ping
+ * (sonar-bench --sweep hemisphere-fig9). */
+static void
+test_coarse_grid_follows_image (void)
+{
+  SonarTestChain chain;
+
+  sonar_test_chain_init_with_bank (&chain, -0.4, 0.4, 0.05);
+  g_assert_cmpint (chain.setup->field_of_view, ==, SONAR_FIELD_OF_VIEW_FAN);
+  for (guint view = 0; view < 2; view++) {
+    g_autoptr (GError) error = NULL;
+    g_autoptr (SonarImager) imager = NULL;
+    g_autoptr (SonarResidualSearch) search = NULL;
+    SonarImagerParams p;
+    double azimuth[2], elevation[2];
+
+    sonar_imager_params_init_default (&p);
+    if (view)
+      sonar_imager_params_set_view (&p, SONAR_FIELD_OF_VIEW_HEMISPHERE);
+    sonar_imager_params_fit_beam (&p);
+    imager = sonar_imager_new (chain.setup, &chain.band, &p, &error);
+    g_assert_no_error (error);
+    search = sonar_residual_search_new (chain.setup, &chain.band,
+        chain.bank, sonar_imager_grid (imager),
+        chain.setup->geometry.n_emitters, &error);
+    g_assert_no_error (error);
+    sonar_imager_coarse_spacing (imager, &azimuth[0], &elevation[0]);
+    sonar_imager_coarse_spacing (sonar_residual_search_imager (search),
+        &azimuth[1], &elevation[1]);
+    g_test_message ("%s: coarse %g x %g degrees, the search's %g x %g",
+        view ? "3-D" : "fan", azimuth[0], elevation[0], azimuth[1],
+        elevation[1]);
+    g_assert_cmpfloat (azimuth[0], ==, view ? 6.0 : 3.0);
+    g_assert_cmpfloat (elevation[0], ==, view ? 6.0 : 0.0);
+    g_assert_cmpfloat (azimuth[1], ==, azimuth[0]);
+    g_assert_cmpfloat (elevation[1], ==, elevation[0]);
+  }
+  sonar_test_chain_clear (&chain);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -334,6 +379,8 @@ main (int argc, char **argv)
   g_test_add_func ("/residual/hidden-within-pulse", test_hidden_within_pulse);
   g_test_add_func ("/residual/nothing-accepted", test_nothing_accepted);
   g_test_add_func ("/residual/grid-round-trip", test_grid_round_trip);
+  g_test_add_func ("/residual/coarse-grid-follows-image",
+      test_coarse_grid_follows_image);
   g_test_add_func ("/residual/tilted-echo-cancelled",
       test_tilted_echo_cancelled);
   return g_test_run ();

@@ -51,8 +51,10 @@ sonar_residual_search_new (SonarSetup * setup, const SonarBand * band,
   SonarImagerParams imaging;
   SonarClusterParams clustering;
 
+  /* The grid's directions and ranges, and the coarse spacing its shape
+   * gives (not the set-up's field of view: a 3-D grid may be asked of a
+   * fan's set-up). */
   sonar_imager_params_init_default (&imaging);
-  sonar_imager_params_set_view (&imaging, setup->field_of_view);
   sonar_imager_params_set_grid (&imaging, grid);
   sonar_imager_params_fit_beam (&imaging);
   imaging.refine_db = REFINE_DB;

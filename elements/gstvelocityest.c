@@ -680,7 +680,7 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "new estimate within an accepted echo's cell (2 cm, 5 degrees at "
           "broadside, 0.15 m/s) is what its cancellation left and is "
           "dropped, and one counts only when every emitter in the product "
-          "but one agrees. Costs about one more image and clustering per "
+          "agrees. Costs about one more image and clustering per "
           "ping with an echo",
           DEFAULT_RESIDUAL_SEARCH, flags));
   g_object_class_install_property (gobject_class, PROP_MAX_MEMORY,

@@ -82,8 +82,9 @@ guint64 sonar_residual_search_memory (const SonarSetup * setup,
     const SonarBand * band, const SonarImageGrid * grid);
 
 /* A search on the images of @grid (the energyscape's: its imager is made
- * with that grid, the other settings mimobeamform's defaults for it); @bank the ping's Doppler bank, @n_emitters those in the
- * velocity product (SonarVelocityParams.emitters, or all). NULL with
+ * with that grid, the other settings mimobeamform's defaults for it);
+ * @bank the ping's Doppler bank, @n_emitters those in the velocity
+ * product (SonarVelocityParams.emitters, or all). NULL with
  * @error when the imager cannot make that grid again. */
 SonarResidualSearch *sonar_residual_search_new (SonarSetup * setup,
     const SonarBand * band, SonarDopplerBank * bank,

@@ -3334,6 +3334,7 @@ pool_sidelobes (SonarVelocityPool * pool, const SonarCentroid * centroids,
   const SonarSplitSpectra spectra = pool->spectra;
   guint n_suspects = 0;
 
+  /* pool->cancelled marks the suspects here: the echoes left in. */
   memset (pool->cancelled, 0, 2 * (gsize) n_centroids * sizeof (gboolean));
   for (guint k = 0; k < n_centroids; k++) {
     gboolean suspect = FALSE;

@@ -79,6 +79,14 @@
  * flatter on both), or when it is two (below). A ping without such a
  * centroid never comes this way and allocates nothing for it.
  *
+ * Last, a stronger echo's sidelobes and cross-talk: a valid estimate 12
+ * dB or more under another valid one within a pulse length (c T / 2) of
+ * its range is estimated again on the spectra less the same models of
+ * every other accepted echo, and stays valid only when it is found there
+ * within 0.15 m/s of its velocity (a sidelobe or cross-talk goes with its
+ * echo, an object stays; two such ghosts passed every test on 3-D
+ * foreign recordings with air's absorption and uncalibrated microphones).
+ *
  * Two echoes at one range that the beam does not resolve (8 degrees
  * apart near +-72 degrees, where it is 6.5 degrees wide) make one peak
  * between them, whose estimate passes the coherence tests as one object

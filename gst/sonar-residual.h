@@ -26,13 +26,17 @@
  * A model leaves a little of its echo: a residue at the echo's range and
  * velocity, as two lobes 1.5-2.2 degrees either side of its direction (a
  * difference pattern: the model's direction or amplitude across the
- * array slightly off), 15-25 dB under the echo and coherent across the
- * emitters like an echo. A centroid or estimate within an accepted
- * echo's resolution cell (SONAR_RESIDUE_RANGE in range, direction
- * cosines within SONAR_RESIDUE_DIRECTION, and, once estimated, a radial
- * velocity within SONAR_RESIDUE_VELOCITY) is such a residue, and is
- * dropped: a second object there, at the same range and speed within a
- * few degrees, is one the beam and the Doppler-ACF do not resolve anyway.
+ * array slightly off), coherent across the emitters like an echo: 15-25
+ * dB under the echo while the models took their centroids' directions
+ * and one gain over the array, 40-70 dB under a lone one since their own
+ * direction and each microphone's gain (sonar_velocity_pool_residual ()),
+ * less deep in a crowd, whose neighbours the fits see too. A centroid or
+ * estimate within an accepted echo's resolution cell
+ * (SONAR_RESIDUE_RANGE in range, direction cosines within
+ * SONAR_RESIDUE_DIRECTION, and, once estimated, a radial velocity within
+ * SONAR_RESIDUE_VELOCITY) is such a residue, and is dropped: a second
+ * object there, at the same range and speed within a few degrees, is one
+ * the beam and the Doppler-ACF do not resolve anyway.
  * What else a cancellation leaves (the cancelled echoes' cross-talk,
  * where their models are off) can pass the tests as an echo; such debris
  * had 6 of 8 emitters agreeing, every echo found on a residual 8 of 8

@@ -267,14 +267,21 @@ void sonar_velocity_pool_estimate (SonarVelocityPool * pool,
 /* The spectra of the last sonar_velocity_pool_estimate () less the model
  * of every valid estimate of @results (2 per centroid, @counts[k] of
  * centroid k), each fitted as the successive cancellation fits it (above)
- * but with each template's amplitude a cubic polynomial in frequency
- * where the data show one (an F test): a real echo's spectrum is the
- * emissions' tilted by the air and the transducers, and one amplitude
- * leaves that behind (air's absorption at 4 m: -9 dB of the echo in the
- * image, against -43 dB; tests/test-residual.c). What the ping holds
- * under its accepted echoes, into @residual
- * (n_microphones x n_bins). Allocates only on the first ping that
- * cancels (the workers' models), as the cancellation does. */
+ * but deeper: with each template's amplitude a cubic polynomial in
+ * frequency where the data show one (an F test: a real echo's spectrum
+ * is the emissions' tilted by the air and the transducers, and one
+ * amplitude leaves that behind; air's absorption at 4 m: -9 dB of the
+ * echo in the image, against -43 dB), placed at the vertex of the power
+ * its model explains along azimuth (and elevation) instead of its
+ * centroid's direction (0.1 degree off a lone echo at 1 m: -28 dB of it
+ * left, against -43 dB), and each microphone with its own complex gain
+ * where the echo stands far enough over the noise to set it (the legs'
+ * spreading across the array, an uncalibrated microphone; the gain
+ * fitted over the band, shrunk towards the model's by its noise).
+ * tests/test-residual.c measures each. What the ping holds under its
+ * accepted echoes, into @residual (n_microphones x n_bins). Allocates
+ * only on the first ping that cancels (the workers' models) and on a
+ * ping with more centroids than any before, as the cancellation does. */
 void sonar_velocity_pool_residual (SonarVelocityPool * pool,
     const SonarVelocityEstimate * results, const guint * counts,
     guint n_centroids, SonarComplex * residual);

@@ -54,8 +54,10 @@
  * image the maximum over the hypotheses changes the samples' noise,
  * which K_eff, calibrated with this bound on the 2-D scatter, absorbs.
  * Where velocityest fitted the direction (on grids coarser than a
- * degree: the 3 x 3 of its coherent sums half a grid step apart, see
- * SonarVelocityEstimate), the detection's direction is that fit's vertex,
+ * degree: the 3 x 3 of its coherent sums half a grid step apart; on
+ * finer ones the power each valid echo's model explains a quarter step
+ * either side, along each axis; see SonarVelocityEstimate), the
+ * detection's direction is that fit's vertex,
  * and its sigmas the marginals of the covariance (2 g SNR (-K))^-1 of the
  * fit's Hessian K of ln (amplitude) per degree^2 (the tilted beam's cross
  * term widens them by 1 / (1 - rho^2)), with the fit's SNR gain g
@@ -108,7 +110,9 @@ typedef struct
  * quartile's tail: 1.44 of the power). Measured (tools/uncertainty-3d.py,
  * seed 1's 12 points, 24 pings): with a gain of 1 the fit's sigmas read
  * 1.3-1.6 times their scatter at 31 and 23 dB of image SNR, 1.16 and
- * 1.44 at 21 dB. */
+ * 1.44 at 21 dB. The same gain fits the model's parabolas on the 2-D
+ * fan (sonar-bench --sweep uncertainty: ratios 0.88-1.00 over 15-44 dB
+ * of image SNR). */
 #define SONAR_UNCERTAINTY_FIT_SNR_GAIN 2.0
 
 /* The image's noise (above): its scratch is sized once for a grid, so

@@ -172,14 +172,21 @@ typedef struct
   /* The echo's direction (degrees), which its detection reports: on a
    * grid coarser than FINE_GRID_STEP (sonar-velocity.c), the peak of a
    * quadratic fitted to the coherent strength over the 3 x 3 directions
-   * (3 on a 2-D grid) half a grid step apart about the search's best, finer than the search's quarter steps and not pulled over
-   * by the noise peaks a strong echo's cluster gathers; else where it
+   * (3 on a 2-D grid) half a grid step apart about the search's best,
+   * finer than the search's quarter steps and not pulled over by the
+   * noise peaks a strong echo's cluster gathers; on finer grids, in the
+   * pool's valid estimates (sonar_velocity_pool_estimate ()), the vertex
+   * of the power the echo's model explains a quarter step either side of
+   * where it was evaluated (the centroid's direction, its members'
+   * weighted mean, lies 0.01-0.1 degree off a lone echo); else where it
    * was evaluated. */
   double echo_azimuth, echo_elevation;
-  /* Second derivatives of ln (the emitters' coherent sum's amplitude) at
-   * the echo's direction, per degree^2, from that fit: along azimuth,
-   * across (azimuth x elevation), along elevation; NaN where no fit was
-   * made (the cross and elevation terms on a 2-D grid). */
+  /* Second derivatives of ln (amplitude) at the echo's direction, per
+   * degree^2, from that fit (the emitters' coherent sum's, or the
+   * model's explained power's): along azimuth, across (azimuth x
+   * elevation), along elevation; NaN where no fit was made (the cross
+   * and elevation terms on a 2-D grid); the model's parabolas measure no
+   * cross term (0). */
   double direction_curvature[3];
   double radial_velocity;       /* m/s, + = moving away */
   guint bank_index;             /* bank velocity nearest the estimate */

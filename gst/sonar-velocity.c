@@ -2277,6 +2277,30 @@ echo_model (EchoWorker * ew, const SonarVelocityEstimate * e,
 typedef float ModelLanes __attribute__ ((vector_size (MODEL_LANES *
             sizeof (float))));
 
+/* The phasors of the models of the @lanes microphones from @j on, at
+ * the band's first bin (@start: amplitude times exp (-i k0 path)) and
+ * their turn a bin (@turn: exp (-i dk path)), path their echo's at
+ * @range m (ew->mic_legs), lane l's amplitude @a times gains[j + l]
+ * (@gains NULL: 1); in float: the phasor's drift over the band's bins
+ * stays far below the model's own error. */
+static inline __attribute__ ((always_inline)) void
+model_lane_phasors (const EchoWorker * ew, double range, double complex a,
+    const double complex * gains, guint j, guint lanes, ModelLanes * start_re,
+    ModelLanes * start_im, ModelLanes * turn_re, ModelLanes * turn_im)
+{
+  const SonarSteering *st = &ew->est->steering;
+
+  for (guint l = 0; l < lanes; l++) {
+    const double path = 2.0 * range + ew->mic_legs[j + l];
+    const double complex p0 = (gains ? a * gains[j + l] : a) *
+        cexp (-I * st->k0 * path);
+    (*turn_re)[l] = (float) cos (st->dk * path);
+    (*turn_im)[l] = (float) -sin (st->dk * path);
+    (*start_re)[l] = (float) creal (p0);
+    (*start_im)[l] = (float) cimag (p0);
+  }
+}
+
 /* subtract_model () on the @lanes (at most MODEL_LANES) microphones from
  * @j on: each one's phasor turns a bin at a time, a chain of dependent
  * products that waits on each step alone; the lanes' chains run side by
@@ -2289,21 +2313,13 @@ subtract_model_lanes (const EchoWorker * ew, double range, double complex a,
     const double complex * gains, const float *t_re, const float *t_im,
     float *re_out, float *im_out, guint j, guint lanes, gboolean from_zero)
 {
-  const SonarSteering *st = &ew->est->steering;
   const guint nb = ew->est->band.n_bins;
   ModelLanes sr = { 0.0f }, si = { 0.0f }, pr = { 0.0f }, pi = { 0.0f };
   float *re[MODEL_LANES], *im[MODEL_LANES];
 
+  /* a exp (-i k path) conj (t(k)) */
+  model_lane_phasors (ew, range, a, gains, j, lanes, &pr, &pi, &sr, &si);
   for (guint l = 0; l < lanes; l++) {
-    /* a exp (-i k path) conj (t(k)), in float: the phasor's drift over
-     * the band's bins stays far below the model's own error. */
-    const double path = 2.0 * range + ew->mic_legs[j + l];
-    const double complex p0 = (gains ? a * gains[j + l] : a) *
-        cexp (-I * st->k0 * path);
-    sr[l] = (float) cos (st->dk * path);
-    si[l] = (float) -sin (st->dk * path);
-    pr[l] = (float) creal (p0);
-    pi[l] = (float) cimag (p0);
     re[l] = re_out + (gsize) (j + l) * nb;
     im[l] = im_out + (gsize) (j + l) * nb;
   }
@@ -2332,19 +2348,13 @@ model_dots_lanes (const EchoWorker * ew, double range, const float *t_re,
     const float *t_im, const float *x_re, const float *x_im, guint j,
     guint lanes, double complex * dot, double *model, double *data)
 {
-  const SonarSteering *st = &ew->est->steering;
   const guint nb = ew->est->band.n_bins;
   ModelLanes sr = { 0.0f }, si = { 0.0f }, pr = { 0.0f }, pi = { 0.0f };
   ModelLanes d_re = { 0.0f }, d_im = { 0.0f }, mm = { 0.0f }, xx = { 0.0f };
   const float *re[MODEL_LANES], *im[MODEL_LANES];
 
+  model_lane_phasors (ew, range, 1.0, NULL, j, lanes, &pr, &pi, &sr, &si);
   for (guint l = 0; l < lanes; l++) {
-    const double path = 2.0 * range + ew->mic_legs[j + l];
-    const double complex p0 = cexp (-I * st->k0 * path);
-    sr[l] = (float) cos (st->dk * path);
-    si[l] = (float) -sin (st->dk * path);
-    pr[l] = (float) creal (p0);
-    pi[l] = (float) cimag (p0);
     re[l] = x_re + (gsize) (j + l) * nb;
     im[l] = x_im + (gsize) (j + l) * nb;
   }

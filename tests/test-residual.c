@@ -1,8 +1,9 @@
 /* test-residual.c: the residual search (sonar-residual.h) through the
  * core: an echo hidden within a stronger one's pulse, found on the ping
  * less the accepted echoes; a ping with nothing accepted costs nothing;
- * the imager makes a grid again from the grid alone; an echo whose
- * spectrum air has tilted is cancelled down to the noise. */
+ * the imager makes a grid again from the grid alone; a lone echo is
+ * cancelled deep, calibrated or not, and one whose spectrum air has
+ * tilted down to the noise. */
 #include <math.h>
 
 #include "sonar-cluster.h"
@@ -202,6 +203,37 @@ peak_near (const float *image, const SonarImageGrid * g, double range,
   return top;
 }
 
+/* The ping in @f's spectra (simulated, then altered by the caller)
+ * through the image, the clusters and the estimates, then imaged again
+ * less its accepted echoes (sonar_velocity_pool_residual ()): how much of
+ * the echo at @range m, @azimuth degrees is left, dB under it. Its one
+ * valid estimate there goes to *@e. */
+static double
+echo_left_db (Fixture * f, double range, double azimuth,
+    const SonarVelocityEstimate ** e)
+{
+  const gsize size = (gsize) f->chain.setup->geometry.n_microphones *
+      f->chain.band.n_bins;
+  g_autofree SonarComplex *residual = g_new (SonarComplex, size);
+  float echo, left;
+
+  sonar_imager_process (f->imager, f->chain.mic_spectra, f->n_hypotheses,
+      f->hypotheses, -1, f->image);
+  echo = peak_near (f->image, f->grid, range, azimuth);
+  f->n_centroids = sonar_clusterer_process (f->clusterer, f->image,
+      f->centroids, MAX_CENTROIDS);
+  sonar_velocity_pool_estimate (f->pool, f->chain.mic_spectra, f->centroids,
+      f->n_centroids, f->results, f->counts);
+  g_assert_cmpuint (valid_near (f->results, f->counts, f->n_centroids,
+          point (range, azimuth), e), ==, 1);
+  sonar_velocity_pool_residual (f->pool, f->results, f->counts,
+      f->n_centroids, residual);
+  sonar_imager_process (f->imager, residual, f->n_hypotheses,
+      f->hypotheses, -1, f->image);
+  left = peak_near (f->image, f->grid, range, azimuth);
+  return 20.0 * log10 (left / echo);
+}
+
 /* An echo whose spectrum air has tilted: at 4 m, ISO 9613-1's absorption
  * (20 C, 50 % humidity) takes 4 dB more off its 20 kHz end than the
  * emissions say and 21 dB off its 80 kHz end; here a tilt of 24 dB
@@ -219,8 +251,7 @@ test_tilted_echo_cancelled (void)
   const SonarBand *band = &f.chain.band;
   const guint n_mics = 32;
   const SonarVelocityEstimate *e = NULL;
-  SonarComplex *residual;
-  float echo, left;
+  double left;
 
   fixture_init (&f);
   g_assert_cmpuint (f.chain.setup->geometry.n_microphones, ==, n_mics);
@@ -235,27 +266,10 @@ test_tilted_echo_cancelled (void)
     for (guint j = 0; j < n_mics; j++)
       f.chain.mic_spectra[(gsize) j * band->n_bins + k] *= gain;
   }
-  sonar_imager_process (f.imager, f.chain.mic_spectra, f.n_hypotheses,
-      f.hypotheses, -1, f.image);
-  echo = peak_near (f.image, f.grid, range, azimuth);
-  f.n_centroids = sonar_clusterer_process (f.clusterer, f.image,
-      f.centroids, MAX_CENTROIDS);
-  sonar_velocity_pool_estimate (f.pool, f.chain.mic_spectra, f.centroids,
-      f.n_centroids, f.results, f.counts);
-  g_assert_cmpuint (valid_near (f.results, f.counts, f.n_centroids,
-          point (range, azimuth), &e), ==, 1);
+  left = echo_left_db (&f, range, azimuth, &e);
   g_assert_cmpfloat (fabs (e->radial_velocity - 0.7), <, 0.02);
-
-  residual = g_new (SonarComplex, (gsize) n_mics * band->n_bins);
-  sonar_velocity_pool_residual (f.pool, f.results, f.counts, f.n_centroids,
-      residual);
-  sonar_imager_process (f.imager, residual, f.n_hypotheses, f.hypotheses,
-      -1, f.image);
-  left = peak_near (f.image, f.grid, range, azimuth);
-  g_test_message ("tilted echo: %.1f dB of it left", 20.0 * log10 (left /
-          echo));
-  g_assert_cmpfloat (20.0 * log10 (left / echo), <, -30.0);
-  g_free (residual);
+  g_test_message ("tilted echo: %.1f dB of it left", left);
+  g_assert_cmpfloat (left, <, -30.0);
   fixture_clear (&f);
 }
 
@@ -267,12 +281,10 @@ static double
 echo_left (double gain_db, double phase_deg)
 {
   Fixture f;
-  const double range = 1.0, azimuth = 20.0;
   const SonarBand *band = &f.chain.band;
   const guint n_mics = 32;
   const SonarVelocityEstimate *e = NULL;
-  SonarComplex *residual;
-  float echo, left;
+  double left;
 
   fixture_init (&f);
   g_assert_cmpuint (f.chain.setup->geometry.n_microphones, ==, n_mics);
@@ -288,27 +300,11 @@ echo_left (double gain_db, double phase_deg)
     for (guint k = 0; k < band->n_bins; k++)
       f.chain.mic_spectra[(gsize) j * band->n_bins + k] *= gain;
   }
-  sonar_imager_process (f.imager, f.chain.mic_spectra, f.n_hypotheses,
-      f.hypotheses, -1, f.image);
-  echo = peak_near (f.image, f.grid, range, azimuth);
-  f.n_centroids = sonar_clusterer_process (f.clusterer, f.image,
-      f.centroids, MAX_CENTROIDS);
-  sonar_velocity_pool_estimate (f.pool, f.chain.mic_spectra, f.centroids,
-      f.n_centroids, f.results, f.counts);
-  g_assert_cmpuint (valid_near (f.results, f.counts, f.n_centroids,
-          point (range, azimuth), &e), ==, 1);
+  left = echo_left_db (&f, 1.0, 20.0, &e);
   g_test_message ("echo estimated at %.4f m, %.3f deg", e->echo_range,
       e->echo_azimuth);
-
-  residual = g_new (SonarComplex, (gsize) n_mics * band->n_bins);
-  sonar_velocity_pool_residual (f.pool, f.results, f.counts, f.n_centroids,
-      residual);
-  sonar_imager_process (f.imager, residual, f.n_hypotheses, f.hypotheses,
-      -1, f.image);
-  left = peak_near (f.image, f.grid, range, azimuth);
-  g_free (residual);
   fixture_clear (&f);
-  return 20.0 * log10 (left / echo);
+  return left;
 }
 
 /* A lone echo at 1 m, 20 degrees: its centroid lies 0.1 degree off it

@@ -2815,8 +2815,9 @@ model_direction (EchoWorker * ew, SonarVelocityEstimate * e,
  * power the model leaves in X_j per bin over |m_j|^2 (a Wiener weight,
  * spread^2 / (spread^2 + variance)): a strong echo takes its own gains,
  * a faint one, whose gains the noise and its neighbours would set, the
- * model's. What one amplitude over the array leaves of an echo (the
- * spreading's taper, a microphone off) then goes too. */
+ * model's. Microphones 3 dB and 20 degrees off left a lone echo at -36.5
+ * dB with one gain over the array, at -43 with these
+ * (tests/test-residual.c). */
 static void
 subtract_model_per_microphone (EchoWorker * ew, double range, float *re,
     float *im)

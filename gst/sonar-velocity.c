@@ -981,7 +981,7 @@ hyp_take (SonarVelocityEstimator * est, guint n, guint v, double range,
   return TRUE;
 }
 
-static double parabola_offset (double a, double b, double c);
+static double parabola_offset (double a, double b, double c, double bound);
 
 static double
 cabs2 (double complex z)
@@ -1070,7 +1070,8 @@ coherence_over (SonarVelocityEstimator * est,
     *which = best_i;
   if (lag) {
     if (before > 0.0 && after > 0.0 && best_sum > 0.0)
-      best_lag += parabola_offset (log (before), log (best_sum), log (after));
+      best_lag += parabola_offset (log (before), log (best_sum), log (after),
+          0.5);
     *lag = best_lag * grid->range_step;
   }
   return best;
@@ -1392,7 +1393,7 @@ window_peak (SonarVelocityEstimator * est, guint n, guint v, double range)
   if (fine[best - 1] > 0.0 && fine[best] > 0.0 && fine[best + 1] > 0.0) {
     const double la = log (fine[best - 1]), lb = log (fine[best]);
     const double lc = log (fine[best + 1]);
-    const double x = parabola_offset (la, lb, lc);
+    const double x = parabola_offset (la, lb, lc, 0.5);
     /* The vertex's height: lb - (la - lc) x / 4, at least lb. */
     return exp (lb - 0.25 * (la - lc) * x);
   }
@@ -1501,12 +1502,14 @@ fill_and_multiply (SonarVelocityEstimator * est)
   return peak;
 }
 
-/* Vertex of the parabola through (-1, a), (0, b), (1, c): offset in steps. */
+/* Vertex of the parabola through (-1, a), (0, b), (1, c): offset in
+ * steps, within +-@bound (0.5 about the strongest of three samples); 0
+ * where it has no maximum. */
 static double
-parabola_offset (double a, double b, double c)
+parabola_offset (double a, double b, double c, double bound)
 {
   const double denom = a - 2.0 * b + c;
-  return denom < 0.0 ? CLAMP (0.5 * (a - c) / denom, -0.5, 0.5) : 0.0;
+  return denom < 0.0 ? CLAMP (0.5 * (a - c) / denom, -bound, bound) : 0.0;
 }
 
 /* Vertex, in steps from @p, of the least-squares parabola through lp[]
@@ -1533,7 +1536,7 @@ fit_vertex (const double *lp, guint n, guint p, double lobe_steps)
   det = s[0] * (s[2] * s[4] - s[3] * s[3]) - s[1] * (s[1] * s[4] - s[3] *
       s[2]) + s[2] * (s[1] * s[3] - s[2] * s[2]);
   if (hi - lo < 2 || fabs (det) < 1e-12)
-    return parabola_offset (lp[p - 1], lp[p], lp[p + 1]);
+    return parabola_offset (lp[p - 1], lp[p], lp[p + 1], 0.5);
   b = (s[0] * (t[1] * s[4] - s[3] * t[2]) - t[0] * (s[1] * s[4] - s[3] *
           s[2]) + s[2] * (s[1] * t[2] - t[1] * s[2])) / det;
   c = (s[0] * (s[2] * t[2] - t[1] * s[3]) - s[1] * (s[1] * t[2] - t[1] *
@@ -2749,17 +2752,6 @@ explained_power (EchoWorker * ew, const SonarVelocityEstimate * e,
   return power > 0.0 ? cabs2 (dot) / power : 0.0;
 }
 
-/* The vertex of the parabola through (-1, @before), (0, @at), (1,
- * @after), within [-1, 1]; 0 where it has no maximum. */
-static double
-vertex_within (double before, double at, double after)
-{
-  const double curvature = before + after - 2.0 * at;
-
-  return curvature < 0.0 ? CLAMP (0.5 * (before - after) / curvature,
-      -1.0, 1.0) : 0.0;
-}
-
 /* Moves the direction of @e, where its model is placed, to the vertex
  * of a parabola in the logarithm of explained_power () through it and
  * MODEL_DIRECTION_STEP image steps either side: along azimuth, then on a
@@ -2794,7 +2786,7 @@ model_direction (EchoWorker * ew, SonarVelocityEstimate * e,
     for (guint i = 0; i < 3; i++)
       l[i] = log (power[i]);
     *(axis == 0 ? &e->azimuth : &e->elevation) += steps[axis] *
-        vertex_within (l[0], l[1], l[2]);
+        parabola_offset (l[0], l[1], l[2], 1.0);
     if (curvature)
       curvature[axis] = 0.5 * (l[0] + l[2] - 2.0 * l[1]) /
           (steps[axis] * steps[axis]);

@@ -1086,6 +1086,14 @@ coherence_over (SonarVelocityEstimator * est,
 /* The search's sub-directions per axis: -DIRECTION_SUBSTEPS .. +. */
 #define SEARCH_SIDE (2 * DIRECTION_SUBSTEPS + 1)
 
+/* Whether refine_direction () searches along an axis of grid @step
+ * (degrees): coarser than FINE_GRID_STEP. */
+static inline gboolean
+searches_axis (double step)
+{
+  return step > FINE_GRID_STEP + 1e-9;
+}
+
 /* The vertex (*x, *y) of the quadratic a + b x + c y + d x^2 + e xy +
  * g y^2 fitted by least squares to ln @f over the 3 x 3 points x, y in
  * {-1, 0, 1} (f[(y + 1) * 3 + x + 1]; with @two_d FALSE, the row y = 0
@@ -1166,9 +1174,9 @@ refine_direction (SonarVelocityEstimator * est,
   const SonarImageGrid *g = &est->grid;
   const double da = g->azimuth_step / (2 * DIRECTION_SUBSTEPS);
   const double de = g->elevation_step / (2 * DIRECTION_SUBSTEPS);
-  const int qa = g->azimuth_step > FINE_GRID_STEP + 1e-9 ?
+  const int qa = searches_axis (g->azimuth_step) ?
       DIRECTION_SUBSTEPS : 0;
-  const int qe = g->elevation_step > FINE_GRID_STEP + 1e-9 ?
+  const int qe = searches_axis (g->elevation_step) ?
       DIRECTION_SUBSTEPS : 0;
   const double az_c = *azimuth, el_c = *elevation;
   /* The strengths evaluated, at quarter steps from the given direction
@@ -3582,8 +3590,8 @@ pool_sidelobes (SonarVelocityPool * pool, const SonarCentroid * centroids,
 static gboolean
 reports_model_direction (const SonarVelocityEstimator * est)
 {
-  return !(est->grid.azimuth_step > FINE_GRID_STEP + 1e-9)
-      && !(est->grid.elevation_step > FINE_GRID_STEP + 1e-9);
+  return !searches_axis (est->grid.azimuth_step)
+      && !searches_axis (est->grid.elevation_step);
 }
 
 /* The workers' share of report_directions (): each valid estimate's
@@ -3757,9 +3765,9 @@ sonar_velocity_pool_work (const SonarVelocityPool * pool,
 {
   const SonarVelocityEstimator *est = pool->estimators[0];
   const SonarImageGrid *g = &est->grid;
-  const guint qa = g->azimuth_step > FINE_GRID_STEP + 1e-9 ?
+  const guint qa = searches_axis (g->azimuth_step) ?
       DIRECTION_SUBSTEPS : 0;
-  const guint qe = g->elevation_step > FINE_GRID_STEP + 1e-9 ?
+  const guint qe = searches_axis (g->elevation_step) ?
       DIRECTION_SUBSTEPS : 0;
 
   work->bins = est->gate_size ? est->gate_bins : est->band.n_bins;

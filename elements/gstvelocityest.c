@@ -161,6 +161,16 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->n_emitters = params.emitters ? params.emitters :
       setup->geometry.n_emitters;
   self->emission_centre = sonar_setup_emission_centre (setup);
+  /* One emitter leaves the product nothing to compare: the coherence and
+   * agreement tests pass every centroid, the array's sidelobes too (a
+   * one-emitter recording of two objects: hundreds of detections). */
+  if (self->n_emitters < 2)
+    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("velocityest: one "
+            "emitter enters the Doppler-ACF product (%s): the tests that "
+            "compare the emitters (coherence, agreement) cannot tell an "
+            "echo from a sidelobe or a ghost, and every centroid may be "
+            "reported; use two emitters or more", params.emitters ?
+            "emitters=1" : "the set-up has one"), (NULL));
   if (min_agreeing_set && params.min_agreeing_emitters > self->n_emitters) {
     g_set_error (error, GST_CORE_ERROR, GST_CORE_ERROR_NEGOTIATION,
         "velocityest: min-agreeing-emitters is %u, but only %u emitters "

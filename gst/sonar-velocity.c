@@ -2073,18 +2073,24 @@ struct _SonarVelocityPool
   guint n_placed, placed_capacity;
 };
 
-/* Whether @a and @b are one echo: within a range step and an image
- * direction step of each other, their velocities within half a Doppler
- * main lobe. */
+/* Whether @a and @b are one echo: within a range step of each other,
+ * their directions within an image step as it spans at boresight
+ * (compared in the array's plane, x and y of the unit vectors, where the
+ * beam is as wide everywhere: off boresight a degree spans less of it, and
+ * at 60 degrees of elevation one echo's estimates lay 3.4 degrees of
+ * azimuth apart), their velocities within half a Doppler main lobe. */
 static gboolean
 same_echo (const SonarVelocityEstimator * est, const SonarVelocityEstimate * a,
     const SonarVelocityEstimate * b)
 {
   const SonarImageGrid *g = &est->grid;
+  const SonarVec3 ua = sonar_vec3_from_direction (a->azimuth, a->elevation);
+  const SonarVec3 ub = sonar_vec3_from_direction (b->azimuth, b->elevation);
+  const double step = sin (G_PI / 180.0 * MAX (g->azimuth_step,
+          g->elevation_step));
 
   return a->valid && b->valid && fabs (a->range - b->range) <= g->range_step
-      && fabs (a->azimuth - b->azimuth) <= g->azimuth_step
-      && fabs (a->elevation - b->elevation) <= MAX (g->elevation_step, 1e-9)
+      && hypot (ua.x - ub.x, ua.y - ub.y) <= step
       && fabs (a->radial_velocity - b->radial_velocity) <= 0.5 *
       est->main_lobe;
 }
@@ -2783,6 +2789,7 @@ model_direction (EchoWorker * ew, SonarVelocityEstimate * e,
     curvature[0] = curvature[1] = NAN;
   for (guint axis = 0; axis < (g->n_elevation > 1 ? 2u : 1u); axis++) {
     double power[3], l[3];
+    double *angle = axis == 0 ? &e->azimuth : &e->elevation;
     if (!(steps[axis] > 0.0))
       continue;
     for (int i = -1; i <= 1; i++)
@@ -2793,8 +2800,10 @@ model_direction (EchoWorker * ew, SonarVelocityEstimate * e,
       continue;
     for (guint i = 0; i < 3; i++)
       l[i] = log (power[i]);
-    *(axis == 0 ? &e->azimuth : &e->elevation) += steps[axis] *
-        parabola_offset (l[0], l[1], l[2], 1.0);
+    /* Within the half space in front of the array (a vertex beyond 90
+     * degrees would be behind it), as the probes are. */
+    *angle = CLAMP (*angle + steps[axis] * parabola_offset (l[0], l[1],
+            l[2], 1.0), -90.0, 90.0);
     if (curvature)
       curvature[axis] = 0.5 * (l[0] + l[2] - 2.0 * l[1]) /
           (steps[axis] * steps[axis]);

@@ -385,6 +385,108 @@ test_near_far_3d (void)
   gst_sample_unref (sample);
 }
 
+/* 3-D, one still point at each corner of the hemisphere (60 degrees of
+ * azimuth and of elevation): one detection each. There a degree of
+ * azimuth spans half what it does at boresight, and wardcluster split
+ * each echo into centroids 3-4 degrees apart; two of them passed every
+ * test, and the estimates, compared in degrees, were not found to be one
+ * echo (a false object on every ping). */
+static void
+test_one_echo_off_boresight_3d (void)
+{
+  g_autofree char *scene = sonar_test_write_temp ("corners-3d.json",
+      "{\"dimensions\": 3, \"reflectors\": ["
+      " {\"range\": 2.5, \"azimuth\": -60, \"elevation\": -60, "
+      "\"radial-velocity\": 0.1},"
+      " {\"range\": 1.8, \"azimuth\": 60, \"elevation\": 60}]}");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
+      "num-buffers=1 ! dopplerbank velocity-min=-1 velocity-max=1 "
+      "velocity-step=0.05 ! mimobeamform ! wardcluster ! velocityest ! "
+      "appsink name=sink sync=false", scene);
+  GstSample *sample;
+  SonarTruthMeta *truth;
+  SonarDetectionsMeta *dets;
+  guint found[2] = { 0, 0 };
+
+  run_one_ping (launch, 1, &sample);
+  truth = sample_truth (sample);
+  dets = sample_detections (sample);
+  g_assert_cmpuint (truth->n_truths, ==, 2);
+  for (guint i = 0; i < dets->n_detections; i++) {
+    const SonarDetection *d = &dets->detections[i];
+    const int k = truth_of (d, truth);
+    g_test_message ("reported: %.4f m %+.2f %+.2f deg, %+.4f m/s, %s",
+        d->range, d->azimuth, d->elevation, d->radial_velocity,
+        d->valid ? "valid" : "rejected");
+    if (!d->valid)
+      continue;
+    g_assert_cmpint (k, >=, 0);
+    g_assert_cmpfloat (fabs (d->radial_velocity -
+            truth->truths[k].radial_velocity), <=, 0.02);
+    found[k]++;
+  }
+  g_assert_cmpuint (found[0], ==, 1);
+  g_assert_cmpuint (found[1], ==, 1);
+  gst_sample_unref (sample);
+}
+
+/* Objects half a degree inside the fan's edges (+-89.5 degrees), moving:
+ * every detection lies in front of the array. The direction of its
+ * echo's model (a parabola's vertex a quarter step beyond the edge
+ * direction at most) read +-90.125 degrees on one ping: behind the array,
+ * outside docs/detections.schema.json. */
+static void
+test_directions_at_the_edges (void)
+{
+  g_autofree char *scene = sonar_test_write_temp ("edges.json",
+      "{\"dimensions\": 2, \"reflectors\": ["
+      " {\"range\": 2.0, \"azimuth\": 89.5, \"radial-velocity\": -0.5},"
+      " {\"range\": 3.0, \"azimuth\": -89.5, "
+      "\"radial-velocity\": 0.3}]}");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
+      "num-buffers=3 ! dopplerbank ! mimobeamform ! wardcluster ! "
+      "velocityest ! appsink name=sink sync=false", scene);
+  g_autoptr (SonarTestRun) run = sonar_test_run (launch);
+  GPtrArray *samples;
+  guint valid = 0;
+
+  g_assert_null (run->error_text);
+  samples = sonar_test_run_samples (run, "sink");
+  g_assert_cmpuint (samples->len, ==, 3);
+  for (guint p = 0; p < samples->len; p++) {
+    SonarDetectionsMeta *dets = sample_detections (samples->pdata[p]);
+    for (guint i = 0; i < dets->n_detections; i++) {
+      const SonarDetection *d = &dets->detections[i];
+      g_test_message ("ping %u: %.4f m %+.3f deg, %s", p, d->range,
+          d->azimuth, d->valid ? "valid" : "rejected");
+      g_assert_cmpfloat (fabs (d->azimuth), <=, 90.0);
+      g_assert_cmpfloat (fabs (d->elevation), <=, 90.0);
+      valid += d->valid;
+    }
+  }
+  g_assert_cmpuint (valid, >=, 4);
+}
+
+/* One emitter in the product (emitters=1) is warned of: nothing is left
+ * to compare across emitters, and the ghost tests pass every centroid. */
+static void
+test_one_emitter_warned (void)
+{
+  g_autoptr (SonarTestRun) run = sonar_test_run ("sonarsrc num-buffers=1 "
+      "! dopplerbank ! mimobeamform ! wardcluster ! velocityest emitters=1 "
+      "! fakesink");
+  gboolean warned = FALSE;
+
+  g_assert_null (run->error_text);
+  for (guint i = 0; i < run->warnings->len; i++)
+    warned |= g_strcmp0 (run->warnings->pdata[i], "velocityest: one "
+        "emitter enters the Doppler-ACF product (emitters=1): the tests "
+        "that compare the emitters (coherence, agreement) cannot tell an "
+        "echo from a sidelobe or a ghost, and every centroid may be "
+        "reported; use two emitters or more") == 0;
+  g_assert_true (warned);
+}
+
 /* With the ridges out of the image (range-min above them), the same
  * recording gives the normal reflector with its velocity: the near-far
  * limitation above is the clustering's, not the estimator's. */
@@ -1168,6 +1270,12 @@ main (int argc, char **argv)
       test_near_far_strong_still);
   g_test_add_func ("/velocityest/near-far/strong-moving",
       test_near_far_strong_moving);
+  g_test_add_func ("/velocityest/one-emitter-warned",
+      test_one_emitter_warned);
+  g_test_add_func ("/velocityest/directions-at-the-edges",
+      test_directions_at_the_edges);
+  g_test_add_func ("/velocityest/one-echo-off-boresight-3d",
+      test_one_echo_off_boresight_3d);
   g_test_add_func ("/velocityest/near-far/3d-off-the-coarse-grid",
       test_near_far_3d);
   g_test_add_func ("/velocityest/near-far/normal-alone-in-image",

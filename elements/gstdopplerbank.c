@@ -124,6 +124,7 @@ struct _GstDopplerBank
   gboolean position_known;
   guint64 adapter_position;
   guint64 next_ping;
+  gboolean reached_ping;        /* the stream reached a ping's window */
   GstClockTime stream_start_pts;        /* PTS of stream sample 0 */
 };
 
@@ -653,6 +654,7 @@ gst_doppler_bank_process (GstSonarFilter * filter, GstBuffer * buffer)
         break;
       continue;
     }
+    self->reached_ping = TRUE;
     if (available < ping_bytes)
       break;
     if (gst_sonar_filter_drop_late (filter, self->next_ping, ping_pts (self,
@@ -697,9 +699,22 @@ gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
         GST_AUDIO_INFO_BPF (&self->info), self->ping_length);
     drop_pings (self, self->next_ping, self->next_ping + 1, why);
   }
+  /* A stream that ends before its first ping's window (a trigger-offset
+   * past the recording's end) gives nothing: say so. */
+  if (drain && self->setup && self->position_known && !self->reached_ping)
+    GST_ELEMENT_WARNING (self, STREAM, DEMUX, ("dopplerbank: the stream "
+            "ended at %.6g s, before ping %" G_GUINT64_FORMAT "'s window, "
+            "which starts at %.6g s (the sensor's trigger-offset and "
+            "ping-period): no ping was analysed", (double)
+            (self->adapter_position + gst_adapter_available (self->adapter)
+                / GST_AUDIO_INFO_BPF (&self->info)) /
+            self->setup->sample_rate, self->next_ping, (double)
+            sonar_setup_ping_start (self->setup, self->next_ping) /
+            self->setup->sample_rate), (NULL));
   gst_adapter_clear (self->adapter);
   self->position_known = FALSE;
   if (!drain) {
+    self->reached_ping = FALSE;
     self->warned_non_finite = self->warned_overflow = FALSE;
     self->warned_clipped = FALSE;
     self->told_direct_path = FALSE;

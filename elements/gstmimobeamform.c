@@ -214,6 +214,77 @@ warn_coarse_grid (GstMimoBeamform * self)
   }
 }
 
+/* A coarse pass on a sub-band (coarse-band) sees each echo by the band's
+ * share weaker than the whole band does: beyond this many dB it is
+ * warned of (sonar-bench --sweep coarse-band: down to a twelfth, 10.8
+ * dB, the presets' strong objects stay; at 0.01, 20 dB, none of the
+ * default scene's three is found). */
+#define COARSE_BAND_WARNING_DB 10.0
+
+static void
+warn_coarse_band (GstMimoBeamform * self, double share)
+{
+  const double loss = -10.0 * log10 (share);
+
+  if (loss > COARSE_BAND_WARNING_DB)
+    GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+        ("mimobeamform: coarse-band %g: the coarse pass sees each echo "
+            "%.1f dB weaker than the whole band does, and may miss any echo "
+            "less than that over wardcluster's threshold (a share of at "
+            "least %.2f keeps the loss within %g dB)", share, loss,
+            pow (10.0, -COARSE_BAND_WARNING_DB / 10.0),
+            COARSE_BAND_WARNING_DB), (NULL));
+}
+
+/* Beyond this many turns of phase at the focus zones' ends the images
+ * lose their objects (the default scene: range-min 0.02 m, 3.4 turns, 1
+ * of 3 found; 0.01 m, 6.7 turns, none), short of it they keep them
+ * (0.05 m, 1.3 turns, and tools/foreign-scenes.py's array 2.5 times as
+ * wide as eRTIS at the defaults, 1.1 turns: every object, the same errors
+ * as with the 18 zones of a quarter turn; the default: 0.21). */
+#define FOCUS_WARNING_TURNS 2.0
+
+/* The nearest range-min from which @zones focus zones keep the array
+ * within a quarter turn of focus to @range_max, @turns that of one zone
+ * from @range_min. */
+static double
+range_min_in_focus (double turns, double range_min, double range_max,
+    guint zones)
+{
+  const double per_inverse_m = turns / (1.0 / range_min - 1.0 / range_max);
+
+  return 1.0 / (0.25 * zones / per_inverse_m + 1.0 / range_max);
+}
+
+/* Focus zones too few for the image's ranges. */
+static void
+warn_focus (GstMimoBeamform * self, const SonarSetup * setup,
+    const SonarImagerParams * p, double range_max)
+{
+  const double turns = sonar_imager_focus_turns (setup, p->range_min,
+      range_max);
+  const guint needed = (guint) ceil (turns / 0.25);
+  g_autofree char *remedy = NULL;
+
+  if (!(turns / p->focus_zones > FOCUS_WARNING_TURNS))
+    return;
+  remedy = needed <= SONAR_IMAGER_MAX_FOCUS_ZONES ?
+      g_strdup_printf ("focus-zones=%u, or range-min=%.2g with %u zones",
+      needed, range_min_in_focus (turns, p->range_min, range_max,
+          p->focus_zones), p->focus_zones) :
+      g_strdup_printf ("range-min=%.2g with %u zones (%.2g with %u)",
+      range_min_in_focus (turns, p->range_min, range_max, p->focus_zones),
+      p->focus_zones, range_min_in_focus (turns, p->range_min, range_max,
+          SONAR_IMAGER_MAX_FOCUS_ZONES), SONAR_IMAGER_MAX_FOCUS_ZONES);
+  GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
+      ("mimobeamform: from range-min %g m to %.3g m, %u focus zones leave "
+          "the array's outer elements %.2g turns out of phase at the zones' "
+          "ends (at %g Hz): images blur there and echoes may be missed; %s "
+          "keeps it within a quarter turn", p->range_min, range_max,
+          p->focus_zones, turns / p->focus_zones, setup->band_high, remedy),
+      (NULL));
+}
+
 static GstCaps *
 gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
     GError ** error)
@@ -272,6 +343,8 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
             "at %.3f m, the end of the %u-sample window", params.range_max,
             range_max, setup->ping_length), (NULL));
   warn_coarse_grid (self);
+  warn_coarse_band (self, params.coarse_band);
+  warn_focus (self, setup, &params, range_max);
 
   self->indices = g_new (guint, n_bank + 2);
   switch (self->active_mode) {
@@ -684,8 +757,9 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
   g_object_class_install_property (gobject_class, PROP_FOCUS_ZONES,
       g_param_spec_uint ("focus-zones", "Focus zones", "Range zones, even "
           "in 1/range, each focused at its own range (near-field "
-          "correction: more zones, sharper near images, more work)", 1, 64,
-          d.focus_zones, flags));
+          "correction: more zones, sharper near images, more work; far too "
+          "few for range-min are warned of at start)", 1,
+          SONAR_IMAGER_MAX_FOCUS_ZONES, d.focus_zones, flags));
   g_object_class_install_property (gobject_class, PROP_COARSE_SPACING,
       g_param_spec_double ("coarse-spacing", "Coarse spacing", "Modes "
           "detection and fixed image a grid this coarse first, in degrees, "
@@ -719,7 +793,8 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "over the whole band on the coarse directions, the rest keeps its "
           "image mapped onto the whole band's noise statistics. Less: less "
           "work, faint echoes (its SNR is the share's, -4.8 dB for a third) "
-          "missed; 1: the whole band", 0.01, 1.0, d.coarse_band, flags));
+          "missed; below 0.1 (-10 dB) a warning at start; 1: the whole band",
+          0.01, 1.0, d.coarse_band, flags));
   g_object_class_install_property (gobject_class, PROP_COARSE_BAND_PFA,
       g_param_spec_double ("coarse-band-pfa", "Coarse band false-alarm "
           "rate", "With coarse-band below 1: a coarse pixel is imaged again "

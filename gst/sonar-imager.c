@@ -40,7 +40,6 @@
 #define MAP_SPAN 64.0
 
 #define MAX_DIRECTIONS 65536
-#define MAX_FOCUS_ZONES 64
 
 #define UNIT(im, d, z) ((d) * ((im)->n_zones + 1) + (z))
 /* Block @b (of HYPOTHESIS_BLOCK range bins) of coarse unit @u, in the
@@ -349,6 +348,25 @@ sonar_imager_range_max (const SonarSetup * setup, double requested)
   return MIN (requested, window_end);
 }
 
+double
+sonar_imager_focus_turns (const SonarSetup * setup, double range_min,
+    double range_max)
+{
+  const SonarGeometry *g = &setup->geometry;
+  double rho_mic = 0.0, rho_emitter = 0.0, path;
+
+  for (guint j = 0; j < g->n_microphones; j++)
+    rho_mic = MAX (rho_mic, hypot (g->microphones[j].x,
+            g->microphones[j].y));
+  for (guint n = 0; n < g->n_emitters; n++)
+    rho_emitter = MAX (rho_emitter, hypot (g->emitters[n].x,
+            g->emitters[n].y));
+  /* The zone's ends lie half its 1 / r span from its focus. */
+  path = 0.5 * (rho_mic * rho_mic + rho_emitter * rho_emitter) * 0.5 *
+      (1.0 / range_min - 1.0 / range_max);
+  return path * setup->band_high / setup->speed_of_sound;
+}
+
 /* What is wrong with refine levels (set at start or while playing), or
  * NULL. */
 static const char *
@@ -378,7 +396,7 @@ validate_params (const SonarImagerParams * p, double range_max,
     problem = "elevations must satisfy -90 <= min <= max <= 90 degrees";
   else if (!(p->range_resolution > 0.0 && p->range_resolution <= 1.0))
     problem = "the range resolution must be in (0, 1] m";
-  else if (p->focus_zones < 1 || p->focus_zones > MAX_FOCUS_ZONES)
+  else if (p->focus_zones < 1 || p->focus_zones > SONAR_IMAGER_MAX_FOCUS_ZONES)
     problem = "focus zones must be 1 to 64";
   else if (!(p->coarse_spacing >= 0.0 && p->coarse_spacing <= 90.0))
     problem = "the coarse spacing must be 0 to 90 degrees";

@@ -458,7 +458,9 @@ test_range_fits_the_recording (void)
 /* A grid coarser than the array's beam is said once at start, in a
  * warning that names what an echo between its directions loses and the
  * step that keeps it within 6 dB; the default fan's 1 degree and a 3-D
- * 2-degree grid (the hemisphere's) say nothing. */
+ * 2-degree grid (the hemisphere's) say nothing. So are a coarse pass on a
+ * sub-band that loses more than 10 dB and focus zones too few for the
+ * image's ranges. */
 static void
 test_coarse_grid_warning (void)
 {
@@ -485,6 +487,21 @@ test_coarse_grid_warning (void)
           "below its peak at boresight, where its sidelobes can pass as "
           "objects; steps of at most 2.54 x 2.54 degrees (25 x 25 "
           "directions) keep that within 6 dB"},
+    /* A coarse pass on a sub-band is said as well once it loses more than
+     * 10 dB: 0.01, the property's minimum, found nothing. */
+    /* And focus zones far too few for the ranges (0.01 m: nothing found;
+     * 0.1 m, 0.64 turns at the zones' ends, is not warned of). */
+    {"range-min=0.01", "mimobeamform: from range-min 0.01 m to 2 m, 4 focus "
+          "zones leave the array's outer elements 6.7 turns out of phase at "
+          "the zones' ends (at 80000 Hz): images blur there and echoes may "
+          "be missed; range-min=0.24 with 4 zones (0.017 with 64) keeps it "
+          "within a quarter turn"},
+    {"range-min=0.1", NULL},
+    {"coarse-band=0.2", NULL},
+    {"coarse-band=0.01", "mimobeamform: coarse-band 0.01: the coarse pass "
+          "sees each echo 20.0 dB weaker than the whole band does, and may "
+          "miss any echo less than that over wardcluster's threshold (a "
+          "share of at least 0.10 keeps the loss within 10 dB)"},
   };
 
   for (guint c = 0; c < G_N_ELEMENTS (cases); c++) {
@@ -861,6 +878,34 @@ assert_same_spectra (GstBuffer * a, GstBuffer * b)
   g_assert_cmpmem (ma.data, ma.size, mb.data, mb.size);
   gst_buffer_unmap (a, &ma);
   gst_buffer_unmap (b, &mb);
+}
+
+/* A recording that ends before ping 0's trigger (here 2 s in, the
+ * recording 5000 samples long) gives no ping, and says why. */
+static void
+test_stream_ends_before_first_ping (void)
+{
+  g_autoptr (SonarSetup) setup = NULL, framed = NULL;
+  GstBuffer *ping = sonarsrc_ping ("sonarsrc scene=fig9", 0, &setup);
+  const gsize frame = 32 * sizeof (float), total = 5000 * frame;
+  g_autofree guint8 *stream = g_malloc0 (total);
+  g_autofree char *warning = NULL;
+  GstHarness *h;
+  GstBus *bus;
+
+  framed = framed_setup (setup, (guint64) (2.0 * setup->sample_rate), 0,
+      0.1);
+  h = fed_harness ("dopplerbank velocity-min=0 velocity-max=0", framed,
+      &bus);
+  push_stream (h, stream, total, frame, setup->sample_rate, 0, G_MAXSIZE);
+  g_assert_cmpuint (gst_harness_buffers_in_queue (h), ==, 0);
+  warning = pop_warning (bus);
+  g_assert_cmpstr (warning, ==, "dopplerbank: the stream ended at 0.0111111 "
+      "s, before ping 0's window, which starts at 2 s (the sensor's "
+      "trigger-offset and ping-period): no ping was analysed");
+  gst_buffer_unref (ping);
+  gst_harness_teardown (h);
+  gst_object_unref (bus);
 }
 
 /* Ping framing from the set-up: a trigger offset, samples between the
@@ -1441,6 +1486,8 @@ main (int argc, char **argv)
   g_test_add_func ("/elements/tune-velocityest-refused",
       test_tune_velocityest_refused);
   g_test_add_func ("/elements/tune-mimobeamform", test_tune_mimobeamform);
+  g_test_add_func ("/elements/stream-ends-before-first-ping",
+      test_stream_ends_before_first_ping);
   g_test_add_func ("/elements/tune-mimobeamform-refused",
       test_tune_mimobeamform_refused);
   g_test_add_func ("/elements/tune-sonarviz", test_tune_sonarviz);

@@ -474,9 +474,11 @@ make_setup (const SonarSrcSettings * s, guint dimensions, GError ** error)
   }
   if (ping_length / wp.sample_rate > 1.0 / s->ping_rate) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
-        "ping-rate %g Hz is too fast for max-range %g m: the %.1f ms "
-        "recording window is longer than the %.1f ms between pings",
-        s->ping_rate, s->max_range, 1e3 * ping_length / wp.sample_rate,
+        "ping-rate %g Hz is too fast for max-range %g m with waveforms of "
+        "%u samples: the %.1f ms recording window (the echoes out to "
+        "max-range, and a waveform of %.1f ms) is longer than the %.1f ms "
+        "between pings", s->ping_rate, s->max_range, wp.length,
+        1e3 * ping_length / wp.sample_rate, 1e3 * wp.length / wp.sample_rate,
         1e3 / s->ping_rate);
     goto done;
   }

@@ -44,8 +44,8 @@ load_emissions_wav (const char *path, const char *origin, double sample_rate,
       || info.samplerate != sample_rate) {
     SET_ERROR (error, "%s: \"waveforms\": %s holds %d channels of %"
         G_GINT64_FORMAT " samples at %d Hz; expected one channel per emitter "
-        "(1 to %u), 16 to %u samples, at the sample-rate %g Hz", origin, path,
-        info.channels, (gint64) info.frames, info.samplerate,
+        "(1 to %u), 16 to %u samples, at the sample-rate %.10g Hz", origin,
+        path, info.channels, (gint64) info.frames, info.samplerate,
         SONAR_MAX_EMITTERS, SONAR_MAX_WAVEFORM_LENGTH, sample_rate);
     sf_close (file);
     return NULL;
@@ -134,7 +134,7 @@ sonar_sensor_file_load (const char *path, GError ** error)
   g_autofree double *delays = NULL;
   const char *view = NULL;
   guint n_rows = 0, length = 0, n_delays = 0;
-  double trigger = 0.0, whole_trigger, ping_length = 0.0;
+  double trigger = 0.0, whole_trigger, ping_length = 0.0, latest = 0.0;
   double band[2] = { 0.0, 0.0 };
   SonarSetup *setup = NULL;
 
@@ -247,11 +247,21 @@ sonar_sensor_file_load (const char *path, GError ** error)
           "%g s)", path, n, delays[n], SONAR_MAX_EMITTER_DELAY);
       goto done;
     }
+    latest = MAX (latest, delays[n]);
     delays[n] = snap_to_sample (delays[n] * params.sample_rate + trigger -
         whole_trigger);
   }
   delayed = sonar_waveforms_delay (emissions, n_rows, length, delays,
       &params.waveform_length);
+  /* The setup's own check would speak of the delayed length alone. */
+  if (params.waveform_length > params.ping_length && length <=
+      params.ping_length) {
+    SET_ERROR (error, "%s: the emissions (%u samples) delayed by "
+        "\"emitter-delays\" (up to %g s) span %u samples, more than "
+        "\"ping-length\" (%u)", path, length, latest,
+        params.waveform_length, params.ping_length);
+    goto done;
+  }
 
   params.geometry = &geometry;
   params.waveforms = delayed;

@@ -353,6 +353,9 @@ test_sensor_file_errors (void)
     {"\"emitter-delays\": [0, 2],", "\"emitter-delays\"[1] is 2 s (allowed: "
           "0 to 1 s)"},
     {"\"ping-length\": 1500,", "the windows would overlap"},
+    {"\"ping-length\": 100, \"emitter-delays\": [0, 0.002],", "the "
+          "emissions (20 samples) delayed by \"emitter-delays\" (up to "
+          "0.002 s) span 220 samples, more than \"ping-length\" (100)"},
     {"\"ping-length\": 100.5,", "\"ping-length\" must be a whole number of "
           "samples"},
     {"\"velocity\": 3,", "unknown member \"velocity\""},
@@ -415,6 +418,18 @@ test_sensor_file_emissions_wav (void)
   g_assert_cmpfloat (sonar_setup_waveform (setup, 0)[3], ==, 3000 /
       32768.0f);
   g_assert_cmpfloat (sonar_setup_waveform (setup, 1)[7], ==, -0.5f);
+  /* A description whose rate is not the file's says both as they are. */
+  g_assert_true (g_file_set_contents (json, "{\"sample-rate\": 100000.5, "
+          "\"ping-period\": 0.01, \"microphones\": [[0, 0, 0]], "
+          "\"emitters\": [[0, 0.01, 0], [0.01, 0, 0]], \"waveforms\": "
+          "\"emissions.wav\"}", -1, NULL));
+  g_assert_null (sonar_sensor_file_load (json, &error));
+  g_assert_nonnull (error);
+  g_test_message ("%s", error->message);
+  g_assert_nonnull (strstr (error->message, "samples at 100000 Hz; "));
+  g_assert_nonnull (strstr (error->message, "at the sample-rate 100000.5 "
+          "Hz"));
+  g_clear_error (&error);
   g_unlink (wav);
   g_unlink (json);
   g_rmdir (dir);

@@ -273,6 +273,11 @@ test_errors_are_clear (void)
     {g_strdup ("sonarsrc ping-rate=100 ! fakesink"),
         "ping-rate 100 Hz is too fast for max-range 5 m"},
     {g_strdup ("sonarsrc band-high=300000 ! fakesink"), "band_high"},
+    {g_strdup ("sonarsrc waveform-length=1048576 ! fakesink"), "ping-rate "
+        "12 Hz is too fast for max-range 5 m with waveforms of 1048576 "
+        "samples: the 2359.6 ms recording window (the echoes out to "
+        "max-range, and a waveform of 2330.2 ms) is longer than the 83.3 ms "
+        "between pings"},
     {g_strdup ("sonarsrc ! audio/x-raw,channels=2 ! fakesink"),
         "Downstream does not accept the sonar recording format: 32 channels"},
     {g_strdup ("sonarsrc ! audio/x-raw,rate=48000 ! fakesink"),

@@ -6,7 +6,7 @@
 #   pipelines/live.sh [sonarsrc properties...]      e.g. pipelines/live.sh scene=fig9
 # An application takes the results from an appsink: pipelines/live-robot.py.
 set -euo pipefail
-cd "$(dirname "$0")/.." && . tools/env.sh
+. "$(dirname "$0")/../tools/env.sh"
 gst-launch-1.0 -q -e sonarsrc is-live=true "$@" \
   ! queue leaky=downstream max-size-buffers=1 \
   ! dopplerbank ! mimobeamform ! wardcluster ! velocityest ! fdsink sync=false

@@ -11,7 +11,7 @@
 # instead of at the sensor's rate (a live sensor loses the pings it records
 # while the link is busy, as the real one does).
 set -euo pipefail
-cd "$(dirname "$0")/.." && . tools/env.sh
+. "$(dirname "$0")/../tools/env.sh"
 case "${1:-}" in
   processing)
     # shellcheck disable=SC2086 # SONAR_BANK is a list of properties

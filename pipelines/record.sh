@@ -4,7 +4,7 @@
 # timing) beside it. pipelines/recording.sh replays the pair.
 #   pipelines/record.sh fig10 12
 set -euo pipefail
-cd "$(dirname "$0")/.." && . tools/env.sh
+. "$(dirname "$0")/../tools/env.sh"
 mkdir -p out
 scene="${1:-default}"
 gst-launch-1.0 -q sonarsrc scene="$scene" num-buffers="${2:-3}" \

@@ -11,7 +11,7 @@ left="$(realpath "${1:-$scenes/two-sensors-left.json}")"
 right="$(realpath "${2:-$scenes/two-sensors-right.json}")"
 pings="${3:-3}"
 read -r left_id right_id <<< "${SONAR_FRAME_IDS:-sonar_left sonar_right}"
-cd "$(dirname "$0")/.." && . tools/env.sh
+. "$(dirname "$0")/../tools/env.sh"
 chain="dopplerbank velocity-min=-1.5 velocity-max=1.5 velocity-step=0.05 \
   ! mimobeamform ! wardcluster ! velocityest"
 # shellcheck disable=SC2086

@@ -14,7 +14,7 @@
 # an arrow of its velocity in the world, to where it goes in 0.5 s:
 #   pipelines/video.sh 12 docs/sonarviz-tracks.png fig9 tracks
 set -euo pipefail
-cd "$(dirname "$0")/.." && . tools/env.sh
+. "$(dirname "$0")/../tools/env.sh"
 pings="${1:-24}"
 output="${2:-out/fig9.mp4}"
 case "$output" in

@@ -728,6 +728,9 @@ gst_doppler_bank_set_property (GObject * object, guint prop_id,
 {
   GstDopplerBank *self = GST_DOPPLER_BANK (object);
 
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
+
   GST_OBJECT_LOCK (self);
   switch (prop_id) {
     case PROP_VELOCITY_MIN:

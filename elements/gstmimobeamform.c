@@ -520,6 +520,9 @@ gst_mimo_beamform_set_property (GObject * object, guint prop_id,
   GstMimoBeamform *self = GST_MIMO_BEAMFORM (object);
   SonarImagerParams *p = &self->params;
 
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
+
   GST_OBJECT_LOCK (self);
   switch (prop_id) {
     case PROP_AZIMUTH_MIN:

@@ -596,11 +596,34 @@ gst_sonar_filter_finalize (GObject * object)
   G_OBJECT_CLASS (gst_sonar_filter_parent_class)->finalize (object);
 }
 
+gboolean
+gst_sonar_property_settable (GstElement * element, GParamSpec * pspec)
+{
+  GstState state;
+
+  if (!(pspec->flags & GST_PARAM_MUTABLE_READY)
+      || (pspec->flags & (GST_PARAM_MUTABLE_PAUSED |
+              GST_PARAM_MUTABLE_PLAYING)))
+    return TRUE;
+  GST_OBJECT_LOCK (element);
+  state = MAX (GST_STATE (element), GST_STATE_PENDING (element));
+  GST_OBJECT_UNLOCK (element);
+  if (state <= GST_STATE_READY)
+    return TRUE;
+  g_warning ("%s: %s can only be changed in the NULL or READY state, not in "
+      "%s: ignored", GST_OBJECT_NAME (element), pspec->name,
+      gst_element_state_get_name (state));
+  return FALSE;
+}
+
 static void
 gst_sonar_filter_set_property (GObject * object, guint prop_id,
     const GValue * value, GParamSpec * pspec)
 {
   GstSonarFilterPrivate *priv = PRIV (object);
+
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
 
   switch (prop_id) {
     case PROP_QOS:

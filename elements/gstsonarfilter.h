@@ -113,6 +113,15 @@ gboolean gst_sonar_filter_drop_late (GstSonarFilter * filter, guint64 index,
     GstClockTime pts, GstClockTime duration);
 GstPad *gst_sonar_filter_get_srcpad (GstSonarFilter * filter);
 
+/* Whether @pspec of @element may be set now: one marked
+ * GST_PARAM_MUTABLE_READY (gst-inspect: "changeable only in NULL or READY
+ * state") is read as the element starts, and set beyond READY it would
+ * hold a value the element does not use; it is then ignored with a
+ * warning ("src: is-live can only be changed in the NULL or READY state,
+ * not in PLAYING: ignored"). Every element's set_property asks first. */
+gboolean gst_sonar_property_settable (GstElement * element,
+    GParamSpec * pspec);
+
 G_END_DECLS
 
 #endif

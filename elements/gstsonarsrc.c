@@ -27,6 +27,7 @@
 #endif
 
 #include "gstsonarsrc.h"
+#include "gstsonarfilter.h"
 #include "gstsonarlatency.h"
 
 #include <gio/gio.h>
@@ -222,19 +223,11 @@ gst_sonar_src_set_property (GObject * object, guint prop_id,
   GstSonarSrc *self = GST_SONAR_SRC (object);
   SonarSrcSettings *s = &self->settings;
 
+  /* GstBaseSrc reads is-live as it starts: changed later, a running source
+   * would neither pace its pings nor report its latency as told. */
+  if (!gst_sonar_property_settable (GST_ELEMENT (self), pspec))
+    return;
   if (prop_id == PROP_IS_LIVE) {
-    GstState state;
-    GST_OBJECT_LOCK (self);
-    state = MAX (GST_STATE (self), GST_STATE_PENDING (self));
-    GST_OBJECT_UNLOCK (self);
-    /* GstBaseSrc reads it as it starts: changed later, a running source
-     * would neither pace its pings nor report its latency as told. */
-    if (state > GST_STATE_READY) {
-      g_warning ("%s: is-live can only be changed in the NULL or READY "
-          "state, not in %s: ignored", GST_OBJECT_NAME (self),
-          gst_element_state_get_name (state));
-      return;
-    }
     gst_base_src_set_live (GST_BASE_SRC (self), g_value_get_boolean (value));
     return;
   }

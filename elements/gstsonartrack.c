@@ -25,6 +25,7 @@
 #endif
 
 #include "gstsonartrack.h"
+#include "gstsonarfilter.h"
 
 #include <math.h>
 #include <string.h>
@@ -377,6 +378,9 @@ gst_sonar_track_set_property (GObject * object, guint prop_id,
   GstSonarTrack *self = GST_SONAR_TRACK (object);
   SonarEgoParams *e = &self->ego_params;
   SonarTrackerParams *t = &self->tracker_params;
+
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
 
   GST_OBJECT_LOCK (self);
   switch (prop_id) {

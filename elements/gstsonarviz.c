@@ -36,6 +36,7 @@
 #endif
 
 #include "gstsonarviz.h"
+#include "gstsonarfilter.h"
 
 #include <gst/video/video.h>
 #include <math.h>
@@ -635,6 +636,9 @@ gst_sonar_viz_set_property (GObject * object, guint prop_id,
 {
   GstSonarViz *self = GST_SONAR_VIZ (object);
   gboolean resize = FALSE;
+
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
 
   GST_OBJECT_LOCK (self);
   switch (prop_id) {

@@ -430,6 +430,9 @@ gst_velocity_est_set_property (GObject * object, guint prop_id,
   GstVelocityEst *self = GST_VELOCITY_EST (object);
   SonarVelocityParams *p = &self->params;
 
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
+
   GST_OBJECT_LOCK (self);
   switch (prop_id) {
     case PROP_WINDOW_DIRECTIONS:

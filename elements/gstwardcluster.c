@@ -247,6 +247,9 @@ gst_ward_cluster_set_property (GObject * object, guint prop_id,
   GstWardCluster *self = GST_WARD_CLUSTER (object);
   SonarClusterParams *p = &self->params;
 
+  if (!gst_sonar_property_settable (GST_ELEMENT (object), pspec))
+    return;
+
   GST_OBJECT_LOCK (self);
   switch (prop_id) {
     case PROP_THRESHOLD:

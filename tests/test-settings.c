@@ -1,11 +1,22 @@
 /* test-settings.c: settings the elements cannot honour are refused or
- * reported, never silently changed: is-live while playing, more agreeing
- * emitters than emitters, more centroids than wardcluster keeps. */
+ * reported, never silently changed: is-live and other NULL-or-READY
+ * properties while playing, more agreeing emitters than emitters, more
+ * centroids than wardcluster keeps. */
 #include <gst/app/gstappsink.h>
 #include <string.h>
 
 #include "sonar-contracts.h"
 #include "sonar-test-gst.h"
+
+/* Brings @pipeline to PLAYING, and waits until it is there. */
+static void
+play (GstElement * pipeline)
+{
+  g_assert_cmpint (gst_element_set_state (pipeline, GST_STATE_PLAYING), !=,
+      GST_STATE_CHANGE_FAILURE);
+  g_assert_cmpint (gst_element_get_state (pipeline, NULL, NULL,
+          10 * GST_SECOND), ==, GST_STATE_CHANGE_SUCCESS);
+}
 
 /* is-live is documented as changeable only in NULL or READY: GstBaseSrc
  * reads it as it starts, so a later change is refused, with a warning. */
@@ -17,10 +28,7 @@ test_is_live_while_playing (void)
   GstElement *src = gst_bin_get_by_name (GST_BIN (pipeline), "src");
   gboolean live = TRUE;
 
-  g_assert_cmpint (gst_element_set_state (pipeline, GST_STATE_PLAYING), !=,
-      GST_STATE_CHANGE_FAILURE);
-  g_assert_cmpint (gst_element_get_state (pipeline, NULL, NULL,
-          10 * GST_SECOND), ==, GST_STATE_CHANGE_SUCCESS);
+  play (pipeline);
   g_test_expect_message ("sonar", G_LOG_LEVEL_WARNING, "src: is-live can "
       "only be changed in the NULL or READY state, not in PLAYING: ignored");
   g_object_set (src, "is-live", TRUE, NULL);
@@ -33,6 +41,46 @@ test_is_live_while_playing (void)
   g_object_get (src, "is-live", &live, NULL);
   g_assert_true (live);
   gst_object_unref (src);
+  gst_object_unref (pipeline);
+}
+
+/* So is every element's property marked for NULL or READY alone (here
+ * wardcluster's linkage and mimobeamform's azimuth-count): set while
+ * playing it was taken silently and read back, unused. Those that may
+ * change while playing (wardcluster's threshold) still do. */
+static void
+test_ready_only_while_playing (void)
+{
+  GstElement *pipeline = gst_parse_launch ("sonarsrc max-range=1 "
+      "! dopplerbank velocity-min=0 velocity-max=0 ! mimobeamform name=m "
+      "! wardcluster name=c ! fakesink sync=false", NULL);
+  GstElement *c = gst_bin_get_by_name (GST_BIN (pipeline), "c");
+  GstElement *m = gst_bin_get_by_name (GST_BIN (pipeline), "m");
+  gint linkage = -1;
+  guint count = 0;
+  double threshold = 0.0;
+
+  play (pipeline);
+  g_test_expect_message ("sonar", G_LOG_LEVEL_WARNING, "c: linkage can "
+      "only be changed in the NULL or READY state, not in PLAYING: ignored");
+  gst_util_set_object_arg (G_OBJECT (c), "linkage", "single");
+  g_test_expect_message ("sonar", G_LOG_LEVEL_WARNING, "m: azimuth-count "
+      "can only be changed in the NULL or READY state, not in PLAYING: "
+      "ignored");
+  g_object_set (m, "azimuth-count", 61, NULL);
+  g_test_assert_expected_messages ();
+  g_object_set (c, "threshold", -30.0, NULL);
+  g_object_get (c, "threshold", &threshold, NULL);
+  g_assert_cmpfloat (threshold, ==, -30.0);
+  g_object_get (m, "azimuth-count", &count, NULL);
+  g_assert_cmpuint (count, ==, 181);
+  g_object_get (c, "linkage", &linkage, NULL);
+  g_assert_cmpstr (g_enum_get_value (g_type_class_peek (G_PARAM_SPEC_VALUE_TYPE
+              (g_object_class_find_property (G_OBJECT_GET_CLASS (c),
+                      "linkage"))), linkage)->value_nick, ==, "ward");
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (c);
+  gst_object_unref (m);
   gst_object_unref (pipeline);
 }
 
@@ -123,6 +171,8 @@ main (int argc, char **argv)
   sonar_test_init_gst (&argc, &argv);
   g_test_add_func ("/settings/is-live-while-playing",
       test_is_live_while_playing);
+  g_test_add_func ("/settings/ready-only-while-playing",
+      test_ready_only_while_playing);
   g_test_add_func ("/settings/min-agreeing-emitters",
       test_min_agreeing_emitters);
   g_test_add_func ("/settings/centroids-dropped-warning",

@@ -144,7 +144,7 @@ gboolean sonar_image_grid_equal (const SonarImageGrid * a,
  * of path off at the zone's ends, the outermost emitter's and
  * microphone's added. Z zones (SonarImagerParams.focus_zones), even in
  * 1 / r, leave 1 / Z of it. The eRTIS array and emitters from 0.3 m to
- * 4.7 m: 0.86 turns, 0.21 with mimobeamform's default 4 zones. */
+ * 4.7 m: 0.84 turns, 0.21 with mimobeamform's default 4 zones. */
 double sonar_imager_focus_turns (const SonarSetup * setup, double range_min,
     double range_max);
 

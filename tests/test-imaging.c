@@ -738,11 +738,53 @@ test_coarse_lobes (void)
   }
 }
 
+/* sonar_imager_focus_turns (): the phase, in turns at the band's top,
+ * by which one focus zone leaves the array's outermost microphone and
+ * emitter at its ends, worked out by hand for the built-in array
+ * (rho 41.3 and 54.1 mm: (rho_m^2 + rho_e^2) / 4 (1 / 0.3 - 1 / 4.7)
+ * 80 kHz / 343 m/s = 0.84); it grows as 1 / range_min and as the
+ * array's size squared. */
+static void
+test_focus_turns (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17500);
+  g_autoptr (SonarSetup) wide = NULL;
+  const SonarGeometry *d = &setup->geometry;
+  SonarGeometry g;
+  double rho_m = 0.0, rho_e = 0.0, expected, turns;
+
+  for (guint j = 0; j < d->n_microphones; j++)
+    rho_m = MAX (rho_m, hypot (d->microphones[j].x, d->microphones[j].y));
+  for (guint n = 0; n < d->n_emitters; n++)
+    rho_e = MAX (rho_e, hypot (d->emitters[n].x, d->emitters[n].y));
+  g_assert_cmpfloat (fabs (rho_m - 0.0413), <, 0.0005);
+  g_assert_cmpfloat (fabs (rho_e - 0.0541), <, 0.0005);
+  expected = (rho_m * rho_m + rho_e * rho_e) / 4.0 * (1.0 / 0.3 - 1.0 /
+      4.7) * setup->band_high / setup->speed_of_sound;
+  turns = sonar_imager_focus_turns (setup, 0.3, 4.7);
+  g_test_message ("0.3 to 4.7 m: %.4f turns", turns);
+  g_assert_cmpfloat (fabs (turns - expected), <, 1e-12);
+  g_assert_cmpfloat (fabs (turns - 0.84), <, 0.01);
+  g_assert_cmpfloat (fabs (sonar_imager_focus_turns (setup, 0.01, 4.7) -
+          turns * (100.0 - 1.0 / 4.7) / (1.0 / 0.3 - 1.0 / 4.7)), <, 1e-9);
+
+  sonar_geometry_init_default (&g);
+  for (guint j = 0; j < g.n_microphones; j++)
+    g.microphones[j] = sonar_vec3_scale (g.microphones[j], 2.0);
+  for (guint n = 0; n < g.n_emitters; n++)
+    g.emitters[n] = sonar_vec3_scale (g.emitters[n], 2.0);
+  wide = sonar_test_setup_new (&g, 17500);
+  sonar_geometry_clear (&g);
+  g_assert_cmpfloat (fabs (sonar_imager_focus_turns (wide, 0.3, 4.7) -
+          4.0 * turns), <, 1e-9);
+}
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/imaging/bank-templates-exact", test_bank_templates_exact);
+  g_test_add_func ("/imaging/focus-turns", test_focus_turns);
   g_test_add_func ("/imaging/bank-template-interp",
       test_bank_template_interp);
   g_test_add_func ("/imaging/bank-errors", test_bank_errors);

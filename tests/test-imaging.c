@@ -618,6 +618,24 @@ test_threads (void)
   sonar_test_chain_clear (&c);
 }
 
+/* The built-in array and emitters at twice their size (17,500-sample
+ * pings). */
+static SonarSetup *
+wide_setup (void)
+{
+  SonarGeometry g;
+  SonarSetup *wide;
+
+  sonar_geometry_init_default (&g);
+  for (guint j = 0; j < g.n_microphones; j++)
+    g.microphones[j] = sonar_vec3_scale (g.microphones[j], 2.0);
+  for (guint n = 0; n < g.n_emitters; n++)
+    g.emitters[n] = sonar_vec3_scale (g.emitters[n], 2.0);
+  wide = sonar_test_setup_new (&g, 17500);
+  sonar_geometry_clear (&g);
+  return wide;
+}
+
 /* The coarse spacing in main lobes of the array's beam
  * (sonar_imager_params_fit_beam ()): on the eRTIS array the views'
  * degrees, 3 for the fan and 6 for a 3-D grid, the same image bit for
@@ -679,7 +697,6 @@ test_coarse_lobes (void)
   }
 
   {
-    SonarGeometry g;
     g_autoptr (SonarSetup) wide = NULL;
     SonarBand band;
     SonarImagerParams p;
@@ -689,13 +706,7 @@ test_coarse_lobes (void)
     SonarComplex *noise;
     float *image;
 
-    sonar_geometry_init_default (&g);
-    for (guint j = 0; j < g.n_microphones; j++)
-      g.microphones[j] = sonar_vec3_scale (g.microphones[j], 2.0);
-    for (guint n = 0; n < g.n_emitters; n++)
-      g.emitters[n] = sonar_vec3_scale (g.emitters[n], 2.0);
-    wide = sonar_test_setup_new (&g, 17500);
-    sonar_geometry_clear (&g);
+    wide = wide_setup ();
     bank = sonar_doppler_bank_new (wide, 0.0, 0.0, 0.05, NULL);
     sonar_band_init (&band, wide->sample_rate, wide->ping_length +
         sonar_doppler_bank_max_length (bank), wide->band_low,
@@ -750,7 +761,6 @@ test_focus_turns (void)
   g_autoptr (SonarSetup) setup = sonar_test_default_setup (17500);
   g_autoptr (SonarSetup) wide = NULL;
   const SonarGeometry *d = &setup->geometry;
-  SonarGeometry g;
   double rho_m = 0.0, rho_e = 0.0, expected, turns;
 
   for (guint j = 0; j < d->n_microphones; j++)
@@ -768,13 +778,7 @@ test_focus_turns (void)
   g_assert_cmpfloat (fabs (sonar_imager_focus_turns (setup, 0.01, 4.7) -
           turns * (100.0 - 1.0 / 4.7) / (1.0 / 0.3 - 1.0 / 4.7)), <, 1e-9);
 
-  sonar_geometry_init_default (&g);
-  for (guint j = 0; j < g.n_microphones; j++)
-    g.microphones[j] = sonar_vec3_scale (g.microphones[j], 2.0);
-  for (guint n = 0; n < g.n_emitters; n++)
-    g.emitters[n] = sonar_vec3_scale (g.emitters[n], 2.0);
-  wide = sonar_test_setup_new (&g, 17500);
-  sonar_geometry_clear (&g);
+  wide = wide_setup ();
   g_assert_cmpfloat (fabs (sonar_imager_focus_turns (wide, 0.3, 4.7) -
           4.0 * turns), <, 1e-9);
 }

@@ -117,6 +117,7 @@ struct _GstDopplerBank
   float *converted;             /* one ping as float, for other formats */
   gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
   gboolean warned_non_finite, warned_overflow, warned_clipped;
+  gboolean warned_glitches;
 
   /* Framing: the adapter holds the stream from sample adapter_position on;
    * next_ping is the first ping not yet output or dropped. */
@@ -523,6 +524,21 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
             G_GUINT64_FORMAT "); they are read as 0", n_bad, index), (NULL));
     self->warned_non_finite = TRUE;
   }
+  if (!self->warned_glitches) {
+    float largest;
+    const guint zeroed = sonar_channel_spectra_glitches (self->analyzer,
+        &largest);
+    if (zeroed > 0) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The recording holds "
+              "glitches, samples louder than %g times their channel's "
+              "quiet RMS and %g times every sample within %d of them, "
+              "which no echo is (%u in ping %" G_GUINT64_FORMAT ", up to "
+              "%g); they are read as 0", SONAR_GLITCH_OVER_RMS,
+              SONAR_GLITCH_OVER_NEIGHBOURS, SONAR_GLITCH_FLANK, zeroed,
+              index, largest), (NULL));
+      self->warned_glitches = TRUE;
+    }
+  }
   GST_BUFFER_PTS (out) = ping_pts (self, index);
   GST_BUFFER_DURATION (out) = ping_duration (self);
   GST_BUFFER_OFFSET (out) = index;
@@ -716,7 +732,7 @@ gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
   if (!drain) {
     self->reached_ping = FALSE;
     self->warned_non_finite = self->warned_overflow = FALSE;
-    self->warned_clipped = FALSE;
+    self->warned_clipped = self->warned_glitches = FALSE;
     self->told_direct_path = FALSE;
     self->stream_start_pts = GST_CLOCK_TIME_NONE;
   }

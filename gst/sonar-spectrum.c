@@ -118,6 +118,117 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
     *n_bad += bad;
 }
 
+/* The mean square of @x's quiet stretches: the lower quartile of its
+ * SONAR_GLITCH_BLOCKS blocks' (one block when short). A ping's loudest
+ * signals, the direct path and the nearest echoes, fill a quarter of it
+ * at most, and a bad channel may hold glitches in many blocks: the scale
+ * is its far echoes' and noise's, so that a glitch under the loud ones
+ * stands out. Sets *@peak to the largest |x|. */
+static double
+quiet_mean_square (const float *x, gsize n, float *peak)
+{
+  const guint blocks = n >= 64 * SONAR_GLITCH_BLOCKS ? SONAR_GLITCH_BLOCKS :
+      1;
+  double mean_square[SONAR_GLITCH_BLOCKS];
+  float lane_peak[8] = { 0 };
+
+  *peak = 0.0f;
+  for (guint b = 0; b < blocks; b++) {
+    const gsize start = n * b / blocks, end = n * (b + 1) / blocks;
+    /* Eight lanes the compiler keeps in vectors; the energy in double:
+     * the samples may reach 10^30. */
+    double lane_energy[8] = { 0 }, energy = 0.0;
+    gsize i;
+
+    for (i = start; i + 8 <= end; i += 8)
+      for (guint l = 0; l < 8; l++) {
+        const float a = fabsf (x[i + l]);
+        lane_energy[l] += (double) a * a;
+        lane_peak[l] = a > lane_peak[l] ? a : lane_peak[l];
+      }
+    for (; i < end; i++) {
+      energy += (double) x[i] * x[i];
+      *peak = MAX (*peak, fabsf (x[i]));
+    }
+    for (guint l = 0; l < 8; l++)
+      energy += lane_energy[l];
+    mean_square[b] = end > start ? energy / (end - start) : 0.0;
+  }
+  for (guint l = 0; l < 8; l++)
+    *peak = MAX (*peak, lane_peak[l]);
+  /* Insertion sort: 16 values. */
+  for (guint b = 1; b < blocks; b++)
+    for (guint k = b; k > 0 && mean_square[k - 1] > mean_square[k]; k--) {
+      const double t = mean_square[k];
+      mean_square[k] = mean_square[k - 1];
+      mean_square[k - 1] = t;
+    }
+  return mean_square[(blocks - 1) / 4];
+}
+
+G_STATIC_ASSERT (SONAR_GLITCH_FLANK >= SONAR_GLITCH_MAX_RUN);
+
+guint
+sonar_remove_glitches (float *x, gsize n, float *largest)
+{
+  float peak, loud;
+  double quiet;
+  guint zeroed = 0;
+  gsize i;
+
+  if (n == 0)
+    return 0;
+  quiet = quiet_mean_square (x, n, &peak);
+  if ((double) peak * peak <= (double) SONAR_GLITCH_OVER_RMS *
+      SONAR_GLITCH_OVER_RMS * quiet)
+    return 0;
+
+  loud = SONAR_GLITCH_OVER_RMS * (float) sqrt (quiet);
+  for (i = 0; i < n; i++) {
+    const float a = fabsf (x[i]);
+    float level;
+    gsize start, end;
+    gboolean glitch = TRUE;
+
+    /* From the loud local peaks (a run's first largest sample), the run
+     * over a tenth of the peak, then its flanks. */
+    if (!(a > loud) || (i > 0 && fabsf (x[i - 1]) >= a) || (i + 1 < n
+            && fabsf (x[i + 1]) > a))
+      continue;
+    level = a / SONAR_GLITCH_OVER_NEIGHBOURS;
+    /* Whatever the run, its flanks hold x[i -+ SONAR_GLITCH_MAX_RUN]
+     * (the flanks are no shorter than a run): most of a loud signal's
+     * peaks end here. */
+    if ((i >= SONAR_GLITCH_MAX_RUN
+            && fabsf (x[i - SONAR_GLITCH_MAX_RUN]) > level)
+        || (i + SONAR_GLITCH_MAX_RUN < n
+            && fabsf (x[i + SONAR_GLITCH_MAX_RUN]) > level))
+      continue;
+    start = i;
+    end = i + 1;
+    while (start > 0 && fabsf (x[start - 1]) > level
+        && end - start <= SONAR_GLITCH_MAX_RUN)
+      start--;
+    while (end < n && fabsf (x[end]) > level
+        && end - start <= SONAR_GLITCH_MAX_RUN)
+      end++;
+    if (end - start > SONAR_GLITCH_MAX_RUN)
+      continue;
+    for (gsize k = start > SONAR_GLITCH_FLANK ? start - SONAR_GLITCH_FLANK :
+        0; k < start && glitch; k++)
+      glitch = fabsf (x[k]) <= level;
+    for (gsize k = end; k < MIN (n, end + SONAR_GLITCH_FLANK) && glitch; k++)
+      glitch = fabsf (x[k]) <= level;
+    if (glitch) {
+      memset (x + start, 0, sizeof (float) * (end - start));
+      zeroed += end - start;
+      if (largest)
+        *largest = MAX (*largest, a);
+    }
+  }
+  return zeroed;
+}
+
 /* Channels a worker deinterleaves together (sonar_channel_spectra_process
  * ()): all of a worker's on two processors and 32 microphones (16 x 86
  * KB of input held per worker; 8 made it 5 % slower). */
@@ -125,6 +236,13 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
 
 /* A worker's direct-path subtraction (sonar-direct-path.h): what it
  * needs and what it found. */
+/* What a worker's glitch removal found (sonar_remove_glitches ()). */
+typedef struct
+{
+  guint zeroed;
+  float largest;
+} GlitchWork;
+
 typedef struct
 {
   const SonarDirectPath *path;  /* NULL: none */
@@ -138,15 +256,16 @@ typedef struct
  * interleaved @samples (@stride a frame), channels @first on, into
  * @out (n_bins each, one after another): each frame's samples of the
  * group are read together into the group's @inputs (FFTW-aligned, as
- * @s's own; their padding's extents in @filled), each one's direct path
- * subtracted as @direct says, then @s's plan runs on each (the same plan on arrays of the same alignment: the same spectra
+ * @s's own; their padding's extents in @filled), each one's glitches
+ * removed (counted in @glitches) and direct path subtracted as @direct
+ * says, then @s's plan runs on each (the same plan on arrays of the same alignment: the same spectra
  * bit for bit). Reading one channel at a time read a cache line (a
  * frame) per sample, 32 times over; it was half of the stage's time. */
 static void
 spectrum_process_group (SonarSpectrum * s, float *const *inputs,
     gsize * filled, guint count, const float *samples, gsize length,
     gsize stride, guint first, SonarComplex * out, guint * n_bad,
-    DirectPathWork * direct)
+    GlitchWork * glitches, DirectPathWork * direct)
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
@@ -154,6 +273,8 @@ spectrum_process_group (SonarSpectrum * s, float *const *inputs,
       samples + first, stride, used);
 
   for (guint k = 0; k < count; k++) {
+    glitches->zeroed += sonar_remove_glitches (inputs[k], used,
+        &glitches->largest);
     if (direct->path) {
       gboolean removed;
       const double db = sonar_direct_path_remove (direct->path, first + k,
@@ -177,6 +298,7 @@ struct _SonarChannelSpectra
   float *inputs[SONAR_MAX_WORKERS][SPECTRA_GROUP];
   gsize inputs_filled[SONAR_MAX_WORKERS][SPECTRA_GROUP];
   guint n_bad[SONAR_MAX_WORKERS];
+  GlitchWork glitches[SONAR_MAX_WORKERS];
   DirectPathWork direct[SONAR_MAX_WORKERS];
   guint n_channels;
   guint n_bins;
@@ -237,6 +359,8 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
   const guint end = s->n_channels * (w + 1) / n_workers;
 
   s->n_bad[w] = 0;
+  s->glitches[w].zeroed = 0;
+  s->glitches[w].largest = 0.0f;
   s->direct[w].removed = 0;
   s->direct[w].largest_db = -INFINITY;
   for (guint j = s->n_channels * w / n_workers; j < end;
@@ -244,7 +368,7 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
     spectrum_process_group (s->per_worker[w], s->inputs[w],
         s->inputs_filled[w], MIN (SPECTRA_GROUP, end - j), s->samples,
         s->length, s->n_channels, j, s->out + (gsize) j * s->n_bins,
-        &s->n_bad[w], &s->direct[w]);
+        &s->n_bad[w], &s->glitches[w], &s->direct[w]);
 }
 
 guint
@@ -260,6 +384,22 @@ sonar_channel_spectra_process (SonarChannelSpectra * s,
   for (guint w = 0; w < sonar_workers_count (s->workers); w++)
     bad += s->n_bad[w];
   return bad;
+}
+
+guint
+sonar_channel_spectra_glitches (const SonarChannelSpectra * s,
+    float *largest)
+{
+  guint zeroed = 0;
+
+  if (largest)
+    *largest = 0.0f;
+  for (guint w = 0; w < sonar_workers_count (s->workers); w++) {
+    zeroed += s->glitches[w].zeroed;
+    if (largest)
+      *largest = MAX (*largest, s->glitches[w].largest);
+  }
+  return zeroed;
 }
 
 void

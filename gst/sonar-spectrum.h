@@ -87,10 +87,43 @@ void sonar_channel_spectra_free (SonarChannelSpectra * spectra);
 
 /* The spectra of @length frames of the channels interleaved in
  * @samples into @out: channel j's n_bins from out + j n_bins, each as
- * sonar_spectrum_process () makes it (bit for bit, whatever the
- * workers). Returns how many samples were not finite (read as 0). */
+ * sonar_spectrum_process () makes it of the channel with its glitches
+ * removed (sonar_remove_glitches (); bit for bit, whatever the workers).
+ * Returns how many samples were not finite (read as 0). */
 guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
     const float *samples, gsize length, SonarComplex * out);
+
+/* Glitches: impulsive samples (a bit error, a lost word, a driver's
+ * garbage), no echo. An echo is band-limited: it rises and falls over
+ * several samples. A glitch's energy spreads over the whole band and,
+ * after the matched filters, over every direction of the image at its
+ * range: one float sample of 10^5 among echoes of about 1 hid 3 of Fig.
+ * 10's 6 objects. A glitch is a run of at most SONAR_GLITCH_MAX_RUN
+ * samples whose peak is louder than SONAR_GLITCH_OVER_RMS times the
+ * channel's quiet RMS (the lower quartile of its SONAR_GLITCH_BLOCKS
+ * blocks' RMS: the direct path and the nearest echoes fill fewer) and
+ * more than SONAR_GLITCH_OVER_NEIGHBOURS times every sample within
+ * SONAR_GLITCH_FLANK of the run (the run: the samples around the peak
+ * over that tenth). No band-limited signal does that,
+ * however loud: the direct path, a clipped echo and the band's lowest
+ * tone all keep loud samples beside their peaks (tests/test-spectrum.c). */
+#define SONAR_GLITCH_OVER_RMS 30.0f
+#define SONAR_GLITCH_BLOCKS 16
+#define SONAR_GLITCH_OVER_NEIGHBOURS 10.0f
+#define SONAR_GLITCH_MAX_RUN 8
+#define SONAR_GLITCH_FLANK 8
+
+/* Zeroes the glitches of the @n samples of @x (one channel's ping, finite)
+ * and returns how many samples it zeroed; *@largest (may be NULL) becomes
+ * the largest |sample| zeroed if that is more. One read of @x when no
+ * sample is that loud. */
+guint sonar_remove_glitches (float *x, gsize n, float *largest);
+
+/* After sonar_channel_spectra_process (): the samples it zeroed as
+ * glitches, and (@largest, may be NULL) the largest of them in magnitude
+ * (0 when none). */
+guint sonar_channel_spectra_glitches (const SonarChannelSpectra * spectra,
+    float *largest);
 
 /* The emissions heard straight from the emitters (sonar-direct-path.h):
  * what the front end does with them. */

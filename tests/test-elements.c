@@ -708,14 +708,29 @@ test_extreme_inputs (void)
   }
   g_free (image);
 
-  /* Huge samples: finite. */
+  /* Glitches, single samples of 10^5 (a float recording's garbage, 10^5
+   * times the echoes: it hid objects) and 10^30 in every third channel:
+   * a warning, and the image of the ping with zeros there. */
   memcpy (work, data, sizeof (float) * n);
   for (guint j = 0; j < 32; j += 3)
-    work[(gsize) (2000 + 37 * j) * 32 + j] = 1e30f;
+    work[(gsize) (2000 + 37 * j) * 32 + j] = j % 2 ? 1e30f : 1e5f;
   image = image_of (h, work, n, &pixels);
-  g_test_message ("samples of 1e30: image peak %.4g",
-      image[peak_index (image, pixels)]);
   g_assert_true (all_finite (image, pixels));
+  g_free (warning);
+  warning = pop_warning (bus);
+  g_test_message ("glitches: warning \"%s\"", warning);
+  g_assert_nonnull (warning);
+  g_assert_nonnull (strstr (warning, "The recording holds glitches"));
+  g_assert_nonnull (strstr (warning, "(11 in ping 4, up to 1e+30)"));
+  {
+    float *zeroed;
+    for (guint j = 0; j < 32; j += 3)
+      work[(gsize) (2000 + 37 * j) * 32 + j] = 0.0f;
+    zeroed = image_of (h, work, n, &pixels);
+    g_assert_cmpmem (image, sizeof (float) * pixels, zeroed,
+        sizeof (float) * pixels);
+    g_free (zeroed);
+  }
   g_free (image);
 
   /* Tiny: the same image scaled, the peak in the same place. */

@@ -12,7 +12,8 @@
  * 20-80 kHz band, with a NaN and an infinity in two channels: for 1, 2,
  * 3, 5 and 64 workers (more than channels: capped) each channel's
  * spectrum is bit for bit what sonar_spectrum_process () makes of it
- * alone, the non-finite samples are counted (2) and read as 0. */
+ * alone, the non-finite samples are counted (2) and read as 0, and so is
+ * a glitch of 10^6 in a third channel (counted apart). */
 static void
 test_channels (void)
 {
@@ -32,6 +33,7 @@ test_channels (void)
     samples[k] = (float) sonar_rng_gaussian (&rng);
   samples[(gsize) 100 * n_channels + 3] = NAN;
   samples[(gsize) 9000 * n_channels + 31] = INFINITY;
+  samples[(gsize) 4000 * n_channels + 5] = 1e6f;
   expected = g_new (SonarComplex, (gsize) n_channels * band.n_bins);
   out = g_new (SonarComplex, (gsize) n_channels * band.n_bins);
   alone = sonar_spectrum_new (&band);
@@ -40,7 +42,7 @@ test_channels (void)
     /* The channel's samples, the non-finite ones as 0, contiguous. */
     for (guint i = 0; i < length; i++) {
       const float x = samples[(gsize) i * n_channels + j];
-      one[i] = isfinite (x) ? x : 0.0f;
+      one[i] = isfinite (x) && x != 1e6f ? x : 0.0f;
     }
     sonar_spectrum_process (alone, one, length, 1,
         expected + (gsize) j * band.n_bins, &bad);
@@ -51,11 +53,14 @@ test_channels (void)
     g_autoptr (SonarChannelSpectra) s = sonar_channel_spectra_new (&band,
         n_channels, threads[t], &error);
     guint bad;
+    float largest;
 
     g_assert_no_error (error);
     memset (out, 0xff, sizeof (SonarComplex) * n_channels * band.n_bins);
     bad = sonar_channel_spectra_process (s, samples, length, out);
     g_assert_cmpuint (bad, ==, 2);
+    g_assert_cmpuint (sonar_channel_spectra_glitches (s, &largest), ==, 1);
+    g_assert_cmpfloat (largest, ==, 1e6f);
     g_assert_cmpmem (out, sizeof (SonarComplex) * n_channels * band.n_bins,
         expected, sizeof (SonarComplex) * n_channels * band.n_bins);
   }
@@ -110,11 +115,102 @@ test_lengths (void)
   }
 }
 
+/* Adds to @x[@n] a tone of @amplitude at @frequency (of the sample rate)
+ * from sample @start for @length samples, gated hard or (@hann) by a Hann
+ * window. */
+static void
+add_tone (float *x, gsize n, gsize start, gsize length, double frequency,
+    double amplitude, double phase, gboolean hann)
+{
+  for (gsize i = start; i < MIN (n, start + length); i++) {
+    const double gate = hann ? 0.5 - 0.5 * cos (2.0 * G_PI * (i - start) /
+        (length - 1)) : 1.0;
+    x[i] += (float) (amplitude * gate * cos (2.0 * G_PI * frequency *
+            (i - start) + phase));
+  }
+}
+
+/* Glitches (sonar_remove_glitches ()): what no band-limited signal does,
+ * however loud, and only that, is zeroed.
+ * - Kept, bit for bit: unit noise with, 10^4 to 10^6 times louder, the
+ *   band's tones from 20 to 80 kHz at 450 kHz, each hard-gated (its
+ *   onset a step) or Hann-gated, alone or together (a direct path), a
+ *   Hann-gated burst of three periods at 80 kHz, a tone clipped at half its amplitude, and
+ *   a run of 9 loud samples (longer than a glitch).
+ * - Zeroed: one sample of 10^5 in the noise, a run of 3 and one of 8,
+ *   and a sample of 10^8 on the band's 13 tones of 10^5 together (its own sample of the
+ *   tone goes with it); the count and the largest. */
+static void
+test_glitches (void)
+{
+  const gsize n = 17262;
+  const double rate = 450000.0;
+  SonarRng rng;
+  g_autofree float *noise = g_new (float, n);
+  g_autofree float *x = g_new (float, n);
+  g_autofree float *expected = g_new (float, n);
+  float largest = 0.0f;
+
+  sonar_rng_init (&rng, 9, 0);
+  for (gsize i = 0; i < n; i++)
+    noise[i] = (float) sonar_rng_gaussian (&rng);
+
+  for (double f = 20000.0; f <= 80000.0; f += 5000.0) {
+    for (int hann = 0; hann < 2; hann++) {
+      for (double amplitude = 1e4; amplitude <= 1e6; amplitude *= 10.0) {
+        memcpy (x, noise, sizeof (float) * n);
+        add_tone (x, n, 3000, 2000, f / rate, amplitude, f / 7e3, hann);
+        memcpy (expected, x, sizeof (float) * n);
+        g_assert_cmpuint (sonar_remove_glitches (x, n, &largest), ==, 0);
+        g_assert_cmpmem (x, sizeof (float) * n, expected,
+            sizeof (float) * n);
+      }
+    }
+  }
+  /* All the band's tones at once, as emitters heard straight. */
+  memcpy (x, noise, sizeof (float) * n);
+  for (double f = 20000.0; f <= 80000.0; f += 5000.0)
+    add_tone (x, n, 200, 4000, f / rate, 1e5, f / 3e3, FALSE);
+  /* The shortest burst the band passes, three periods at 80 kHz. */
+  add_tone (x, n, 8000, 17, 80000.0 / rate, 1e6, 0.0, TRUE);
+  /* A tone clipped at half its amplitude. */
+  add_tone (x, n, 10000, 500, 30000.0 / rate, 1e6, 0.0, FALSE);
+  for (gsize i = 10000; i < 10500; i++)
+    x[i] = CLAMP (x[i], -5e5f, 5e5f);
+  /* Longer than a glitch. */
+  for (gsize i = 14000; i < 14000 + SONAR_GLITCH_MAX_RUN + 1; i++)
+    x[i] = 1e5f;
+  memcpy (expected, x, sizeof (float) * n);
+  g_assert_cmpuint (sonar_remove_glitches (x, n, &largest), ==, 0);
+  g_assert_cmpmem (x, sizeof (float) * n, expected, sizeof (float) * n);
+  g_assert_cmpfloat (largest, ==, 0.0f);
+
+  /* Glitches, among all that. */
+  x[5000] = 1e5f;
+  x[12000] = -2e4f;
+  x[12001] = 3e4f;
+  x[12002] = 1e4f;
+  for (gsize i = 16000; i < 16000 + SONAR_GLITCH_MAX_RUN; i++)
+    x[i] = -4e4f;
+  x[1500] = 1e8f;
+  memcpy (expected, x, sizeof (float) * n);
+  expected[5000] = expected[12000] = expected[12001] = expected[12002] = 0;
+  for (gsize i = 16000; i < 16000 + SONAR_GLITCH_MAX_RUN; i++)
+    expected[i] = 0.0f;
+  expected[1500] = 0.0f;
+  g_assert_cmpuint (sonar_remove_glitches (x, n, &largest), ==,
+      1 + 3 + SONAR_GLITCH_MAX_RUN + 1);
+  g_assert_cmpmem (x, sizeof (float) * n, expected, sizeof (float) * n);
+  g_assert_cmpfloat (largest, ==, 1e8f);
+  g_assert_cmpuint (sonar_remove_glitches (x, 0, NULL), ==, 0);
+}
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/spectrum/channels", test_channels);
   g_test_add_func ("/spectrum/lengths", test_lengths);
+  g_test_add_func ("/spectrum/glitches", test_glitches);
   return g_test_run ();
 }

@@ -333,8 +333,14 @@ gst_doppler_bank_unconfigure (GstSonarFilter * filter)
 }
 
 /* Integer samples this close to full scale (unpacked to 32 bits: the
- * 16-bit format's largest, 32767 << 16) are taken as clipped. */
-#define CLIPPED_SAMPLE 0x7fff0000
+ * 16-bit format's largest, 32767 << 16; 8-bit formats' is 127 << 24) are
+ * taken as clipped. */
+static gint64
+clipped_sample (const GstAudioFormatInfo * format)
+{
+  return MIN (0x7fff0000, G_GINT64_CONSTANT (0x80000000) - (G_GINT64_CONSTANT
+          (1) << (32 - MIN (GST_AUDIO_FORMAT_INFO_DEPTH (format), 31))));
+}
 
 /* The ping's samples as float: F32LE as it is, other formats unpacked by
  * GStreamer's own format table, integers as fractions of full scale (and
@@ -357,10 +363,11 @@ ping_samples (GstDopplerBank * self, const guint8 * data, guint64 index)
   } else {
     /* Unpacked integers fill the 32 bits, whatever their width. */
     const gint32 *unpacked = self->unpacked;
+    const gint64 clip = clipped_sample (format);
     gsize clipped = 0;
     for (gsize i = 0; i < n; i++) {
       self->converted[i] = unpacked[i] * (1.0f / 2147483648.0f);
-      clipped += ABS ((gint64) unpacked[i]) >= CLIPPED_SAMPLE;
+      clipped += ABS ((gint64) unpacked[i]) >= clip;
     }
     if (clipped > 0 && !self->warned_clipped) {
       GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The recording is "

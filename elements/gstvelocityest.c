@@ -85,6 +85,10 @@ struct _GstVelocityEst
   /* Set by the application: more than the emitters is then an error; the
    * default is lowered to their number on a sensor with fewer. */
   gboolean min_agreeing_set;
+  /* The streaming thread's: min-agreeing-emitters as the pool has it (a
+   * refused change goes back to it). */
+  guint min_agreeing_in_effect;
+  gboolean min_agreeing_set_in_effect;
   gboolean keep_rejected;
   gboolean post_messages;
   gboolean residual_search;
@@ -156,6 +160,8 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
       &self->grid, &params, threads, error);
   if (!self->pool)
     return NULL;
+  self->min_agreeing_in_effect = params.min_agreeing_emitters;
+  self->min_agreeing_set_in_effect = min_agreeing_set;
   self->noise = sonar_noise_meter_new (&self->grid, self->hypotheses);
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
@@ -225,18 +231,32 @@ retune (GstVelocityEst * self)
   self->retune = FALSE;
   GST_OBJECT_UNLOCK (self);
   if (min_agreeing_set && params.min_agreeing_emitters > self->n_emitters) {
+    /* Refused alone: the property goes back to the value in effect (unless
+     * set again meanwhile), the other thresholds take effect. */
+    const guint refused = params.min_agreeing_emitters;
     GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("velocityest: "
             "min-agreeing-emitters is %u, but only %u emitters enter the "
-            "product: the thresholds stay as they were",
-            params.min_agreeing_emitters, self->n_emitters), (NULL));
-    return;
+            "product: it stays %u", refused, self->n_emitters,
+            MIN (self->min_agreeing_in_effect, self->n_emitters)), (NULL));
+    params.min_agreeing_emitters = self->min_agreeing_in_effect;
+    min_agreeing_set = self->min_agreeing_set_in_effect;
+    GST_OBJECT_LOCK (self);
+    if (self->params.min_agreeing_emitters == refused) {
+      self->params.min_agreeing_emitters = params.min_agreeing_emitters;
+      self->min_agreeing_set = min_agreeing_set;
+    }
+    GST_OBJECT_UNLOCK (self);
+    g_object_notify (G_OBJECT (self), "min-agreeing-emitters");
   }
   if (!sonar_velocity_pool_retune (self->pool, &params, &error)) {
     /* The properties' ranges keep the values valid: this would be a bug. */
     GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s", error->message),
         (NULL));
     g_error_free (error);
+    return;
   }
+  self->min_agreeing_in_effect = params.min_agreeing_emitters;
+  self->min_agreeing_set_in_effect = min_agreeing_set;
 }
 
 /* @image: the ping's energyscape (its pixels); @noise_power: its noise
@@ -619,8 +639,8 @@ gst_velocity_est_class_init (GstVelocityEstClass * klass)
           "own Doppler-ACF curve comes within 3 dB of its maximum within half "
           "a Doppler main lobe of the product's peak; set above the emitters "
           "entering the product, an error at start (the default is lowered "
-          "to their number; set so while playing, a warning and no "
-          "change)", 0, 64, d.min_agreeing_emitters, tunable));
+          "to their number; set so while playing, a warning, and it "
+          "goes back to the value in effect)", 0, 64, d.min_agreeing_emitters, tunable));
   g_object_class_install_property (gobject_class, PROP_MIN_COHERENCE,
       g_param_spec_double ("min-coherence", "Minimum coherence", "A fixed "
           "floor under coherence-pfa's threshold on the coherence factor "

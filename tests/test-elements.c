@@ -1031,6 +1031,132 @@ test_ping_framing (void)
   g_free (stream);
 }
 
+/* @samples of @x in @format through GStreamer's own packing; integers as
+ * x times @gain of full scale. */
+static GstBuffer *
+packed_samples (const float *x, gsize samples, GstAudioFormat format,
+    double gain)
+{
+  const GstAudioFormatInfo *info = gst_audio_format_get_info (format);
+  const gsize size = samples * GST_AUDIO_FORMAT_INFO_WIDTH (info) / 8;
+  guint8 *out = g_malloc (size);
+
+  if (GST_AUDIO_FORMAT_INFO_IS_FLOAT (info)) {
+    g_autofree double *unpacked = g_new (double, samples);
+    for (gsize i = 0; i < samples; i++)
+      unpacked[i] = x[i];
+    info->pack_func (info, GST_AUDIO_PACK_FLAG_NONE, unpacked, out,
+        (gint) samples);
+  } else {
+    g_autofree gint32 *unpacked = g_new (gint32, samples);
+    for (gsize i = 0; i < samples; i++)
+      unpacked[i] = (gint32) lrint (CLAMP (x[i] * gain, -1.0, 1.0 - 1e-9)
+          * 2147483648.0);
+    info->pack_func (info, GST_AUDIO_PACK_FLAG_NONE, unpacked, out,
+        (gint) samples);
+  }
+  return gst_buffer_new_wrapped (out, size);
+}
+
+/* Every raw sample format GStreamer knows, through its own unpacking: a
+ * Fig. 9 ping's spectra as from float, within the format's quantisation
+ * (32-bit floats and integers alike to 1e-6 of the largest value, 8-bit
+ * to 2e-2), and full scale reported as clipped at every depth. */
+static void
+test_sample_formats (void)
+{
+  const struct
+  {
+    GstAudioFormat format;
+    double tolerance;
+  } cases[] = {
+    {GST_AUDIO_FORMAT_U8, 2e-2}, {GST_AUDIO_FORMAT_S8, 2e-2},
+    {GST_AUDIO_FORMAT_S16BE, 1e-3}, {GST_AUDIO_FORMAT_U16LE, 1e-3},
+    {GST_AUDIO_FORMAT_S20LE, 1e-4}, {GST_AUDIO_FORMAT_S24_32LE, 1e-5},
+    {GST_AUDIO_FORMAT_U32BE, 1e-6}, {GST_AUDIO_FORMAT_F32BE, 1e-6},
+    {GST_AUDIO_FORMAT_F64BE, 1e-6},
+  };
+  g_autoptr (SonarSetup) setup = NULL;
+  GstBuffer *ping = sonarsrc_ping ("sonarsrc scene=fig9", 0, &setup);
+  const gsize samples = gst_buffer_get_size (ping) / sizeof (float);
+  g_autofree float *x = g_new (float, samples);
+  GstBuffer *reference;
+  GstMapInfo a;
+  double peak = 0.0, gain;
+  GstHarness *h;
+  GstBus *bus;
+
+  gst_buffer_extract (ping, 0, x, samples * sizeof (float));
+  for (gsize i = 0; i < samples; i++)
+    peak = MAX (peak, fabsf (x[i]));
+  gain = 0.9 / peak;
+  /* The reference: float samples as the integers read them. */
+  for (gsize i = 0; i < samples; i++)
+    x[i] *= gain;
+  h = fed_harness ("dopplerbank velocity-min=0 velocity-max=0", setup, &bus);
+  gst_harness_set_src_caps_str (h, "audio/x-raw, format=F32LE, "
+      "layout=interleaved, rate=450000, channels=32");
+  g_assert_cmpint (gst_harness_push (h, gst_buffer_new_memdup (x,
+              samples * sizeof (float))), ==, GST_FLOW_OK);
+  reference = gst_harness_pull (h);
+  gst_buffer_map (reference, &a, GST_MAP_READ);
+  gst_harness_teardown (h);
+  gst_object_unref (bus);
+  gst_buffer_unref (ping);
+
+  for (guint c = 0; c < G_N_ELEMENTS (cases); c++) {
+    const char *name = gst_audio_format_to_string (cases[c].format);
+    g_autofree char *caps = g_strdup_printf ("audio/x-raw, format=%s, "
+        "layout=interleaved, rate=450000, channels=32", name);
+    double worst = 0.0, largest = 0.0;
+    GstBuffer *out;
+    GstMapInfo b;
+
+    h = fed_harness ("dopplerbank velocity-min=0 velocity-max=0", setup,
+        &bus);
+    gst_harness_set_src_caps_str (h, caps);
+    g_assert_cmpint (gst_harness_push (h, packed_samples (x, samples,
+                cases[c].format, 1.0)), ==, GST_FLOW_OK);
+    out = gst_harness_pull (h);
+    g_assert_nonnull (out);
+    gst_buffer_map (out, &b, GST_MAP_READ);
+    g_assert_cmpuint (a.size, ==, b.size);
+    for (gsize i = 0; i < a.size / sizeof (float); i++) {
+      worst = MAX (worst, fabs (((const float *) a.data)[i] -
+              ((const float *) b.data)[i]));
+      largest = MAX (largest, fabs (((const float *) a.data)[i]));
+    }
+    gst_buffer_unmap (out, &b);
+    gst_buffer_unref (out);
+    g_test_message ("%s: spectra differ by %.3g of their largest value",
+        name, worst / largest);
+    g_assert_cmpfloat (worst, <, cases[c].tolerance * largest);
+    g_assert_null (pop_warning (bus));
+    if (!GST_AUDIO_FORMAT_INFO_IS_FLOAT (gst_audio_format_get_info
+            (cases[c].format))) {
+      const float kept[3] = { x[40000], x[50002], x[60001] };
+      g_autofree char *clipped = NULL;
+      /* Three samples at full scale, either side. */
+      x[40000] = x[60001] = 2.0f;
+      x[50002] = -2.0f;
+      g_assert_cmpint (gst_harness_push (h, packed_samples (x, samples,
+                  cases[c].format, 1.0)), ==, GST_FLOW_OK);
+      gst_buffer_unref (gst_harness_pull (h));
+      clipped = pop_warning (bus);
+      g_assert_cmpstr (clipped, ==, "The recording is clipped: 3 samples "
+          "of ping 1 at full scale; their echoes are distorted (lower the "
+          "recording's gain)");
+      x[40000] = kept[0];
+      x[50002] = kept[1];
+      x[60001] = kept[2];
+    }
+    gst_harness_teardown (h);
+    gst_object_unref (bus);
+  }
+  gst_buffer_unmap (reference, &a);
+  gst_buffer_unref (reference);
+}
+
 /* A plain WAV's caps (no channel-mask) and integer samples are taken as
  * they come; a recording that does not fit the sensor is refused with a
  * message naming both. */
@@ -1368,7 +1494,9 @@ test_tune_velocityest (void)
 }
 
 /* velocityest: min-agreeing-emitters above the emitters while playing is a
- * warning, and the thresholds stay. */
+ * warning, once, and it alone is refused: it reads back as the value in
+ * effect, and min-variance set with it (1: nothing valid) takes effect.
+ * A later change (min-coherence, to its own value) warns of nothing. */
 static void
 test_tune_velocityest_refused (void)
 {
@@ -1381,28 +1509,40 @@ test_tune_velocityest_refused (void)
   GstSample *sample;
   GstMessage *msg;
   GError *error = NULL;
-  guint pings = 0, valid = 0;
+  guint pings = 0, valid[TUNE_PINGS] = { 0 }, min_agreeing;
+  double min_variance, min_coherence;
 
   gst_element_set_state (pipeline, GST_STATE_PLAYING);
   while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
     SonarDetectionsMeta *meta = sonar_buffer_get_detections_meta
         (gst_sample_get_buffer (sample));
+    g_assert_cmpuint (pings, <, TUNE_PINGS);
     for (guint k = 0; k < meta->n_detections; k++)
-      valid += meta->detections[k].valid;
-    if (pings++ == 0)
-      g_object_set (e, "min-agreeing-emitters", 9, NULL);
+      valid[pings] += meta->detections[k].valid;
+    if (pings == 0)
+      g_object_set (e, "min-agreeing-emitters", 9, "min-variance", 1.0, NULL);
+    if (pings == 3) {
+      g_object_get (e, "min-coherence", &min_coherence, NULL);
+      g_object_set (e, "min-coherence", min_coherence, NULL);
+    }
+    pings++;
     gst_sample_unref (sample);
   }
   g_assert_cmpuint (pings, ==, TUNE_PINGS);
-  g_assert_cmpuint (valid, ==, 3 * TUNE_PINGS);
+  g_assert_cmpuint (valid[0], ==, 3);
+  g_assert_cmpuint (valid[TUNE_PINGS - 1], ==, 0);
+  g_object_get (e, "min-agreeing-emitters", &min_agreeing, "min-variance",
+      &min_variance, NULL);
+  g_assert_cmpuint (min_agreeing, ==, 5);
+  g_assert_cmpfloat (min_variance, ==, 1.0);
   msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING);
   g_assert_nonnull (msg);
   gst_message_parse_warning (msg, &error, NULL);
   g_assert_cmpstr (error->message, ==, "velocityest: min-agreeing-emitters "
-      "is 9, but only 8 emitters enter the product: the thresholds stay as "
-      "they were");
+      "is 9, but only 8 emitters enter the product: it stays 5");
   g_error_free (error);
   gst_message_unref (msg);
+  g_assert_null (gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING));
   gst_element_set_state (pipeline, GST_STATE_NULL);
   gst_object_unref (bus);
   gst_object_unref (e);
@@ -1498,6 +1638,7 @@ main (int argc, char **argv)
   g_test_add_func ("/elements/datacube", test_datacube);
   g_test_add_func ("/elements/tune-while-playing", test_tune_while_playing);
   g_test_add_func ("/elements/tune-velocityest", test_tune_velocityest);
+  g_test_add_func ("/elements/sample-formats", test_sample_formats);
   g_test_add_func ("/elements/tune-velocityest-refused",
       test_tune_velocityest_refused);
   g_test_add_func ("/elements/tune-mimobeamform", test_tune_mimobeamform);

@@ -6,6 +6,7 @@
 #define SONAR_CONTRACTS_H
 
 #include <gst/gst.h>
+#include <gst/audio/audio.h>
 #include "sonar-cluster.h"
 #include "sonar-doppler-bank.h"
 #include "sonar-image-grid.h"
@@ -23,11 +24,12 @@ G_BEGIN_DECLS
   "audio/x-raw, format=(string)F32LE, layout=(string)interleaved, " \
   "rate=(int)[ 1, MAX ], channels=(int)[ 1, 256 ], channel-mask=(bitmask)0"
 
-/* What dopplerbank takes: recordings made elsewhere too. A plain WAV
- * carries no channel-mask (wavparse gives none for WAVE_FORMAT_IEEE_FLOAT
- * or PCM), so none is required; integer samples are read as fractions of
- * full scale. */
-#define SONAR_RECORDING_FORMATS "{ F32LE, F64LE, S16LE, S24LE, S32LE }"
+/* What dopplerbank takes: recordings made elsewhere too, in any raw
+ * sample format (F32LE read as it is, the others through GStreamer's own
+ * unpacking). A plain WAV carries no channel-mask (wavparse gives none for
+ * WAVE_FORMAT_IEEE_FLOAT or PCM), so none is required; integer samples
+ * are read as fractions of full scale. */
+#define SONAR_RECORDING_FORMATS GST_AUDIO_FORMATS_ALL
 #define SONAR_RECORDING_SINK_CAPS \
   "audio/x-raw, format=(string)" SONAR_RECORDING_FORMATS ", " \
   "layout=(string)interleaved, rate=(int)[ 1, MAX ], " \

@@ -538,9 +538,9 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
     if (zeroed > 0) {
       GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The recording holds "
               "glitches, samples louder than %g times their channel's "
-              "quiet RMS and %g times every sample within %d of them, "
+              "quiet peak and %g times every sample within %d of them, "
               "which no echo is (%u in ping %" G_GUINT64_FORMAT ", up to "
-              "%g); they are read as 0", SONAR_GLITCH_OVER_RMS,
+              "%g); they are read as 0", SONAR_GLITCH_OVER_QUIET,
               SONAR_GLITCH_OVER_NEIGHBOURS, SONAR_GLITCH_FLANK, zeroed,
               index, largest), (NULL));
       self->warned_glitches = TRUE;

@@ -118,52 +118,47 @@ sonar_spectrum_process (SonarSpectrum * s, const float *signal, gsize length,
     *n_bad += bad;
 }
 
-/* The mean square of @x's quiet stretches: the lower quartile of its
- * SONAR_GLITCH_BLOCKS blocks' (one block when short). A ping's loudest
- * signals, the direct path and the nearest echoes, fill a quarter of it
- * at most, and a bad channel may hold glitches in many blocks: the scale
- * is its far echoes' and noise's, so that a glitch under the loud ones
- * stands out. Sets *@peak to the largest |x|. */
-static double
-quiet_mean_square (const float *x, gsize n, float *peak)
+/* The peak |x| of @x's quiet stretches: the lower quartile of its
+ * SONAR_GLITCH_BLOCKS blocks' peaks (one block when short). A ping's
+ * loudest signals, the direct path and the nearest echoes, fill a quarter
+ * of it at most, and a bad channel may hold glitches in many blocks: the
+ * scale is its far echoes' and noise's, so that a glitch under the loud
+ * ones stands out. Peaks, not energies: no float overflows or underflows
+ * (samples may reach 10^30), and a maximum is one vector instruction a
+ * lane. Sets *@peak to the largest |x|. */
+static float
+quiet_peak (const float *x, gsize n, float *peak)
 {
   const guint blocks = n >= 64 * SONAR_GLITCH_BLOCKS ? SONAR_GLITCH_BLOCKS :
       1;
-  double mean_square[SONAR_GLITCH_BLOCKS];
-  float lane_peak[8] = { 0 };
+  float block_peak[SONAR_GLITCH_BLOCKS];
 
   *peak = 0.0f;
   for (guint b = 0; b < blocks; b++) {
     const gsize start = n * b / blocks, end = n * (b + 1) / blocks;
-    /* Eight lanes the compiler keeps in vectors; the energy in double:
-     * the samples may reach 10^30. */
-    double lane_energy[8] = { 0 }, energy = 0.0;
+    float lane[16] = { 0 }, largest = 0.0f;
     gsize i;
 
-    for (i = start; i + 8 <= end; i += 8)
-      for (guint l = 0; l < 8; l++) {
+    for (i = start; i + 16 <= end; i += 16)
+      for (guint l = 0; l < 16; l++) {
         const float a = fabsf (x[i + l]);
-        lane_energy[l] += (double) a * a;
-        lane_peak[l] = a > lane_peak[l] ? a : lane_peak[l];
+        lane[l] = a > lane[l] ? a : lane[l];
       }
-    for (; i < end; i++) {
-      energy += (double) x[i] * x[i];
-      *peak = MAX (*peak, fabsf (x[i]));
-    }
-    for (guint l = 0; l < 8; l++)
-      energy += lane_energy[l];
-    mean_square[b] = end > start ? energy / (end - start) : 0.0;
+    for (; i < end; i++)
+      largest = MAX (largest, fabsf (x[i]));
+    for (guint l = 0; l < 16; l++)
+      largest = MAX (largest, lane[l]);
+    block_peak[b] = largest;
+    *peak = MAX (*peak, largest);
   }
-  for (guint l = 0; l < 8; l++)
-    *peak = MAX (*peak, lane_peak[l]);
   /* Insertion sort: 16 values. */
   for (guint b = 1; b < blocks; b++)
-    for (guint k = b; k > 0 && mean_square[k - 1] > mean_square[k]; k--) {
-      const double t = mean_square[k];
-      mean_square[k] = mean_square[k - 1];
-      mean_square[k - 1] = t;
+    for (guint k = b; k > 0 && block_peak[k - 1] > block_peak[k]; k--) {
+      const float t = block_peak[k];
+      block_peak[k] = block_peak[k - 1];
+      block_peak[k - 1] = t;
     }
-  return mean_square[(blocks - 1) / 4];
+  return block_peak[(blocks - 1) / 4];
 }
 
 G_STATIC_ASSERT (SONAR_GLITCH_FLANK >= SONAR_GLITCH_MAX_RUN);
@@ -172,18 +167,15 @@ guint
 sonar_remove_glitches (float *x, gsize n, float *largest)
 {
   float peak, loud;
-  double quiet;
   guint zeroed = 0;
   gsize i;
 
   if (n == 0)
     return 0;
-  quiet = quiet_mean_square (x, n, &peak);
-  if ((double) peak * peak <= (double) SONAR_GLITCH_OVER_RMS *
-      SONAR_GLITCH_OVER_RMS * quiet)
+  loud = SONAR_GLITCH_OVER_QUIET * quiet_peak (x, n, &peak);
+  if (!(peak > loud))
     return 0;
 
-  loud = SONAR_GLITCH_OVER_RMS * (float) sqrt (quiet);
   for (i = 0; i < n; i++) {
     const float a = fabsf (x[i]);
     float level;

@@ -99,15 +99,18 @@ guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
  * after the matched filters, over every direction of the image at its
  * range: one float sample of 10^5 among echoes of about 1 hid 3 of Fig.
  * 10's 6 objects. A glitch is a run of at most SONAR_GLITCH_MAX_RUN
- * samples whose peak is louder than SONAR_GLITCH_OVER_RMS times the
- * channel's quiet RMS (the lower quartile of its SONAR_GLITCH_BLOCKS
- * blocks' RMS: the direct path and the nearest echoes fill fewer) and
- * more than SONAR_GLITCH_OVER_NEIGHBOURS times every sample within
- * SONAR_GLITCH_FLANK of the run (the run: the samples around the peak
- * over that tenth). No band-limited signal does that,
- * however loud: the direct path, a clipped echo and the band's lowest
- * tone all keep loud samples beside their peaks (tests/test-spectrum.c). */
-#define SONAR_GLITCH_OVER_RMS 30.0f
+ * samples whose peak is
+ * - louder than SONAR_GLITCH_OVER_QUIET times the channel's quiet peak
+ *   (the lower quartile of its SONAR_GLITCH_BLOCKS blocks' largest
+ *   |sample|, about 3.3 times noise's RMS: the direct path and the
+ *   nearest echoes fill fewer blocks), and
+ * - more than SONAR_GLITCH_OVER_NEIGHBOURS times every sample within
+ *   SONAR_GLITCH_FLANK of the run (the run: the samples around the peak
+ *   over 1 / SONAR_GLITCH_OVER_NEIGHBOURS of it).
+ * No band-limited signal does that, however loud: the direct path, a
+ * clipped echo and the band's lowest tone all keep loud samples beside
+ * their peaks (tests/test-spectrum.c). */
+#define SONAR_GLITCH_OVER_QUIET 10.0f
 #define SONAR_GLITCH_BLOCKS 16
 #define SONAR_GLITCH_OVER_NEIGHBOURS 10.0f
 #define SONAR_GLITCH_MAX_RUN 8

@@ -652,6 +652,31 @@ test_allocation_from_downstream (void)
   gst_object_unref (bus);
 }
 
+/* The image of @work (@n samples) whose samples at @bad[@count] a
+ * recording should not hold: a warning holding @what and @where, and the
+ * image of @work with zeros there (which @work then holds). */
+static void
+assert_read_as_zero (GstHarness * h, GstBus * bus, float *work, gsize n,
+    const gsize * bad, guint count, const char *what, const char *where)
+{
+  gsize pixels;
+  float *image = image_of (h, work, n, &pixels), *zeroed;
+  g_autofree char *warning = pop_warning (bus);
+
+  g_assert_true (all_finite (image, pixels));
+  g_test_message ("%s: warning \"%s\"", what, warning);
+  g_assert_nonnull (warning);
+  g_assert_nonnull (strstr (warning, what));
+  g_assert_nonnull (strstr (warning, where));
+  for (guint k = 0; k < count; k++)
+    work[bad[k]] = 0.0f;
+  zeroed = image_of (h, work, n, &pixels);
+  g_assert_cmpmem (image, sizeof (float) * pixels, zeroed,
+      sizeof (float) * pixels);
+  g_free (zeroed);
+  g_free (image);
+}
+
 /* 4a. Extreme sample values through dopplerbank ! mimobeamform. */
 static void
 test_extreme_inputs (void)
@@ -666,7 +691,6 @@ test_extreme_inputs (void)
       &bus);
   float *normal, *image;
   gsize pixels, peak;
-  g_autofree char *warning = NULL;
 
   g_assert_cmpuint (gst_buffer_get_size (ping), ==, sizeof (float) * n);
   gst_buffer_extract (ping, 0, data, sizeof (float) * n);
@@ -688,50 +712,28 @@ test_extreme_inputs (void)
   /* NaN and infinities: a warning, and the image of the ping with zeros
    * there. */
   memcpy (work, data, sizeof (float) * n);
-  work[1000 * 32 + 3] = NAN;
-  work[5000 * 32 + 17] = INFINITY;
-  work[9000 * 32 + 31] = -INFINITY;
-  image = image_of (h, work, n, &pixels);
-  g_assert_true (all_finite (image, pixels));
-  warning = pop_warning (bus);
-  g_test_message ("NaN / Inf ping: warning \"%s\"", warning);
-  g_assert_nonnull (warning);
-  g_assert_nonnull (strstr (warning, "NaN or infinite"));
-  g_assert_nonnull (strstr (warning, "(3 in ping 2)"));
   {
-    float *zeroed;
-    work[1000 * 32 + 3] = work[5000 * 32 + 17] = work[9000 * 32 + 31] = 0;
-    zeroed = image_of (h, work, n, &pixels);
-    g_assert_cmpmem (image, sizeof (float) * pixels, zeroed,
-        sizeof (float) * pixels);
-    g_free (zeroed);
+    const gsize bad[] = { 1000 * 32 + 3, 5000 * 32 + 17, 9000 * 32 + 31 };
+    work[bad[0]] = NAN;
+    work[bad[1]] = INFINITY;
+    work[bad[2]] = -INFINITY;
+    assert_read_as_zero (h, bus, work, n, bad, G_N_ELEMENTS (bad),
+        "NaN or infinite", "(3 in ping 2)");
   }
-  g_free (image);
 
   /* Glitches, single samples of 10^5 (a float recording's garbage, 10^5
    * times the echoes: it hid objects) and 10^30 in every third channel:
    * a warning, and the image of the ping with zeros there. */
   memcpy (work, data, sizeof (float) * n);
-  for (guint j = 0; j < 32; j += 3)
-    work[(gsize) (2000 + 37 * j) * 32 + j] = j % 2 ? 1e30f : 1e5f;
-  image = image_of (h, work, n, &pixels);
-  g_assert_true (all_finite (image, pixels));
-  g_free (warning);
-  warning = pop_warning (bus);
-  g_test_message ("glitches: warning \"%s\"", warning);
-  g_assert_nonnull (warning);
-  g_assert_nonnull (strstr (warning, "The recording holds glitches"));
-  g_assert_nonnull (strstr (warning, "(11 in ping 4, up to 1e+30)"));
   {
-    float *zeroed;
-    for (guint j = 0; j < 32; j += 3)
-      work[(gsize) (2000 + 37 * j) * 32 + j] = 0.0f;
-    zeroed = image_of (h, work, n, &pixels);
-    g_assert_cmpmem (image, sizeof (float) * pixels, zeroed,
-        sizeof (float) * pixels);
-    g_free (zeroed);
+    gsize bad[11];
+    for (guint j = 0; j < 32; j += 3) {
+      bad[j / 3] = (gsize) (2000 + 37 * j) * 32 + j;
+      work[bad[j / 3]] = j % 2 ? 1e30f : 1e5f;
+    }
+    assert_read_as_zero (h, bus, work, n, bad, G_N_ELEMENTS (bad),
+        "The recording holds glitches", "(11 in ping 4, up to 1e+30)");
   }
-  g_free (image);
 
   /* Tiny: the same image scaled, the peak in the same place. */
   for (gsize i = 0; i < n; i++)

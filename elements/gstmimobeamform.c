@@ -109,6 +109,7 @@ struct _GstMimoBeamform
   guint channels;
   ImageMode active_mode;
   int active_emitter;
+  double active_velocity;       /* mode=fixed */
   guint n_hypotheses;
   guint *indices;               /* the hypotheses' bank velocity indices */
   SonarHypothesis *hypotheses;
@@ -356,6 +357,7 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
       guint i;
       if (!fixed_velocity_index (bank, velocity, &i, error))
         return NULL;
+      self->active_velocity = velocity;
       self->indices[0] = i;
       self->n_hypotheses = 1;
       break;
@@ -405,9 +407,22 @@ gst_mimo_beamform_unconfigure (GstSonarFilter * filter)
   g_clear_pointer (&self->hypotheses, g_free);
 }
 
-/* refine-db, refine-pfa, velocity (mode=fixed) and emitter set while playing take
- * effect at the next ping; a value the sensor or bank cannot take is a
- * warning, and the image stays as it was. */
+/* A setting retune () refused (@error): the warning names the value in
+ * effect (@in_effect), to which the caller has set @property back. */
+static void
+refused (GstMimoBeamform * self, GError * error, const char *property,
+    double in_effect)
+{
+  GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s: %s stays %g",
+          error->message, property, in_effect), (NULL));
+  g_error_free (error);
+  g_object_notify (G_OBJECT (self), property);
+}
+
+/* refine-db, refine-pfa, velocity (mode=fixed) and emitter set while
+ * playing take effect at the next ping. One the sensor or bank cannot take
+ * is refused alone: a warning, and its property goes back to the value in
+ * effect (unless set again since); the others take effect. */
 static void
 retune (GstMimoBeamform * self)
 {
@@ -430,20 +445,36 @@ retune (GstMimoBeamform * self)
   emitter = self->emitter;
   GST_OBJECT_UNLOCK (self);
 
-  if (!sonar_imager_set_refine (self->imager, refine_db, refine_pfa, &error)
-      || !emitter_exists (gst_sonar_filter_get_setup (filter), emitter,
-          &error)
-      || (self->active_mode == IMAGE_MODE_FIXED
-          && !fixed_velocity_index (bank, velocity, &i, &error))) {
-    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s: the image stays as "
-            "it was", error->message), (NULL));
-    g_error_free (error);
-    return;
+  if (!sonar_imager_set_refine (self->imager, refine_db, refine_pfa,
+          &error)) {
+    /* The properties' ranges are the imager's: this would be a bug. */
+    GST_ELEMENT_WARNING (self, LIBRARY, SETTINGS, ("%s", error->message),
+        (NULL));
+    g_clear_error (&error);
   }
-  self->active_emitter = emitter;
-  if (self->active_mode == IMAGE_MODE_FIXED) {
+  if (emitter_exists (gst_sonar_filter_get_setup (filter), emitter, &error)) {
+    self->active_emitter = emitter;
+  } else {
+    GST_OBJECT_LOCK (self);
+    if (self->emitter == emitter)
+      self->emitter = self->active_emitter;
+    GST_OBJECT_UNLOCK (self);
+    refused (self, error, "emitter", self->active_emitter);
+    error = NULL;
+  }
+  if (self->active_mode != IMAGE_MODE_FIXED
+      || velocity == self->active_velocity)
+    return;
+  if (fixed_velocity_index (bank, velocity, &i, &error)) {
+    self->active_velocity = velocity;
     self->indices[0] = i;
     self->hypotheses[0] = sonar_doppler_bank_hypothesis (bank, i);
+  } else {
+    GST_OBJECT_LOCK (self);
+    if (self->velocity == velocity)
+      self->velocity = self->active_velocity;
+    GST_OBJECT_UNLOCK (self);
+    refused (self, error, "velocity", self->active_velocity);
   }
 }
 

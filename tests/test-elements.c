@@ -1567,8 +1567,27 @@ test_tune_mimobeamform (void)
   check_tunable (launch, "", "emitter=3");
 }
 
-/* mimobeamform: a velocity outside the bank (mode=fixed) while playing is
- * a warning, and the image stays at the velocity it had. */
+/* The next warning on @bus: its text. */
+static char *
+next_warning_text (GstBus * bus)
+{
+  GstMessage *msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING);
+  GError *error = NULL;
+  char *text;
+
+  g_assert_nonnull (msg);
+  gst_message_parse_warning (msg, &error, NULL);
+  text = g_strdup (error->message);
+  g_error_free (error);
+  gst_message_unref (msg);
+  return text;
+}
+
+/* mimobeamform: a velocity outside the bank (mode=fixed) and an emitter
+ * the sensor lacks, set while playing with refine-db, are refused alone,
+ * each with a warning: they read back as the values in effect (a restart
+ * failed on the refused ones), the image stays at its velocity, and
+ * refine-db takes effect. */
 static void
 test_tune_mimobeamform_refused (void)
 {
@@ -1580,9 +1599,9 @@ test_tune_mimobeamform_refused (void)
   GstElement *e = gst_bin_get_by_name (GST_BIN (pipeline), "e");
   GstBus *bus = gst_element_get_bus (pipeline);
   GstSample *sample;
-  GstMessage *msg;
-  GError *error = NULL;
   guint pings = 0;
+  double velocity, refine_db;
+  int emitter;
 
   gst_element_set_state (pipeline, GST_STATE_PLAYING);
   while ((sample = gst_app_sink_pull_sample (GST_APP_SINK (sink)))) {
@@ -1591,18 +1610,25 @@ test_tune_mimobeamform_refused (void)
         sizeof header);
     g_assert_cmpfloat (fabs (header.velocity - 0.5), <, 1e-9);
     if (pings++ == 0)
-      g_object_set (e, "velocity", 9.0, NULL);
+      g_object_set (e, "velocity", 9.0, "emitter", 12, "refine-db", 30.0,
+          NULL);
     gst_sample_unref (sample);
   }
   g_assert_cmpuint (pings, ==, 4);
-  msg = gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING);
-  g_assert_nonnull (msg);
-  gst_message_parse_warning (msg, &error, NULL);
-  g_assert_cmpstr (error->message, ==, "mimobeamform: velocity 9 m/s is "
-      "outside the Doppler bank (-1.5 to 1.5 m/s): the image stays as it "
-      "was");
-  g_error_free (error);
-  gst_message_unref (msg);
+  {
+    g_autofree char *first = next_warning_text (bus);
+    g_autofree char *second = next_warning_text (bus);
+    g_assert_cmpstr (first, ==, "mimobeamform: emitter 12 does not exist "
+        "(the sensor has 8: 0 to 7, or -1 for all): emitter stays -1");
+    g_assert_cmpstr (second, ==, "mimobeamform: velocity 9 m/s is outside "
+        "the Doppler bank (-1.5 to 1.5 m/s): velocity stays 0.5");
+  }
+  g_assert_null (gst_bus_pop_filtered (bus, GST_MESSAGE_WARNING));
+  g_object_get (e, "velocity", &velocity, "emitter", &emitter, "refine-db",
+      &refine_db, NULL);
+  g_assert_cmpfloat (velocity, ==, 0.5);
+  g_assert_cmpint (emitter, ==, -1);
+  g_assert_cmpfloat (refine_db, ==, 30.0);
   gst_element_set_state (pipeline, GST_STATE_NULL);
   gst_object_unref (bus);
   gst_object_unref (e);

@@ -216,6 +216,30 @@ report_late_run (GstSonarFilter * filter)
   priv->late_by = 0;
 }
 
+const GstSegment *
+gst_sonar_filter_get_segment (GstSonarFilter * filter)
+{
+  return &PRIV (filter)->time_segment;
+}
+
+void
+gst_sonar_post_ping_message (GstElement * element,
+    const GstSegment * segment, GstClockTime pts, GstStructure * s)
+{
+  GstClockTime stream_time = GST_CLOCK_TIME_NONE;
+  GstClockTime running_time = GST_CLOCK_TIME_NONE;
+
+  if (segment->format == GST_FORMAT_TIME && GST_CLOCK_TIME_IS_VALID (pts)) {
+    stream_time = gst_segment_to_stream_time (segment, GST_FORMAT_TIME, pts);
+    running_time = gst_segment_to_running_time (segment, GST_FORMAT_TIME,
+        pts);
+  }
+  gst_structure_set (s, "stream-time", G_TYPE_UINT64, stream_time,
+      "running-time", G_TYPE_UINT64, running_time, NULL);
+  gst_element_post_message (element, gst_message_new_element (GST_OBJECT
+          (element), s));
+}
+
 gboolean
 gst_sonar_filter_drop_late (GstSonarFilter * filter, guint64 index,
     GstClockTime pts, GstClockTime duration)

@@ -112,6 +112,16 @@ void gst_sonar_filter_drop_pings (GstSonarFilter * filter, guint64 first,
 gboolean gst_sonar_filter_drop_late (GstSonarFilter * filter, guint64 index,
     GstClockTime pts, GstClockTime duration);
 GstPad *gst_sonar_filter_get_srcpad (GstSonarFilter * filter);
+/* The input's segment (what its buffers' times are in). */
+const GstSegment *gst_sonar_filter_get_segment (GstSonarFilter * filter);
+
+/* Posts @s, a ping's element message (CONTRACTS section 10), from
+ * @element with the stream and running time of the ping's @pts in
+ * @segment added ("stream-time", "running-time"; GST_CLOCK_TIME_NONE out
+ * of a time segment or without a PTS), as level and spectrum do: what an
+ * application matches with the pipeline's clock. */
+void gst_sonar_post_ping_message (GstElement * element,
+    const GstSegment * segment, GstClockTime pts, GstStructure * s);
 
 /* Whether @pspec of @element may be set now: one marked
  * GST_PARAM_MUTABLE_READY (gst-inspect: "changeable only in NULL or READY

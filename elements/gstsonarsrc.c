@@ -782,10 +782,10 @@ gst_sonar_src_create (GstPushSrc * psrc, GstBuffer ** outbuf)
   sonar_buffer_add_truth_meta (buffer, self->ping_index, self->truths,
       self->scene.n_reflectors);
   if (self->post_messages) {
-    gst_element_post_message (GST_ELEMENT (self),
-        gst_message_new_element (GST_OBJECT (self),
-            sonar_truth_to_structure (self->ping_index, pts, self->truths,
-                self->scene.n_reflectors)));
+    gst_sonar_post_ping_message (GST_ELEMENT (self),
+        &GST_BASE_SRC (self)->segment, pts,
+        sonar_truth_to_structure (self->ping_index, pts, self->truths,
+            self->scene.n_reflectors));
   }
   self->ping_index++;
   self->pushed++;

@@ -363,10 +363,10 @@ gst_sonar_track_generate_output (GstBaseTransform * trans,
   if (tracks_meta)
     g_strlcpy (tracks_meta->frame_id, frame_id, sizeof tracks_meta->frame_id);
   if (self->post_messages)
-    gst_element_post_message (GST_ELEMENT (self),
-        gst_message_new_element (GST_OBJECT (self),
-            sonar_tracks_to_structure (meta->ping_index, pts, frame_id,
-                &motion, tracks, n_tracks)));
+    gst_sonar_post_ping_message (GST_ELEMENT (self),
+        &GST_BASE_TRANSFORM (self)->segment, pts,
+        sonar_tracks_to_structure (meta->ping_index, pts, frame_id, &motion,
+            tracks, n_tracks));
   gst_buffer_unref (in);
   return GST_FLOW_OK;
 }

@@ -434,11 +434,12 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   sonar_buffer_add_detections_meta (out, ping,
       (SonarDetection *) self->detections->data, self->detections->len);
   if (self->post_messages)
-    gst_element_post_message (GST_ELEMENT (self),
-        gst_message_new_element (GST_OBJECT (self),
-            sonar_detections_to_structure (ping, GST_BUFFER_PTS (buffer),
-                (SonarDetection *) self->detections->data,
-                self->detections->len)));
+    gst_sonar_post_ping_message (GST_ELEMENT (self),
+        gst_sonar_filter_get_segment (GST_SONAR_FILTER (self)),
+        GST_BUFFER_PTS (buffer), sonar_detections_to_structure (ping,
+            GST_BUFFER_PTS (buffer),
+            (SonarDetection *) self->detections->data,
+            self->detections->len));
   gst_buffer_unref (buffer);
   return gst_sonar_filter_push (filter, out);
 }

@@ -233,10 +233,10 @@ gst_ward_cluster_process (GstSonarFilter * filter, GstBuffer * buffer)
   buffer = gst_buffer_make_writable (buffer);
   sonar_buffer_add_centroids_meta (buffer, ping, self->centroids, n);
   if (self->post_messages)
-    gst_element_post_message (GST_ELEMENT (self),
-        gst_message_new_element (GST_OBJECT (self),
-            sonar_centroids_to_structure (ping, GST_BUFFER_PTS (buffer),
-                self->centroids, n)));
+    gst_sonar_post_ping_message (GST_ELEMENT (self),
+        gst_sonar_filter_get_segment (filter), GST_BUFFER_PTS (buffer),
+        sonar_centroids_to_structure (ping, GST_BUFFER_PTS (buffer),
+            self->centroids, n));
   return gst_sonar_filter_push (filter, buffer);
 }
 

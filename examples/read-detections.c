@@ -23,6 +23,22 @@
 #define DEFAULT_CHAIN "sonarsrc num-buffers=3 ! dopplerbank velocity-min=-1.5 " \
   "velocity-max=1.5 ! mimobeamform ! wardcluster ! velocityest"
 
+/* Prints @msg if it is an error (and takes it): 1 then, else 0. */
+static int
+report_error (GstMessage * msg)
+{
+  GError *error = NULL;
+  const gboolean is_error = GST_MESSAGE_TYPE (msg) == GST_MESSAGE_ERROR;
+
+  if (is_error) {
+    gst_message_parse_error (msg, &error, NULL);
+    fprintf (stderr, "read-detections: %s\n", error->message);
+    g_error_free (error);
+  }
+  gst_message_unref (msg);
+  return is_error;
+}
+
 int
 main (int argc, char **argv)
 {
@@ -75,16 +91,13 @@ main (int argc, char **argv)
           t->radial_velocity);
     }
     gst_sample_unref (sample);
+    /* The elements post a few messages every ping (post-messages): taken
+     * as they come, or they pile up on the bus. */
+    while ((msg = gst_bus_pop (GST_ELEMENT_BUS (pipeline))))
+      status |= report_error (msg);
   }
-
-  msg = gst_bus_pop_filtered (GST_ELEMENT_BUS (pipeline), GST_MESSAGE_ERROR);
-  if (msg) {
-    gst_message_parse_error (msg, &error, NULL);
-    fprintf (stderr, "read-detections: %s\n", error->message);
-    g_error_free (error);
-    gst_message_unref (msg);
-    status = 1;
-  }
+  while ((msg = gst_bus_pop (GST_ELEMENT_BUS (pipeline))))
+    status |= report_error (msg);
   gst_element_set_state (pipeline, GST_STATE_NULL);
   gst_object_unref (sink);
   gst_object_unref (pipeline);

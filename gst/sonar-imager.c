@@ -394,6 +394,11 @@ validate_params (const SonarImagerParams * p, double range_max,
   else if (!(p->elevation_min >= -90.0 && p->elevation_max <= 90.0
           && p->elevation_min <= p->elevation_max))
     problem = "elevations must satisfy -90 <= min <= max <= 90 degrees";
+  else if (p->n_azimuth > 1 && p->azimuth_min == p->azimuth_max)
+    problem = "several azimuths need min < max (one azimuth: a count of 1)";
+  else if (p->n_elevation > 1 && p->elevation_min == p->elevation_max)
+    problem = "several elevations need min < max (one elevation: a count "
+        "of 1)";
   else if (!(p->range_resolution > 0.0 && p->range_resolution <= 1.0))
     problem = "the range resolution must be in (0, 1] m";
   else if (p->focus_zones < 1 || p->focus_zones > SONAR_IMAGER_MAX_FOCUS_ZONES)

@@ -123,13 +123,13 @@ sonar_simulator_new (SonarSetup * setup, const SonarSimulatorParams * params,
 
   g_return_val_if_fail (setup != NULL && params != NULL, NULL);
 
-  if (!(params->noise_amplitude >= 0.0 && params->noise_amplitude < 1e6)) {
+  if (!(params->noise_amplitude >= 0.0 && params->noise_amplitude <= 1e6)) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "simulator: noise amplitude %g must be between 0 and 1e6",
         params->noise_amplitude);
     return NULL;
   }
-  if (!(params->direct_path >= 0.0 && params->direct_path < 1e6)) {
+  if (!(params->direct_path >= 0.0 && params->direct_path <= 1e6)) {
     g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS,
         "simulator: direct-path coupling %g must be between 0 and 1e6",
         params->direct_path);

@@ -142,8 +142,8 @@ sonar_tracker_new (const SonarTrackerParams * p, GError ** error)
       "must be in (0, 100] m/s, not %g", p->max_speed);
   CHECK (p->object_radius >= 0.0 && p->object_radius <= 10.0, "tracks: "
       "object-radius must be in [0, 10] m, not %g", p->object_radius);
-  CHECK (p->gate > 0.5 && p->gate < 1.0, "tracks: the gate probability "
-      "must be in (0.5, 1), not %g", p->gate);
+  CHECK (p->gate >= 0.5 && p->gate < 1.0, "tracks: the gate probability "
+      "must be in [0.5, 1), not %g", p->gate);
   CHECK (p->confirm_hits >= 1 && p->confirm_hits <= 1000, "tracks: "
       "confirm-hits must be in [1, 1000], not %u", p->confirm_hits);
   CHECK (p->max_misses <= 1000, "tracks: max-misses must be at most 1000, "

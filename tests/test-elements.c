@@ -384,6 +384,11 @@ test_errors_are_clear (void)
     {"sonarsrc num-buffers=1 ! dopplerbank velocity-min=0 velocity-max=0 ! "
           "mimobeamform emitter=9 ! fakesink", "emitter 9 does not exist",
         NULL},
+    /* Five copies of one direction (no detection came, and no word). */
+    {"sonarsrc num-buffers=1 ! dopplerbank velocity-min=0 velocity-max=0 ! "
+          "mimobeamform azimuth-min=10 azimuth-max=10 azimuth-count=5 ! "
+          "fakesink", "imager: several azimuths need min < max (one "
+          "azimuth: a count of 1)", NULL},
     {"audiotestsrc num-buffers=1 ! audio/x-raw,format=F32LE,channels=32,"
           "rate=450000,layout=interleaved,channel-mask=(bitmask)0 ! "
           "dopplerbank ! fakesink",

@@ -290,6 +290,12 @@ test_errors_are_clear (void)
     g_assert_nonnull (strstr (error, cases[i].expected));
     g_free (cases[i].launch);
   }
+  /* The properties' own limits run (1e6 was refused as out of range). */
+  {
+    g_autofree char *error = sonar_test_run_pipeline ("sonarsrc "
+        "num-buffers=1 direct-path=1000000 noise-amplitude=1000 ! fakesink");
+    g_assert_null (error);
+  }
 }
 
 /* The core's errors reach the bus with their own domain and code

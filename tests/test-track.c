@@ -471,8 +471,15 @@ test_errors (void)
   g_assert_null (sonar_tracker_new (&t, &error));
   g_assert_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS);
   g_assert_cmpstr (error->message, ==, "tracks: the gate probability must "
-      "be in (0.5, 1), not 1");
+      "be in [0.5, 1), not 1");
   g_clear_error (&error);
+  /* The property's limits run (0.5 was refused). */
+  t.gate = 0.5;
+  sonar_tracker_free (sonar_tracker_new (&t, &error));
+  g_assert_no_error (error);
+  t.gate = 0.999999999;
+  sonar_tracker_free (sonar_tracker_new (&t, &error));
+  g_assert_no_error (error);
   sonar_tracker_params_init_default (&t);
   t.dimensions = 1;
   g_assert_null (sonar_tracker_new (&t, &error));

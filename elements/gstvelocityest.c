@@ -423,6 +423,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   gst_buffer_unmap (buffer, &image_map);
 
   json = sonar_detections_to_json (ping, GST_BUFFER_PTS (buffer),
+      gst_sonar_filter_get_setup (GST_SONAR_FILTER (self))->frame_id,
       (SonarDetection *) self->detections->data, self->detections->len);
   out = gst_buffer_new_wrapped (json, strlen (json));
   gst_buffer_copy_into (out, buffer, GST_BUFFER_COPY_TIMESTAMPS |
@@ -438,6 +439,7 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
         gst_sonar_filter_get_segment (GST_SONAR_FILTER (self)),
         GST_BUFFER_PTS (buffer), sonar_detections_to_structure (ping,
             GST_BUFFER_PTS (buffer),
+            gst_sonar_filter_get_setup (GST_SONAR_FILTER (self))->frame_id,
             (SonarDetection *) self->detections->data,
             self->detections->len));
   gst_buffer_unref (buffer);

@@ -68,8 +68,8 @@ def validate_lines(text, name, pings):
 @test
 def detections_match_schema():
     """velocityest's JSON lines (the Fig. 9 world, rejected centroids kept)
-    are valid against docs/detections.schema.json, and every valid
-    detection carries the frame id, an amplitude, an SNR and finite
+    are valid against docs/detections.schema.json, each line and every
+    valid detection carries the frame id, an amplitude, an SNR and finite
     positive uncertainties (elevation's null on the 2-D image)"""
     out = launch("sonarsrc", "scene=fig9", "num-buffers=3",
                  "frame-id=sonar_front", *CHAIN, "keep-rejected=true", "!",
@@ -77,6 +77,7 @@ def detections_match_schema():
     rows = validate_lines(out, "detections.schema.json", 3)
     valid = [d for row in rows for d in row["detections"] if d["valid"]]
     assert len(valid) >= 3 * 4, out
+    assert all(row["frame_id"] == "sonar_front" for row in rows), out
     for d in valid:
         assert d["frame_id"] == "sonar_front", d
         assert d["snr"] > 10.0 and math.isfinite(d["amplitude"]), d
@@ -160,6 +161,16 @@ def surface_distance(detection, truth):
 
 
 @test
+def empty_ping_names_its_sensor():
+    """A ping without detections names its sensor all the same (the line's
+    frame_id): two sensors' lines through a funnel can be told apart"""
+    out = launch("sonarsrc", "scene=empty", "num-buffers=1", "frame-id=left",
+                 *CHAIN, "!", "fdsink")
+    rows = validate_lines(out, "detections.schema.json", 1)
+    assert rows[0]["detections"] == [] and rows[0]["frame_id"] == "left", out
+
+
+@test
 def two_sensors_tag_their_detections():
     """pipelines/two-sensors.sh: two sources in one process, 0.8 m apart
     in one world; each detection carries its sensor's frame id, and its
@@ -179,8 +190,8 @@ def two_sensors_tag_their_detections():
     for line in lines:
         row = json.loads(line)
         ids = {d["frame_id"] for d in row["detections"]}
-        # One line is one sensor's ping: all its detections share an id.
-        assert len(ids) == 1, row
+        # One line is one sensor's ping: all its detections share its id.
+        assert ids == {row["frame_id"]}, row
         for d in row["detections"]:
             own = left if d["frame_id"] == "left" else right
             other = right if own is left else left

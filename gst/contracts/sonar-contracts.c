@@ -759,9 +759,10 @@ sonar_centroids_to_structure (guint64 ping_index, GstClockTime timestamp,
 
 GstStructure *
 sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
-    const SonarDetection * detections, guint n)
+    const char *frame_id, const SonarDetection * detections, guint n)
 {
   GValue array = G_VALUE_INIT;
+  GstStructure *s;
 
   g_value_init (&array, GST_TYPE_ARRAY);
   for (guint k = 0; k < n; k++) {
@@ -790,8 +791,11 @@ sonar_detections_to_structure (guint64 ping_index, GstClockTime timestamp,
             "frame_id", G_TYPE_STRING, d->frame_id, NULL));
     gst_value_array_append_and_take_value (&array, &item);
   }
-  return list_message (SONAR_DETECTIONS_MESSAGE_NAME, ping_index, timestamp,
+  s = list_message (SONAR_DETECTIONS_MESSAGE_NAME, ping_index, timestamp,
       "detections", &array);
+  gst_structure_set (s, "frame_id", G_TYPE_STRING, frame_id ? frame_id : "",
+      NULL);
+  return s;
 }
 
 /* JSON built with json-glib's JsonBuilder, written by sonar_json_to_line
@@ -897,10 +901,11 @@ end_ping (JsonBuilder * b)
 
 char *
 sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
-    const SonarDetection * detections, guint n)
+    const char *frame_id, const SonarDetection * detections, guint n)
 {
   JsonBuilder *b = begin_ping (ping_index, timestamp);
 
+  add_string (b, "frame_id", frame_id ? frame_id : "");
   json_builder_set_member_name (b, "detections");
   json_builder_begin_array (b);
   for (guint k = 0; k < n; k++) {

@@ -251,13 +251,15 @@ SonarDetectionsMeta *sonar_buffer_add_detections_meta (GstBuffer * buffer,
   ((SonarDetectionsMeta *) gst_buffer_get_meta ((b), \
       SONAR_DETECTIONS_META_API_TYPE))
 
-/* Element message posted by velocityest per ping. */
+/* Element message posted by velocityest per ping; @frame_id, the
+ * sensor's (NULL: ""), names it when no detection does. */
 #define SONAR_DETECTIONS_MESSAGE_NAME "sonar-detections"
 GstStructure *sonar_detections_to_structure (guint64 ping_index,
-    GstClockTime timestamp, const SonarDetection * detections, guint n);
+    GstClockTime timestamp, const char *frame_id,
+    const SonarDetection * detections, guint n);
 /* One line of JSON (ending in a newline) with the ping's detections. */
 char *sonar_detections_to_json (guint64 ping_index, GstClockTime timestamp,
-    const SonarDetection * detections, guint n);
+    const char *frame_id, const SonarDetection * detections, guint n);
 
 /* velocityest's output: UTF-8 text, one JSON line per ping. */
 #define SONAR_DETECTIONS_CAPS "text/x-raw, format=(string)utf8"

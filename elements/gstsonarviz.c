@@ -388,9 +388,11 @@ check_energyscape (GstSonarViz * self, GstMapInfo * map, guint64 * ping,
   return TRUE;
 }
 
+/* @detections: the ping's, or NULL (@detections_missing: a detections pad
+ * had none for it). */
 static GstFlowReturn
 render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
-    GstBuffer ** out)
+    gboolean detections_missing, GstBuffer ** out)
 {
   GstAggregator *agg = GST_AGGREGATOR (self);
   SonarDetectionsMeta *dmeta = detections ?
@@ -460,6 +462,7 @@ render (GstSonarViz * self, GstBuffer * scape, GstBuffer * detections,
   frame.n_truths = self->truths->len;
   frame.detections = (const SonarRenderPoint *) self->detections->data;
   frame.n_detections = self->detections->len;
+  frame.detections_missing = detections_missing;
   frame.tracks = (const SonarRenderTrack *) self->tracks->data;
   frame.n_tracks = self->tracks->len;
   frame.ping = (gint64) ping;
@@ -593,7 +596,7 @@ gst_sonar_viz_aggregate (GstAggregator * agg, gboolean timeout)
       && !gst_aggregator_negotiate (agg))
     ret = GST_FLOW_NOT_NEGOTIATED;
   if (ret == GST_FLOW_OK)
-    ret = render (self, scape, detections, &out);
+    ret = render (self, scape, detections, det_pad && !detections, &out);
   if (ret == GST_FLOW_OK) {
     GstAggregatorPad *src = GST_AGGREGATOR_PAD (GST_AGGREGATOR_SRC_PAD (agg));
 

@@ -911,8 +911,11 @@ draw_title (SonarRenderer * r, const SonarRenderFrame * f, guint8 * pixels,
     g_snprintf (part, sizeof part, "%.3f s  ", f->time);
     g_strlcat (title, part, sizeof title);
   }
-  g_snprintf (part, sizeof part, "%u detection%s", f->n_detections,
-      f->n_detections == 1 ? "" : "s");
+  if (f->detections_missing)
+    g_strlcpy (part, "detections missing", sizeof part);
+  else
+    g_snprintf (part, sizeof part, "%u detection%s", f->n_detections,
+        f->n_detections == 1 ? "" : "s");
   g_strlcat (title, part, sizeof title);
   if (f->n_tracks > 0) {
     g_snprintf (part, sizeof part, "  %u track%s", f->n_tracks,

@@ -95,6 +95,9 @@ typedef struct
   guint n_truths;
   const SonarRenderPoint *detections;
   guint n_detections;
+  /* The ping's detections never came (dropped or skipped on their way):
+   * the title says so instead of counting none. */
+  gboolean detections_missing;
   const SonarRenderTrack *tracks;
   guint n_tracks;
   double arrow_time;            /* s, arrows' length in time; <= 0 or NaN:

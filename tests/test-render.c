@@ -518,6 +518,30 @@ test_text (void)
   g_free (pixels);
 }
 
+/* The title counts the ping's detections, or says they never came. */
+static void
+test_title (void)
+{
+  SonarImageGrid g = fan_grid ();
+  SonarRenderer *r = sonar_renderer_new (&g, W, H, NULL);
+  const SonarRgb text = { 225, 225, 225 };
+  SonarRenderFrame f = {
+    .records = 1,.dynamic_range = 40.0,.ping = 4,.time = NAN,
+  };
+  guint8 *pixels = g_new (guint8, (gsize) W * H * 3);
+  const guint s = (guint) sonar_renderer_scale (r);
+
+  sonar_renderer_draw (r, &f, pixels, (gsize) W * 3);
+  g_assert_true (find_text (pixels, W * 3, W, H, "ping 4  0 detections", s,
+          text, 4 * s, 4 * s, 0));
+  f.detections_missing = TRUE;
+  sonar_renderer_draw (r, &f, pixels, (gsize) W * 3);
+  g_assert_true (find_text (pixels, W * 3, W, H,
+          "ping 4  detections missing", s, text, 4 * s, 4 * s, 0));
+  g_free (pixels);
+  sonar_renderer_free (r);
+}
+
 static void
 test_errors (void)
 {
@@ -590,6 +614,7 @@ main (int argc, char **argv)
   g_test_add_func ("/render/map", test_map);
   g_test_add_func ("/render/tracks", test_tracks);
   g_test_add_func ("/render/text", test_text);
+  g_test_add_func ("/render/title", test_title);
   g_test_add_func ("/render/errors", test_errors);
   g_test_add_func ("/render/odd-images", test_odd_images);
   return g_test_run ();

@@ -4,7 +4,9 @@
 # recording's caps and the sonar-setup event with the samples, so the
 # processing side needs no sensor file. Start the processing side first:
 #   pipelines/network.sh processing 5000 > detections.jsonl
-#   pipelines/network.sh sensor 127.0.0.1 5000 12     # 12 pings, then EOS
+#   pipelines/network.sh sensor 127.0.0.1 5000 12     # 12 pings sent, then EOS
+# (a live sensor loses the pings it records while the link is busy: their
+# indices are gaps in the JSON's "ping", and dopplerbank warns of them)
 # SONAR_BANK sets dopplerbank's bank on the processing side (default: the
 # element's -7..7 m/s), e.g. SONAR_BANK="velocity-min=-1.5 velocity-max=1.5".
 # SONAR_LIVE=false sends pings as fast as the processing takes them

@@ -127,6 +127,10 @@ struct _GstDopplerBank
   guint64 next_ping;
   gboolean reached_ping;        /* the stream reached a ping's window */
   GstClockTime stream_start_pts;        /* PTS of stream sample 0 */
+  /* The input's times are its samples' (a recording read with its own
+   * sensor description: wavparse's), not its pings' instants (sonarsrc's,
+   * whose set-up event came with them). */
+  gboolean samples_timed;
 };
 
 G_DEFINE_TYPE (GstDopplerBank, gst_doppler_bank, GST_TYPE_SONAR_FILTER);
@@ -158,6 +162,7 @@ gst_doppler_bank_make_setup (GstSonarFilter * filter, GstCaps * in_caps,
   ping_length = self->ping_length_setting;
   c = self->speed_of_sound;
   GST_OBJECT_UNLOCK (self);
+  self->samples_timed = sensor || waveforms;
 
   if (sensor) {
     if (geometry || waveforms || ping_length) {
@@ -461,6 +466,32 @@ time_position (const SonarSetup * setup, double seconds)
   ping = (guint64) floor ((seconds - trigger) / setup->ping_period);
   return sonar_setup_ping_start (setup, ping) + (guint64) llround ((seconds -
           trigger - ping * setup->ping_period) * setup->sample_rate);
+}
+
+/* The instants of a recording's times (sample position / rate from the
+ * stream's start, as wavparse's) and back: a recording of windows stored
+ * back to back (sonarsrc's) is not continuous in time, and its pings are
+ * stamped with their instants; a continuous recording maps to itself, and
+ * so does an input already in instants (samples_timed unset). */
+static GstClockTime
+gst_doppler_bank_output_time (GstSonarFilter * filter, GstClockTime time)
+{
+  const SonarSetup *setup = GST_DOPPLER_BANK (filter)->setup;
+
+  return setup && GST_DOPPLER_BANK (filter)->samples_timed ? (GstClockTime) llround (position_time (setup,
+          (guint64) llround ((double) time / GST_SECOND *
+              setup->sample_rate)) * GST_SECOND) : time;
+}
+
+static GstClockTime
+gst_doppler_bank_input_time (GstSonarFilter * filter, GstClockTime time)
+{
+  const SonarSetup *setup = GST_DOPPLER_BANK (filter)->setup;
+
+  return setup && GST_DOPPLER_BANK (filter)->samples_timed ? (GstClockTime)
+      llround ((double) time_position (setup,
+          (double) time / GST_SECOND) / setup->sample_rate * GST_SECOND) :
+      time;
 }
 
 /* Ping @index's trigger instant (one rule for live pings and replays). */
@@ -974,4 +1005,7 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
   filter_class->unconfigure = GST_DEBUG_FUNCPTR (gst_doppler_bank_unconfigure);
   filter_class->process = GST_DEBUG_FUNCPTR (gst_doppler_bank_process);
   filter_class->reset = GST_DEBUG_FUNCPTR (gst_doppler_bank_reset);
+  filter_class->output_time = GST_DEBUG_FUNCPTR
+      (gst_doppler_bank_output_time);
+  filter_class->input_time = GST_DEBUG_FUNCPTR (gst_doppler_bank_input_time);
 }

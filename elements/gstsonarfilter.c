@@ -358,6 +358,51 @@ upstream_is_live (GstSonarFilter * filter)
   return live;
 }
 
+/* The output stream's time at the input's @time (the subclass's map once
+ * configured, else the same), and the inverse. */
+static GstClockTime
+output_time (GstSonarFilter * filter, GstClockTime time)
+{
+  GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
+
+  return klass->output_time && PRIV (filter)->configured
+      && GST_CLOCK_TIME_IS_VALID (time) ? klass->output_time (filter, time) :
+      time;
+}
+
+static GstClockTime
+input_time (GstSonarFilter * filter, GstClockTime time)
+{
+  GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
+
+  return klass->input_time && PRIV (filter)->configured
+      && GST_CLOCK_TIME_IS_VALID (time) ? klass->input_time (filter, time) :
+      time;
+}
+
+/* The segment event to send for the input's @event, in the output's
+ * times; it is also the segment the output's running times are in. */
+static GstEvent *
+output_segment (GstSonarFilter * filter, GstEvent * event)
+{
+  GstSonarFilterPrivate *priv = PRIV (filter);
+  GstSegment *segment = &priv->time_segment;
+  GstEvent *out;
+
+  gst_event_copy_segment (event, segment);
+  if (segment->format != GST_FORMAT_TIME
+      || !GST_SONAR_FILTER_GET_CLASS (filter)->output_time)
+    return gst_event_ref (event);
+  segment->start = output_time (filter, segment->start);
+  segment->stop = output_time (filter, segment->stop);
+  segment->time = output_time (filter, segment->time);
+  segment->position = output_time (filter, segment->position);
+  segment->duration = output_time (filter, segment->duration);
+  out = gst_event_new_segment (segment);
+  gst_event_set_seqnum (out, gst_event_get_seqnum (event));
+  return out;
+}
+
 static gboolean
 configure (GstSonarFilter * filter)
 {
@@ -415,7 +460,8 @@ configure (GstSonarFilter * filter)
   }
   gst_caps_unref (out_caps);
   if (priv->segment)
-    gst_pad_push_event (priv->srcpad, gst_event_ref (priv->segment));
+    gst_pad_push_event (priv->srcpad, output_segment (filter,
+            priv->segment));
   gst_pad_push_event (priv->srcpad, gst_event_ref (priv->setup_event));
   if (priv->bank_event)
     gst_pad_push_event (priv->srcpad, gst_event_ref (priv->bank_event));
@@ -445,7 +491,8 @@ gst_sonar_filter_chain (GstPad * pad, GstObject * parent, GstBuffer * buffer)
   return klass->process (filter, buffer);
 }
 
-/* Upstream's latency plus this element's processing time. */
+/* Upstream's latency plus this element's processing time; position and
+ * duration in the output's times. */
 static gboolean
 gst_sonar_filter_src_query (GstPad * pad, GstObject * parent,
     GstQuery * query)
@@ -455,6 +502,23 @@ gst_sonar_filter_src_query (GstPad * pad, GstObject * parent,
   GstClockTime min, max, own;
   gboolean live;
 
+  if (GST_QUERY_TYPE (query) == GST_QUERY_POSITION
+      || GST_QUERY_TYPE (query) == GST_QUERY_DURATION) {
+    GstFormat format;
+    gint64 value;
+    if (!gst_pad_query_default (pad, parent, query))
+      return FALSE;
+    if (GST_QUERY_TYPE (query) == GST_QUERY_POSITION) {
+      gst_query_parse_position (query, &format, &value);
+      if (format == GST_FORMAT_TIME && value >= 0)
+        gst_query_set_position (query, format, output_time (filter, value));
+    } else {
+      gst_query_parse_duration (query, &format, &value);
+      if (format == GST_FORMAT_TIME && value >= 0)
+        gst_query_set_duration (query, format, output_time (filter, value));
+    }
+    return TRUE;
+  }
   if (GST_QUERY_TYPE (query) != GST_QUERY_LATENCY)
     return gst_pad_query_default (pad, parent, query);
   if (!gst_pad_peer_query (priv->sinkpad, query))
@@ -490,6 +554,29 @@ gst_sonar_filter_src_event (GstPad * pad, GstObject * parent,
         && (diff >= 0 || timestamp >= (GstClockTime) - diff) ?
         timestamp + diff : GST_CLOCK_TIME_NONE;
     GST_OBJECT_UNLOCK (filter);
+  } else if (GST_EVENT_TYPE (event) == GST_EVENT_SEEK
+      && GST_SONAR_FILTER_GET_CLASS (filter)->input_time) {
+    /* A seek to output times, made one to the input's. */
+    double rate;
+    GstFormat format;
+    GstSeekFlags flags;
+    GstSeekType start_type, stop_type;
+    gint64 start, stop;
+    GstEvent *seek;
+
+    gst_event_parse_seek (event, &rate, &format, &flags, &start_type, &start,
+        &stop_type, &stop);
+    if (format == GST_FORMAT_TIME) {
+      if (start_type == GST_SEEK_TYPE_SET && start >= 0)
+        start = input_time (filter, start);
+      if (stop_type == GST_SEEK_TYPE_SET && stop >= 0)
+        stop = input_time (filter, stop);
+      seek = gst_event_new_seek (rate, format, flags, start_type, start,
+          stop_type, stop);
+      gst_event_set_seqnum (seek, gst_event_get_seqnum (event));
+      gst_event_unref (event);
+      event = seek;
+    }
   }
   return gst_pad_event_default (pad, parent, event);
 }
@@ -514,13 +601,18 @@ gst_sonar_filter_sink_event (GstPad * pad, GstObject * parent,
       gst_event_unref (event);
       return TRUE;
     }
-    case GST_EVENT_SEGMENT:
+    case GST_EVENT_SEGMENT:{
+      GstEvent *out;
       gst_event_copy_segment (event, &priv->time_segment);
       gst_event_replace (&priv->segment, event);
-      if (priv->configured)
-        return gst_pad_push_event (priv->srcpad, event);
+      if (!priv->configured) {
+        gst_event_unref (event);
+        return TRUE;
+      }
+      out = output_segment (filter, event);
       gst_event_unref (event);
-      return TRUE;
+      return gst_pad_push_event (priv->srcpad, out);
+    }
     case GST_EVENT_CUSTOM_DOWNSTREAM_STICKY:
       if (sonar_event_is_setup (event)) {
         GError *error = NULL;

@@ -71,6 +71,14 @@ struct _GstSonarFilterClass
   void (*reset) (GstSonarFilter * filter, gboolean drain);
   /* Frees what configure() made (also on stop). Optional. */
   void (*unconfigure) (GstSonarFilter * filter);
+  /* Optional, once configured: the output stream's time at the input
+   * stream's @time, and the inverse, for a subclass whose output times are
+   * not its input's (dopplerbank: a recording of windows stored back to
+   * back, whose pings it stamps with their instants). The base maps the
+   * segment it sends, the seeks it takes and its answers to position and
+   * duration queries with them. NULL: the same times. */
+  GstClockTime (*output_time) (GstSonarFilter * filter, GstClockTime time);
+  GstClockTime (*input_time) (GstSonarFilter * filter, GstClockTime time);
 };
 
 /* Valid during configure() and process(). */

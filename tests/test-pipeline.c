@@ -271,6 +271,57 @@ test_wav_recording_identical (void)
   g_rmdir (dir);
 }
 
+/* Such a recording (pings' windows back to back: 6 pings, 0.23 s of
+ * samples) is a stream of the pings' instants downstream of dopplerbank:
+ * its duration is 6 pings at 12 Hz, a seek to ping 3's instant (0.25 s,
+ * past the samples' own 0.23 s) starts at ping 3, and the position is
+ * there (in the samples' time, all three were off: the seek gave nothing). */
+static void
+test_wav_recording_seek (void)
+{
+  g_autofree char *dir = g_dir_make_tmp ("sonar-pipe-XXXXXX", NULL);
+  g_autofree char *wav = g_build_filename (dir, "pings.wav", NULL);
+  g_autofree char *sensor = g_build_filename (dir, "pings.json", NULL);
+  g_autofree char *save = g_strdup_printf ("sonarsrc num-buffers=6 "
+      "write-sensor-file=%s ! wavenc ! filesink location=%s", sensor, wav);
+  g_autofree char *load = g_strdup_printf ("filesrc location=%s ! wavparse "
+      "! dopplerbank sensor-file=%s velocity-min=0 velocity-max=0 ! appsink "
+      "name=sink sync=false", wav, sensor);
+  g_autofree char *error = sonar_test_run_pipeline (save);
+  GstElement *pipeline, *sink;
+  GstSample *sample;
+  GstBuffer *buffer;
+  gint64 duration, position;
+
+  g_assert_null (error);
+  pipeline = gst_parse_launch (load, NULL);
+  sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
+  gst_element_set_state (pipeline, GST_STATE_PAUSED);
+  g_assert_cmpint (gst_element_get_state (pipeline, NULL, NULL,
+          GST_CLOCK_TIME_NONE), ==, GST_STATE_CHANGE_SUCCESS);
+  g_assert_true (gst_element_query_duration (pipeline, GST_FORMAT_TIME,
+          &duration));
+  g_assert_cmpint (duration, ==, GST_SECOND / 2);
+  g_assert_true (gst_element_seek_simple (pipeline, GST_FORMAT_TIME,
+          GST_SEEK_FLAG_FLUSH, GST_SECOND / 4));
+  gst_element_get_state (pipeline, NULL, NULL, GST_CLOCK_TIME_NONE);
+  sample = gst_app_sink_pull_preroll (GST_APP_SINK (sink));
+  g_assert_nonnull (sample);
+  buffer = gst_sample_get_buffer (sample);
+  g_assert_cmpuint (GST_BUFFER_OFFSET (buffer), ==, 3);
+  g_assert_cmpuint (GST_BUFFER_PTS (buffer), ==, GST_SECOND / 4);
+  gst_sample_unref (sample);
+  g_assert_true (gst_element_query_position (pipeline, GST_FORMAT_TIME,
+          &position));
+  g_assert_cmpint (position, ==, GST_SECOND / 4);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (sink);
+  gst_object_unref (pipeline);
+  g_unlink (wav);
+  g_unlink (sensor);
+  g_rmdir (dir);
+}
+
 /* The older waveforms-file and ping-length properties still replay such a
  * recording: the same detections, timed as pings back to back. */
 static void
@@ -394,6 +445,7 @@ main (int argc, char **argv)
       test_wav_recording_identical);
   g_test_add_func ("/pipeline/wav-recording-waveforms-file",
       test_wav_recording_waveforms_file);
+  g_test_add_func ("/pipeline/wav-recording-seek", test_wav_recording_seek);
   g_test_add_func ("/pipeline/three-outputs-agree", test_three_outputs_agree);
   g_test_add_func ("/pipeline/detection-instant", test_detection_instant);
   return g_test_run ();

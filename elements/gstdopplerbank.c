@@ -385,9 +385,11 @@ ping_samples (GstDopplerBank * self, const guint8 * data, guint64 index)
   return self->converted;
 }
 
-/* Samples beyond this would overflow float spectra and images (a ping's
- * FFT sums 10^4 of them, the matched filters square that). */
-#define MAX_SAFE_SAMPLE 1e30f
+/* Samples beyond this would overflow float sums downstream: a ping's FFT
+ * sums 10^4 of them, the matched filters and the velocity stage's
+ * correlations multiply and sum again (three objects at 1.6e28 in a 5 m
+ * ping lost one to it, 1e30 all: /stability/amplitudes-1e-30-1e30). */
+#define MAX_SAFE_SAMPLE 1e20f
 
 /* A ping of huge samples, scaled down by a power of two: exact, and no
  * position or velocity depends on the scale. */

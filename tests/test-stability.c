@@ -653,6 +653,38 @@ assert_one_object (const ChainRun * r)
   g_assert_cmpuint (valid, ==, 1);
 }
 
+#define THREE_OBJECTS "{\"dimensions\": 2, \"reflectors\": [" \
+  "{\"range\": 0.8, \"azimuth\": -30, \"radial-velocity\": -1.0}, " \
+  "{\"range\": 1.3, \"azimuth\": 10, \"radial-velocity\": 2.0}, " \
+  "{\"range\": 1.8, \"azimuth\": 40, \"radial-velocity\": 0.5}]}"
+/* dopplerbank's own bank (+-7 m/s) for them. */
+#define CHAIN_WIDE_BANK "dopplerbank ! mimobeamform azimuth-count=61 " \
+  "range-max=2.0 ! wardcluster ! velocityest"
+
+/* The valid detections of @r are the three objects of THREE_OBJECTS. */
+static void
+assert_three_objects (const ChainRun * r)
+{
+  const double truth[3][3] = { {0.8, -30, -1.0}, {1.3, 10, 2.0}, {1.8, 40,
+      0.5}
+  };
+  guint found[3] = { 0 }, valid = 0;
+
+  for (guint i = 0; i < r->n_detections; i++) {
+    const SonarDetection *d = &r->detections[i];
+    if (!d->valid)
+      continue;
+    valid++;
+    for (guint k = 0; k < 3; k++)
+      found[k] += fabs (d->range - truth[k][0]) < 0.05
+          && fabs (d->azimuth - truth[k][1]) < 2.0
+          && fabs (d->radial_velocity - truth[k][2]) < 0.02;
+  }
+  g_assert_cmpuint (valid, ==, 3);
+  for (guint k = 0; k < 3; k++)
+    g_assert_cmpuint (found[k], ==, 1);
+}
+
 static void
 edit_zero (float *x, gsize n, gpointer data)
 {
@@ -725,7 +757,7 @@ edit_to_float_max (float *x, gsize n, gpointer data)
 
 /* Amplitudes of 1e-30 (a reflector of strength 1e-30 in noise of 1e-32),
  * of 1e30 and of 3.3e38 (the ping scaled): the same object at the same
- * speed as at full scale. */
+ * speed as at full scale; three objects at 1e28 too. */
 static void
 test_amplitudes_extreme (void)
 {
@@ -740,6 +772,16 @@ test_amplitudes_extreme (void)
 
   run_chain (ONE_OBJECT, "", CHAIN, edit_scale, &scale, &r);
   assert_one_object (&r);
+  chain_run_clear (&r);
+
+  /* Three objects at 1e28 in a 5 m ping, with noise (one was rejected
+   * while pings were scaled to 1e30 only: the velocity stage's sums
+   * overflowed): each found. */
+  scale = 1e28;
+  run_chain (THREE_OBJECTS, "max-range=5.0 noise-amplitude=0.3",
+      CHAIN_WIDE_BANK, edit_scale,
+      &scale, &r);
+  assert_three_objects (&r);
   chain_run_clear (&r);
 
   /* Up to float's largest: the ping is scaled down by a power of two, with

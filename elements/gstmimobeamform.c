@@ -57,7 +57,7 @@ sonar_image_mode_get_type (void)
 
 #define DEFAULT_MODE IMAGE_MODE_DETECTION
 #define DEFAULT_VELOCITY 0.0
-#define DEFAULT_HYPOTHESIS_SPACING SONAR_IMAGER_HYPOTHESIS_SPACING
+#define DEFAULT_HYPOTHESIS_SPACING 0.0    /* the sensor's */
 #define DEFAULT_EMITTER -1
 
 enum
@@ -328,7 +328,8 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->active_mode = self->mode;
   self->active_emitter = self->emitter;
   velocity = self->velocity;
-  spacing = self->hypothesis_spacing;
+  spacing = self->hypothesis_spacing > 0.0 ? self->hypothesis_spacing :
+      sonar_setup_hypothesis_spacing (setup);
   max_memory = self->max_memory;
   GST_OBJECT_UNLOCK (self);
 
@@ -842,17 +843,19 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
   g_object_class_install_property (gobject_class, PROP_VELOCITY,
       g_param_spec_double ("velocity", "Velocity", "Radial velocity of the "
           "image in mode=fixed, in m/s (the nearest bank velocity; set while "
-          "playing outside the bank, a warning and no change)", -80.0,
+          "playing outside the bank, a warning and it goes back)", -80.0,
           80.0, DEFAULT_VELOCITY, tunable));
   g_object_class_install_property (gobject_class, PROP_HYPOTHESIS_SPACING,
       g_param_spec_double ("hypothesis-spacing", "Hypothesis spacing",
           "Largest spacing of the Doppler hypotheses of mode=detection, in "
-          "m/s (one emitter's Doppler main lobe is about 0.33 m/s wide)",
-          0.001, 100.0, DEFAULT_HYPOTHESIS_SPACING, flags));
+          "m/s; 0: the sensor's, within a Doppler main lobe with the "
+          "emitters in phase (0.3 for the built-in sensor, less for longer "
+          "or staggered emissions)", 0.0, 100.0, DEFAULT_HYPOTHESIS_SPACING,
+          flags));
   g_object_class_install_property (gobject_class, PROP_EMITTER,
       g_param_spec_int ("emitter", "Emitter", "-1: the MIMO image of all "
           "emitters; n: the image of emitter n alone (set while playing to "
-          "one the sensor lacks, a warning and no change)", -1, 63,
+          "one the sensor lacks, a warning and it goes back)", -1, 63,
           DEFAULT_EMITTER, tunable));
 
   g_object_class_install_property (gobject_class, PROP_THREADS,

@@ -121,11 +121,13 @@ void sonar_imager_params_set_view (SonarImagerParams * params,
  * set. */
 void sonar_imager_params_fit_beam (SonarImagerParams * params);
 
-/* mimobeamform's default hypothesis-spacing (m/s): the Doppler hypotheses
+/* The built-in sensor's hypothesis spacing (m/s): the Doppler hypotheses
  * of a detection image lie at most this far apart across the bank
  * (sonar_doppler_bank_hypotheses ()), so that an echo of any velocity is
- * at most 0.15 m/s off one of them and loses at most about 2.5 dB. */
-#define SONAR_IMAGER_HYPOTHESIS_SPACING 0.3
+ * at most 0.15 m/s off one of them and loses at most about 2.5 dB.
+ * mimobeamform's default is the sensor's own
+ * (sonar_setup_hypothesis_spacing ()), this for the built-in one. */
+#define SONAR_IMAGER_HYPOTHESIS_SPACING SONAR_HYPOTHESIS_SPACING_MAX
 
 /* The directions and ranges of @params made those of @grid (an image
  * another imager made, as the energyscape caps carry it): with the other

@@ -71,7 +71,7 @@ sonar_residual_search_new (SonarSetup * setup, const SonarBand * band,
   }
   indices = g_new (guint, sonar_doppler_bank_n_velocities (bank) + 2);
   s->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
-      SONAR_IMAGER_HYPOTHESIS_SPACING, indices);
+      sonar_setup_hypothesis_spacing (setup), indices);
   s->hypotheses = g_new (SonarHypothesis, s->n_hypotheses);
   for (guint h = 0; h < s->n_hypotheses; h++)
     s->hypotheses[h] = sonar_doppler_bank_hypothesis (bank, indices[h]);

@@ -15,7 +15,7 @@
  * cancels every accepted echo from the spectra (its model as the
  * successive cancellation fits it, sonar_velocity_pool_residual ()),
  * images the residual as mimobeamform does at its defaults (detection
- * hypotheses SONAR_IMAGER_HYPOTHESIS_SPACING apart, coarse to fine) on
+ * hypotheses sonar_setup_hypothesis_spacing () apart, coarse to fine) on
  * the ping's own grid, clusters it as wardcluster does at its defaults,
  * and estimates at each centroid that is not an accepted echo's residue
  * (below), with every test of the first estimates (and their successive

@@ -565,6 +565,39 @@ sonar_setup_emission_centre (const SonarSetup * setup)
   return energy > 0.0 ? moment / energy / setup->sample_rate : 0.0;
 }
 
+double
+sonar_setup_hypothesis_spacing (const SonarSetup * setup)
+{
+  const double f0 = 0.5 * (setup->band_low + setup->band_high);
+  const double c = setup->speed_of_sound, rate = setup->sample_rate;
+  double first = G_MAXDOUBLE, last = -G_MAXDOUBLE, longest = 0.0;
+  double spacing = SONAR_HYPOTHESIS_SPACING_MAX;
+
+  for (guint n = 0; n < setup->geometry.n_emitters; n++) {
+    const float *row = sonar_setup_waveform (setup, n);
+    double energy = 0.0, moment = 0.0, second = 0.0, centre;
+    for (guint i = 0; i < setup->waveform_length; i++) {
+      const double e = (double) row[i] * row[i];
+      energy += e;
+      moment += e * i;
+      second += e * i * i;
+    }
+    if (!(energy > 0.0))
+      continue;
+    centre = moment / energy;
+    first = MIN (first, centre);
+    last = MAX (last, centre);
+    longest = MAX (longest, sqrt (12.0 * MAX (second / energy - centre *
+                centre, 0.0)) / rate);
+  }
+  if (longest > 0.0)
+    spacing = MIN (spacing, SONAR_HYPOTHESIS_SPACING_LOBES * c / (2.0 * f0 *
+            longest));
+  if (last > first)
+    spacing = MIN (spacing, c / (6.0 * f0 * (last - first) / rate));
+  return spacing;
+}
+
 gboolean
 sonar_setup_equal (const SonarSetup * a, const SonarSetup * b)
 {

@@ -211,6 +211,26 @@ char *sonar_setup_check (const SonarSetup * setup);
  * A radial velocity measured over the echo holds there. */
 double sonar_setup_emission_centre (const SonarSetup * setup);
 
+/* The widest spacing of Doppler hypotheses (m/s) for the sensor's
+ * emissions, at most SONAR_HYPOTHESIS_SPACING_MAX: an echo between two of
+ * them must keep, at the nearer,
+ * - most of each emitter's power: the spacing is at most
+ *   SONAR_HYPOTHESIS_SPACING_LOBES of the Doppler main lobe c / (2 f0 T)
+ *   of the longest emission (T its energy's duration, sqrt(12) times its
+ *   RMS spread in time: 8.9 ms for 4000 samples of noise at 450 kHz, a
+ *   lobe of 0.39 m/s);
+ * - its emitters' phases together: a velocity error dv moves an echo by 2
+ *   dv t / c at time t, so emitters whose energy is centred D apart
+ *   (staggered or time-division emitters) turn 2 pi f0 2 dv D / c apart;
+ *   at half a spacing that is at most 60 degrees: c / (6 f0 D).
+ * f0 is the band's centre. The default sensor's emitters are
+ * simultaneous: 0.3, as before; one emitter 14 ms late: 0.08, where 0.3
+ * lost every moving object to velocityest's coherence test; waveforms of
+ * 89 ms: 0.033 (tests/test-setup.c). */
+#define SONAR_HYPOTHESIS_SPACING_MAX 0.3
+#define SONAR_HYPOTHESIS_SPACING_LOBES 0.85
+double sonar_setup_hypothesis_spacing (const SonarSetup * setup);
+
 /* TRUE when both describe the same sensor (every number equal). */
 gboolean sonar_setup_equal (const SonarSetup * a, const SonarSetup * b);
 

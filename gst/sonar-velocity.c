@@ -18,10 +18,6 @@
  * so that it flattens no curve of a faint echo. */
 #define ACF_FLOOR 1e-300
 
-/* Doppler hypotheses of the prescreen, m/s apart: within one emitter's
- * Doppler main lobe (about 0.33 m/s at -3 dB), like the detection image. */
-#define PRESCREEN_SPACING 0.3
-
 /* Bins per block of the lag sums (sonar_steering_emitter_blocks ()). */
 #define LAG_BLOCK 16
 
@@ -468,8 +464,11 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->coarse_stride = MAX (1, (guint) round (0.5 * est->main_lobe /
           sonar_doppler_bank_step (bank)));
   est->hypotheses = g_new (guint, est->n_velocities + 2);
+  /* The prescreen's Doppler hypotheses: within a main lobe, the emitters
+   * still in phase (sonar_setup_hypothesis_spacing ()), as the detection
+   * image's. */
   est->n_hypotheses = sonar_doppler_bank_hypotheses (bank,
-      PRESCREEN_SPACING, est->hypotheses);
+      sonar_setup_hypothesis_spacing (setup), est->hypotheses);
   gate_init (est, share);
   est->blocks = g_new (SonarComplex, MAX ((band->n_bins + LAG_BLOCK - 1) /
           LAG_BLOCK, est->gate_padded / GATE_BLOCK));

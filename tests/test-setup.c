@@ -452,6 +452,69 @@ setup_with (const SonarSetup * setup, const SonarGeometry * geometry,
   return copy;
 }
 
+/* A copy of @setup with emitter @late's waveform @delay samples later
+ * (every row longer by it). */
+static SonarSetup *
+setup_with_delay (const SonarSetup * setup, guint late, double delay)
+{
+  const guint n_emitters = setup->geometry.n_emitters;
+  g_autofree double *delays = g_new0 (double, n_emitters);
+  g_autofree float *delayed = NULL;
+  guint length;
+  SonarSetup *copy;
+
+  delays[late] = delay;
+  delayed = sonar_waveforms_delay (setup->waveforms, n_emitters,
+      setup->waveform_length, delays, &length);
+  copy = sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = setup->sample_rate,
+        .speed_of_sound = setup->speed_of_sound,
+        .band_low = setup->band_low,.band_high = setup->band_high,
+        .geometry = &setup->geometry,.waveform_length = length,
+        .waveforms = delayed,.ping_length = setup->ping_length + length,
+        .field_of_view = setup->field_of_view}, NULL);
+  g_assert_nonnull (copy);
+  return copy;
+}
+
+/* The Doppler hypotheses' spacing follows the emissions: the built-in
+ * sensor's 0.3 m/s; one emitter 14 ms late (its energy centred 14 ms
+ * after the others'): c / (6 f0 D) = 0.082; all emissions ten times as
+ * long (89 ms of the same noise, stretched): 0.85 c / (2 f0 T) = 0.033. */
+static void
+test_hypothesis_spacing (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17262);
+  g_autoptr (SonarSetup) late = setup_with_delay (setup, 7, 0.014 * 450000);
+  const guint n_emitters = setup->geometry.n_emitters;
+  const guint length = 10 * setup->waveform_length;
+  g_autofree float *stretched = g_new (float, (gsize) n_emitters * length);
+  g_autoptr (SonarSetup) longer = NULL;
+  const double f0 = 50000.0, c = setup->speed_of_sound;
+
+  g_assert_cmpfloat (sonar_setup_hypothesis_spacing (setup), ==, 0.3);
+  g_test_message ("one emitter 14 ms late: %.4f m/s",
+      sonar_setup_hypothesis_spacing (late));
+  g_assert_cmpfloat (fabs (sonar_setup_hypothesis_spacing (late) - c /
+          (6.0 * f0 * 0.014)), <, 0.004);
+  for (guint n = 0; n < n_emitters; n++)
+    for (guint i = 0; i < length; i++)
+      stretched[(gsize) n * length + i] = sonar_setup_waveform (setup,
+          n)[i / 10];
+  longer = sonar_setup_new (&(SonarSetupParams) {
+        .sample_rate = setup->sample_rate,
+        .speed_of_sound = c,.band_low = setup->band_low,
+        .band_high = setup->band_high,.geometry = &setup->geometry,
+        .waveform_length = length,.waveforms = stretched,
+        .ping_length = setup->ping_length + length,
+        .field_of_view = setup->field_of_view}, NULL);
+  g_assert_nonnull (longer);
+  g_test_message ("emissions of 89 ms: %.4f m/s",
+      sonar_setup_hypothesis_spacing (longer));
+  g_assert_cmpfloat (fabs (sonar_setup_hypothesis_spacing (longer) - 0.85 *
+          c / (2.0 * f0 * length / 450000.0)), <, 0.003);
+}
+
 /* A set-up that cannot do what the chain needs says so, in words: no
  * aperture, an emitter sending nothing or out of band, emissions too alike
  * to tell apart. The default sensor passes. */
@@ -538,6 +601,7 @@ main (int argc, char **argv)
   g_test_add_func ("/setup/waveforms-file", test_waveforms_file);
   g_test_add_func ("/setup/validation", test_setup_validation);
   g_test_add_func ("/setup/check", test_setup_check);
+  g_test_add_func ("/setup/hypothesis-spacing", test_hypothesis_spacing);
   g_test_add_func ("/setup/sensor-file", test_sensor_file);
   g_test_add_func ("/setup/sensor-file-defaults", test_sensor_file_defaults);
   g_test_add_func ("/setup/sensor-file-delays", test_sensor_file_delays);

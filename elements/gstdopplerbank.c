@@ -252,6 +252,15 @@ gst_doppler_bank_configure (GstSonarFilter * filter, GstCaps * in_caps,
   direct_path_mode = self->direct_path_mode;
   direct_path_taps = self->direct_path_taps;
   GST_OBJECT_UNLOCK (self);
+  if (direct_path_taps == 0)
+    direct_path_taps = sonar_direct_path_default_taps (setup);
+  else if (direct_path_taps <= SONAR_DIRECT_PATH_LEAD) {
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, "dopplerbank: "
+        "direct-path-taps %u: at least %u (%u before a path's delay and one "
+        "after), or 0 for the sensor's", direct_path_taps,
+        SONAR_DIRECT_PATH_LEAD + 1, SONAR_DIRECT_PATH_LEAD);
+    return NULL;
+  }
   direct_bytes = direct_path_mode == SONAR_DIRECT_PATH_OFF ? 0 :
       sonar_direct_path_memory (setup, direct_path_taps);
   if (!sonar_memory_check_buffers (bank_bytes + direct_bytes,
@@ -907,7 +916,7 @@ gst_doppler_bank_init (GstDopplerBank * self)
   self->speed_of_sound = SONAR_DEFAULT_SPEED_OF_SOUND;
   self->max_memory = SONAR_DEFAULT_MAX_MEMORY;
   self->direct_path_mode = DEFAULT_DIRECT_PATH;
-  self->direct_path_taps = SONAR_DIRECT_PATH_TAPS;
+  self->direct_path_taps = 0;
   self->adapter = gst_adapter_new ();
   self->stream_start_pts = GST_CLOCK_TIME_NONE;
 }
@@ -984,13 +993,16 @@ gst_doppler_bank_class_init (GstDopplerBankClass * klass)
   g_object_class_install_property (gobject_class, PROP_DIRECT_PATH_TAPS,
       g_param_spec_uint ("direct-path-taps", "Direct-path taps", "Taps of "
           "each path's filter in the direct path's fit, 2 before its delay "
-          "and the rest after: a transducer that rings (a resonance the "
+          "and the rest after (0: the sensor's, 7 for the built-in one, more "
+          "as the band reaches towards Nyquist: 28 for 80 kHz at 192 kHz, "
+          "where 7 fits a delay between samples poorly); a transducer that "
+          "rings (a resonance the "
           "waveforms lack) needs more (a resonance of Q 1.5-3: 58 of 72 "
           "foreign objects found at 7, 66 at 41, 68 without a direct path); "
           "each tap costs 8 dot products of a waveform per microphone and "
           "ping when a direct path is there, and its fit (taps x emitters)^2 "
-          "doubles per microphone", SONAR_DIRECT_PATH_LEAD + 1,
-          SONAR_DIRECT_PATH_MAX_TAPS, SONAR_DIRECT_PATH_TAPS, flags));
+          "doubles per microphone", 0, SONAR_DIRECT_PATH_MAX_TAPS, 0,
+          flags));
 
   gst_element_class_add_static_pad_template (element_class, &sink_template);
   gst_element_class_add_static_pad_template (element_class, &src_template);

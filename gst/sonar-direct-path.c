@@ -55,6 +55,19 @@ cross_correlation (const float *a, const float *b, guint length, gint lag)
   return sum;
 }
 
+guint
+sonar_direct_path_default_taps (const SonarSetup * setup)
+{
+  /* The built-in sensor's edge: 80 kHz at 450 kHz, 0.356 of Nyquist. */
+  const double builtin_edge = 1.0 - 80000.0 / 225000.0;
+  const double edge = 1.0 - setup->band_high / (0.5 * setup->sample_rate);
+
+  if (!(edge > 0.0))
+    return SONAR_DIRECT_PATH_MAX_TAPS;
+  return (guint) CLAMP (ceil (SONAR_DIRECT_PATH_TAPS * builtin_edge / edge -
+          1e-9), SONAR_DIRECT_PATH_TAPS, SONAR_DIRECT_PATH_MAX_TAPS);
+}
+
 SonarDirectPath *
 sonar_direct_path_new (SonarSetup * setup, guint n_taps, GError ** error)
 {

@@ -71,6 +71,15 @@ G_BEGIN_DECLS
 #define SONAR_DIRECT_PATH_RINGING_F 1.0
 #define SONAR_DIRECT_PATH_RINGING_TAPS 41
 
+/* Taps a path needs for @setup: SONAR_DIRECT_PATH_TAPS, more as the band
+ * reaches towards Nyquist. A path's delay falls between samples, and a
+ * filter that delays the band by a fraction of a sample is longer the
+ * narrower the band's edge below Nyquist: SONAR_DIRECT_PATH_TAPS / (1 -
+ * f_high / (rate / 2)) scaled to the built-in sensor's 7 (80 kHz at 450
+ * kHz): 13 at 250 kHz, 28 at 192 kHz (where 7 left half the objects of
+ * foreign scenes under a direct path, 21 none). */
+guint sonar_direct_path_default_taps (const SonarSetup * setup);
+
 /* The fit of @setup's emissions to each of its microphones, @n_taps
  * taps a path. NULL with @error (SONAR_ERROR_SETTINGS) when a ping is too
  * short to hold the direct path or @n_taps is out of its range. */

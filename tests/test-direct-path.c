@@ -391,6 +391,23 @@ test_front_end (void)
   fixture_clear (&f);
 }
 
+/* The taps a path needs grow as the band reaches towards Nyquist: 7 for
+ * the built-in sensor (80 kHz at 450 kHz), 13 at 250 kHz, 28 at 192 kHz,
+ * the most past it. */
+static void
+test_default_taps (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (17262);
+  const double rates[] = { 450000.0, 250000.0, 192000.0, 162000.0 };
+  const guint taps[] = { 7, 13, 28, SONAR_DIRECT_PATH_MAX_TAPS };
+
+  for (guint k = 0; k < G_N_ELEMENTS (rates); k++) {
+    SonarSetup at = *setup;
+    at.sample_rate = rates[k];
+    g_assert_cmpuint (sonar_direct_path_default_taps (&at), ==, taps[k]);
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -401,6 +418,7 @@ main (int argc, char **argv)
   g_test_add_data_func ("/direct-path/geometry-off", &millimetre_off,
       test_cancels);
   g_test_add_func ("/direct-path/ringing", test_ringing);
+  g_test_add_func ("/direct-path/default-taps", test_default_taps);
   g_test_add_func ("/direct-path/auto-leaves-echoes",
       test_auto_leaves_echoes);
   g_test_add_func ("/direct-path/silence-and-off", test_silence_and_off);

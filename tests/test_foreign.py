@@ -113,6 +113,16 @@ CASES = {
         "reflectors": [polar(1.5, -30, radial=-1.0),
                        polar(2.5, 10, radial=2.0),
                        polar(3.5, 40, radial=0.5)]},
+    "direct-path-192k": {
+        # A direct path at 192 kHz, the band's top at 0.83 of Nyquist: a
+        # path's delay between samples takes a longer filter than at 450
+        # kHz (7 taps left most of these objects, the sensor's 28 none).
+        "name": "direct-path-192k", "field_of_view": "fan", "seed": 6,
+        "sample_rate": 192000, "direct_path": 0.1,
+        "reflectors": [polar(0.8, -50, radial=0.3),
+                       polar(1.5, -30, radial=-1.0),
+                       polar(2.5, 10, radial=2.0),
+                       polar(3.5, 40, radial=0.5)]},
     "3d": {
         "name": "3d", "field_of_view": "hemisphere", "ping_period": 0.05,
         "seed": 3,
@@ -630,6 +640,13 @@ def chain_staggered_emitters():
     """chain: one emitter 14 ms after the others, three movers (-1, 2,
     0.5 m/s), each found (0 of them with the hypotheses 0.3 m/s apart)"""
     check_case("staggered")
+
+
+@test
+def chain_direct_path_192k():
+    """chain: a direct path at 192 kHz (the band's top at 0.83 of Nyquist):
+    the sensor's 28 taps fit it, every object found"""
+    check_case("direct-path-192k")
 
 
 @test

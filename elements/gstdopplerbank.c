@@ -117,7 +117,7 @@ struct _GstDopplerBank
   float *converted;             /* one ping as float, for other formats */
   gpointer unpacked;            /* one ping unpacked by GstAudioFormatInfo */
   gboolean warned_non_finite, warned_overflow, warned_clipped;
-  gboolean warned_glitches;
+  gboolean warned_glitches, warned_loud;
 
   /* Framing: the adapter holds the stream from sample adapter_position on;
    * next_ping is the first ping not yet output or dropped. */
@@ -588,6 +588,21 @@ analyse_ping (GstDopplerBank * self, const guint8 * data, guint64 index)
       self->warned_glitches = TRUE;
     }
   }
+  if (!self->warned_loud) {
+    guint first;
+    double db;
+    const guint loud = sonar_channel_spectra_loud (self->analyzer, &first,
+        &db);
+    if (loud > 0) {
+      GST_ELEMENT_WARNING (self, STREAM, FORMAT, ("The recording holds loud "
+              "microphones, %.0f dB or more over the median one where they "
+              "record no echo: a hum or a bad channel (%u in ping %"
+              G_GUINT64_FORMAT ", the first microphone %u, up to %.0f dB); "
+              "they are read as 0", 20.0 * log10 (SONAR_LOUD_CHANNEL_RATIO),
+              loud, index, first, db), (NULL));
+      self->warned_loud = TRUE;
+    }
+  }
   GST_BUFFER_PTS (out) = ping_pts (self, index);
   GST_BUFFER_DURATION (out) = ping_duration (self);
   GST_BUFFER_OFFSET (out) = index;
@@ -782,6 +797,7 @@ gst_doppler_bank_reset (GstSonarFilter * filter, gboolean drain)
     self->reached_ping = FALSE;
     self->warned_non_finite = self->warned_overflow = FALSE;
     self->warned_clipped = self->warned_glitches = FALSE;
+    self->warned_loud = FALSE;
     self->told_direct_path = FALSE;
     self->stream_start_pts = GST_CLOCK_TIME_NONE;
   }

@@ -164,21 +164,25 @@ quiet_peak (const float *x, gsize n, float *peak)
 G_STATIC_ASSERT (SONAR_GLITCH_FLANK >= SONAR_GLITCH_MAX_RUN);
 
 guint
-sonar_remove_glitches (float *x, gsize n, float *largest)
+sonar_remove_glitches (float *x, gsize n, float *largest, float *quiet)
 {
-  float peak, loud;
+  float peak, loud, level;
   guint zeroed = 0;
   gsize i;
 
+  if (quiet)
+    *quiet = 0.0f;
   if (n == 0)
     return 0;
-  loud = SONAR_GLITCH_OVER_QUIET * quiet_peak (x, n, &peak);
+  level = quiet_peak (x, n, &peak);
+  if (quiet)
+    *quiet = level;
+  loud = SONAR_GLITCH_OVER_QUIET * level;
   if (!(peak > loud))
     return 0;
 
   for (i = 0; i < n; i++) {
     const float a = fabsf (x[i]);
-    float level;
     gsize start, end;
     gboolean glitch = TRUE;
 
@@ -226,8 +230,6 @@ sonar_remove_glitches (float *x, gsize n, float *largest)
  * KB of input held per worker; 8 made it 5 % slower). */
 #define SPECTRA_GROUP 16
 
-/* A worker's direct-path subtraction (sonar-direct-path.h): what it
- * needs and what it found. */
 /* What a worker's glitch removal found (sonar_remove_glitches ()). */
 typedef struct
 {
@@ -235,6 +237,8 @@ typedef struct
   float largest;
 } GlitchWork;
 
+/* A worker's direct-path subtraction (sonar-direct-path.h): what it
+ * needs and what it found. */
 typedef struct
 {
   const SonarDirectPath *path;  /* NULL: none */
@@ -249,7 +253,8 @@ typedef struct
  * @out (n_bins each, one after another): each frame's samples of the
  * group are read together into the group's @inputs (FFTW-aligned, as
  * @s's own; their padding's extents in @filled), each one's glitches
- * removed (counted in @glitches) and direct path subtracted as @direct
+ * removed (counted in @glitches; its quiet peak into @quiet[k]) and
+ * direct path subtracted as @direct
  * says, then @s's plan runs on each (the same plan on arrays of the same alignment: the same spectra
  * bit for bit). Reading one channel at a time read a cache line (a
  * frame) per sample, 32 times over; it was half of the stage's time. */
@@ -257,7 +262,7 @@ static void
 spectrum_process_group (SonarSpectrum * s, float *const *inputs,
     gsize * filled, guint count, const float *samples, gsize length,
     gsize stride, guint first, SonarComplex * out, guint * n_bad,
-    GlitchWork * glitches, DirectPathWork * direct)
+    GlitchWork * glitches, float *quiet, DirectPathWork * direct)
 {
   const guint n = s->band.fft_size;
   const gsize used = MIN (length, (gsize) n);
@@ -266,7 +271,7 @@ spectrum_process_group (SonarSpectrum * s, float *const *inputs,
 
   for (guint k = 0; k < count; k++) {
     glitches->zeroed += sonar_remove_glitches (inputs[k], used,
-        &glitches->largest);
+        &glitches->largest, &quiet[k]);
     if (direct->path) {
       gboolean removed;
       const double db = sonar_direct_path_remove (direct->path, first + k,
@@ -294,6 +299,10 @@ struct _SonarChannelSpectra
   DirectPathWork direct[SONAR_MAX_WORKERS];
   guint n_channels;
   guint n_bins;
+  float *quiet;                 /* each channel's quiet peak */
+  float *sorted;                /* the same, sorted (the median's) */
+  guint n_loud, first_loud;     /* loud channels, read as 0 */
+  double loudest_db;
   /* The call's, for the workers. */
   const float *samples;
   gsize length;
@@ -308,6 +317,8 @@ sonar_channel_spectra_new (const SonarBand * band, guint n_channels,
 
   s->n_channels = n_channels;
   s->n_bins = band->n_bins;
+  s->quiet = g_new0 (float, MAX (n_channels, 1));
+  s->sorted = g_new0 (float, MAX (n_channels, 1));
   /* No more workers than channels: each would plan for nothing. */
   s->workers = sonar_workers_new (MIN (MIN (threads ? threads :
               g_get_num_processors (), MAX (n_channels, 1)),
@@ -339,6 +350,8 @@ sonar_channel_spectra_free (SonarChannelSpectra * s)
     for (guint k = 0; k < SPECTRA_GROUP; k++)
       fftwf_free (s->inputs[w][k]);
   }
+  g_free (s->quiet);
+  g_free (s->sorted);
   g_free (s);
 }
 
@@ -360,7 +373,55 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
     spectrum_process_group (s->per_worker[w], s->inputs[w],
         s->inputs_filled[w], MIN (SPECTRA_GROUP, end - j), s->samples,
         s->length, s->n_channels, j, s->out + (gsize) j * s->n_bins,
-        &s->n_bad[w], &s->glitches[w], &s->direct[w]);
+        &s->n_bad[w], &s->glitches[w], s->quiet + j, &s->direct[w]);
+}
+
+static int
+compare_floats (const void *a, const void *b)
+{
+  const float x = *(const float *) a, y = *(const float *) b;
+
+  return (x > y) - (x < y);
+}
+
+/* A channel louder than SONAR_LOUD_CHANNEL_RATIO times the median channel
+ * where they record no echo (their quiet peaks) holds a hum or a bad
+ * channel's noise: its spectrum is read as 0. */
+static void
+read_loud_channels_as_zero (SonarChannelSpectra * s)
+{
+  float median;
+
+  s->n_loud = 0;
+  s->loudest_db = -INFINITY;
+  if (s->n_channels < SONAR_LOUD_CHANNEL_MIN_CHANNELS)
+    return;
+  memcpy (s->sorted, s->quiet, sizeof (float) * s->n_channels);
+  qsort (s->sorted, s->n_channels, sizeof (float), compare_floats);
+  median = s->sorted[(s->n_channels - 1) / 2];
+  if (!(median > 0.0f))
+    return;
+  for (guint j = 0; j < s->n_channels; j++) {
+    if (!(s->quiet[j] > SONAR_LOUD_CHANNEL_RATIO * median))
+      continue;
+    if (s->n_loud++ == 0)
+      s->first_loud = j;
+    s->loudest_db = MAX (s->loudest_db, 20.0 * log10 (s->quiet[j] /
+            median));
+    memset (s->out + (gsize) j * s->n_bins, 0,
+        sizeof (SonarComplex) * s->n_bins);
+  }
+}
+
+guint
+sonar_channel_spectra_loud (const SonarChannelSpectra * s, guint * first,
+    double *loudest_db)
+{
+  if (first)
+    *first = s->n_loud ? s->first_loud : 0;
+  if (loudest_db)
+    *loudest_db = s->loudest_db;
+  return s->n_loud;
 }
 
 guint
@@ -375,6 +436,7 @@ sonar_channel_spectra_process (SonarChannelSpectra * s,
   sonar_workers_run (s->workers, channel_spectra_share, s);
   for (guint w = 0; w < sonar_workers_count (s->workers); w++)
     bad += s->n_bad[w];
+  read_loud_channels_as_zero (s);
   return bad;
 }
 

@@ -118,9 +118,29 @@ guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
 
 /* Zeroes the glitches of the @n samples of @x (one channel's ping, finite)
  * and returns how many samples it zeroed; *@largest (may be NULL) becomes
- * the largest |sample| zeroed if that is more. One read of @x when no
- * sample is that loud. */
-guint sonar_remove_glitches (float *x, gsize n, float *largest);
+ * the largest |sample| zeroed if that is more, *@quiet (may be NULL) the
+ * channel's quiet peak. One read of @x when no sample is that loud. */
+guint sonar_remove_glitches (float *x, gsize n, float *largest,
+    float *quiet);
+
+/* A loud channel: its quiet peak (sonar_remove_glitches ()) over
+ * SONAR_LOUD_CHANNEL_RATIO times the median channel's (20 dB), of
+ * SONAR_LOUD_CHANNEL_MIN_CHANNELS or more. Where the array records no
+ * echo its microphones hear the same noise, within the few dB their
+ * gains differ by; a channel 20 dB over the others there holds a hum or
+ * a bad channel's noise, which the matched filters spread over the
+ * image: one microphone with a 40 kHz hum 29 dB over its noise lost 1 of
+ * 3 foreign objects, 39 dB 2 of 3. Its spectrum is read as 0: the array
+ * loses one microphone of its aperture, the image its noise. */
+#define SONAR_LOUD_CHANNEL_RATIO 10.0f
+#define SONAR_LOUD_CHANNEL_MIN_CHANNELS 4
+
+/* After sonar_channel_spectra_process (): the loud channels it read as 0
+ * (their spectra zeros), the first of them in *@first (may be NULL) and
+ * in *@loudest_db (may be NULL) the loudest one's quiet peak over the
+ * median channel's, dB (-inf when none). */
+guint sonar_channel_spectra_loud (const SonarChannelSpectra * spectra,
+    guint * first, double *loudest_db);
 
 /* After sonar_channel_spectra_process (): the samples it zeroed as
  * glitches, and (@largest, may be NULL) the largest of them in magnitude

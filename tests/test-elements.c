@@ -740,6 +740,26 @@ test_extreme_inputs (void)
         "The recording holds glitches", "(11 in ping 4, up to 1e+19)");
   }
 
+  /* A microphone with a hum 40 dB over the noise where no echo is: a
+   * warning, and the image of the ping with that microphone at zero. */
+  memcpy (work, data, sizeof (float) * n);
+  {
+    const gsize length = setup->ping_length;
+    g_autofree gsize *bad = g_new (gsize, length);
+    double rms = 0.0;
+    for (gsize i = 0; i < length; i++)
+      rms += (double) data[i * 32 + 5] * data[i * 32 + 5];
+    rms = sqrt (rms / length);
+    for (gsize i = 0; i < length; i++) {
+      bad[i] = i * 32 + 5;
+      work[bad[i]] += (float) (100.0 * rms * sin (2.0 * G_PI * 40000.0 /
+              setup->sample_rate * i));
+    }
+    assert_read_as_zero (h, bus, work, n, bad, length,
+        "The recording holds loud microphones", "(1 in ping 6, the first "
+        "microphone 5, up to ");
+  }
+
   /* Tiny: the same image scaled, the peak in the same place. */
   for (gsize i = 0; i < n; i++)
     work[i] = data[i] * 1e-30f;

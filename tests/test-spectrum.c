@@ -161,7 +161,7 @@ test_glitches (void)
         memcpy (x, noise, sizeof (float) * n);
         add_tone (x, n, 3000, 2000, f / rate, amplitude, f / 7e3, hann);
         memcpy (expected, x, sizeof (float) * n);
-        g_assert_cmpuint (sonar_remove_glitches (x, n, &largest), ==, 0);
+        g_assert_cmpuint (sonar_remove_glitches (x, n, &largest, NULL), ==, 0);
         g_assert_cmpmem (x, sizeof (float) * n, expected,
             sizeof (float) * n);
       }
@@ -181,7 +181,7 @@ test_glitches (void)
   for (gsize i = 14000; i < 14000 + SONAR_GLITCH_MAX_RUN + 1; i++)
     x[i] = 1e5f;
   memcpy (expected, x, sizeof (float) * n);
-  g_assert_cmpuint (sonar_remove_glitches (x, n, &largest), ==, 0);
+  g_assert_cmpuint (sonar_remove_glitches (x, n, &largest, NULL), ==, 0);
   g_assert_cmpmem (x, sizeof (float) * n, expected, sizeof (float) * n);
   g_assert_cmpfloat (largest, ==, 0.0f);
 
@@ -198,11 +198,68 @@ test_glitches (void)
   for (gsize i = 16000; i < 16000 + SONAR_GLITCH_MAX_RUN; i++)
     expected[i] = 0.0f;
   expected[1500] = 0.0f;
-  g_assert_cmpuint (sonar_remove_glitches (x, n, &largest), ==,
+  g_assert_cmpuint (sonar_remove_glitches (x, n, &largest, NULL), ==,
       1 + 3 + SONAR_GLITCH_MAX_RUN + 1);
   g_assert_cmpmem (x, sizeof (float) * n, expected, sizeof (float) * n);
   g_assert_cmpfloat (largest, ==, 1e8f);
-  g_assert_cmpuint (sonar_remove_glitches (x, 0, NULL), ==, 0);
+  g_assert_cmpuint (sonar_remove_glitches (x, 0, NULL, NULL), ==, 0);
+}
+
+/* Loud channels: in a ping of unit noise on 32 channels, channel 7 with a
+ * 40 kHz hum of 100 (37 dB over the noise) is read as 0 and reported (the
+ * first, 29-30 dB over the median channel's quiet peak), channel 12 at
+ * three times the gain (9.5 dB) is kept; every other channel's spectrum is
+ * its own, bit for bit. */
+static void
+test_loud_channels (void)
+{
+  const guint n_channels = 32, length = 17262;
+  SonarBand band;
+  SonarRng rng;
+  g_autofree float *samples = g_new (float, (gsize) n_channels * length);
+  g_autofree float *one = g_new (float, length);
+  g_autofree SonarComplex *expected = NULL, *out = NULL;
+  g_autoptr (SonarSpectrum) alone = NULL;
+  g_autoptr (SonarChannelSpectra) s = NULL;
+  g_autoptr (GError) error = NULL;
+  guint first;
+  double db;
+
+  sonar_band_init (&band, 450000.0, length + 4000, 20000.0, 80000.0);
+  sonar_rng_init (&rng, 11, 0);
+  for (gsize i = 0; i < (gsize) n_channels * length; i++)
+    samples[i] = (float) sonar_rng_gaussian (&rng);
+  for (guint i = 0; i < length; i++) {
+    samples[(gsize) i * n_channels + 7] += (float) (100.0 * sin (2.0 * G_PI *
+            40000.0 / 450000.0 * i));
+    samples[(gsize) i * n_channels + 12] *= 3.0f;
+  }
+  expected = g_new0 (SonarComplex, (gsize) n_channels * band.n_bins);
+  out = g_new (SonarComplex, (gsize) n_channels * band.n_bins);
+  alone = sonar_spectrum_new (&band);
+  for (guint j = 0; j < n_channels; j++) {
+    if (j == 7)
+      continue;
+    for (guint i = 0; i < length; i++)
+      one[i] = samples[(gsize) i * n_channels + j];
+    sonar_spectrum_process (alone, one, length, 1,
+        expected + (gsize) j * band.n_bins, NULL);
+  }
+  s = sonar_channel_spectra_new (&band, n_channels, 2, &error);
+  g_assert_no_error (error);
+  sonar_channel_spectra_process (s, samples, length, out);
+  g_assert_cmpuint (sonar_channel_spectra_loud (s, &first, &db), ==, 1);
+  g_assert_cmpuint (first, ==, 7);
+  g_test_message ("channel 7: %.1f dB over the median", db);
+  g_assert_cmpfloat (db, >, 28.0);
+  g_assert_cmpfloat (db, <, 32.0);
+  g_assert_cmpmem (out, sizeof (SonarComplex) * n_channels * band.n_bins,
+      expected, sizeof (SonarComplex) * n_channels * band.n_bins);
+  /* The next ping without it: nothing loud. */
+  for (guint i = 0; i < length; i++)
+    samples[(gsize) i * n_channels + 7] = samples[(gsize) i * n_channels + 6];
+  sonar_channel_spectra_process (s, samples, length, out);
+  g_assert_cmpuint (sonar_channel_spectra_loud (s, NULL, NULL), ==, 0);
 }
 
 int
@@ -212,5 +269,6 @@ main (int argc, char **argv)
   g_test_add_func ("/spectrum/channels", test_channels);
   g_test_add_func ("/spectrum/lengths", test_lengths);
   g_test_add_func ("/spectrum/glitches", test_glitches);
+  g_test_add_func ("/spectrum/loud-channels", test_loud_channels);
   return g_test_run ();
 }

@@ -558,6 +558,15 @@ sonar_imager_new (SonarSetup * setup, const SonarBand * band,
   double lag_range, period_range, spacing;
   guint min_ifft;
 
+  if (p->range_max <= 0.0 && range_max <= 0.0) {
+    /* The image ends where a whole echo still fits the window. */
+    g_set_error (error, SONAR_ERROR, SONAR_ERROR_SETTINGS, "imager: a ping "
+        "of %u samples holds no whole echo of a %u-sample waveform beyond "
+        "the array's own size: the image would be empty (a longer "
+        "ping-length or a shorter waveform)", setup->ping_length,
+        setup->waveform_length);
+    return NULL;
+  }
   if (!validate_params (p, range_max, error))
     return NULL;
 

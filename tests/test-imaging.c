@@ -783,12 +783,34 @@ test_focus_turns (void)
           4.0 * turns), <, 1e-9);
 }
 
+/* A ping no longer than its waveform holds no echo to image: the error
+ * names the ping and the waveform (it named range-min and an image ending
+ * at 0.000 m). */
+static void
+test_empty_window (void)
+{
+  g_autoptr (SonarSetup) setup = sonar_test_default_setup (4000);
+  g_autoptr (GError) error = NULL;
+  SonarImagerParams p;
+  SonarBand band;
+
+  sonar_imager_params_init_default (&p);
+  sonar_band_init (&band, setup->sample_rate, 8000, setup->band_low,
+      setup->band_high);
+  g_assert_null (sonar_imager_new (setup, &band, &p, &error));
+  g_assert_cmpstr (error->message, ==, "imager: a ping of 4000 samples "
+      "holds no whole echo of a 4000-sample waveform beyond the array's own "
+      "size: the image would be empty (a longer ping-length or a shorter "
+      "waveform)");
+}
+
 int
 main (int argc, char **argv)
 {
   g_test_init (&argc, &argv, NULL);
   g_test_add_func ("/imaging/bank-templates-exact", test_bank_templates_exact);
   g_test_add_func ("/imaging/focus-turns", test_focus_turns);
+  g_test_add_func ("/imaging/empty-window", test_empty_window);
   g_test_add_func ("/imaging/bank-template-interp",
       test_bank_template_interp);
   g_test_add_func ("/imaging/bank-errors", test_bank_errors);

@@ -1,5 +1,6 @@
 /* sonar-spectrum.c: see sonar-spectrum.h. */
 #include "sonar-spectrum.h"
+#include "sonar-cluster.h"          /* sonar_select_kth () */
 #include "sonar-direct-path.h"
 #include "sonar-fftw.h"
 #include "sonar-kernels.h"
@@ -300,7 +301,7 @@ struct _SonarChannelSpectra
   guint n_channels;
   guint n_bins;
   float *quiet;                 /* each channel's quiet peak */
-  float *sorted;                /* the same, sorted (the median's) */
+  float *sorted;                /* the same, reordered for the median */
   guint n_loud, first_loud;     /* loud channels, read as 0 */
   double loudest_db;
   /* The call's, for the workers. */
@@ -376,14 +377,6 @@ channel_spectra_share (gpointer data, guint w, guint n_workers)
         &s->n_bad[w], &s->glitches[w], s->quiet + j, &s->direct[w]);
 }
 
-static int
-compare_floats (const void *a, const void *b)
-{
-  const float x = *(const float *) a, y = *(const float *) b;
-
-  return (x > y) - (x < y);
-}
-
 /* A channel louder than SONAR_LOUD_CHANNEL_RATIO times the median channel
  * where they record no echo (their quiet peaks) holds a hum or a bad
  * channel's noise: its spectrum is read as 0. */
@@ -397,8 +390,8 @@ read_loud_channels_as_zero (SonarChannelSpectra * s)
   if (s->n_channels < SONAR_LOUD_CHANNEL_MIN_CHANNELS)
     return;
   memcpy (s->sorted, s->quiet, sizeof (float) * s->n_channels);
-  qsort (s->sorted, s->n_channels, sizeof (float), compare_floats);
-  median = s->sorted[(s->n_channels - 1) / 2];
+  median = sonar_select_kth (s->sorted, s->n_channels,
+      (s->n_channels - 1) / 2);
   if (!(median > 0.0f))
     return;
   for (guint j = 0; j < s->n_channels; j++) {

@@ -271,11 +271,20 @@ echo_point (const double *x, double *point, double *jac)
  * @h, Jacobian @H (rows x NX) and noise @R; returns the rows: x, (y,) z
  * of the echo point as the array reports it, then the radial velocity
  * when measured and @use_velocity. *@position_rows receives the first
- * count. @position, FALSE: the radial velocity alone. */
+ * count. @position, FALSE: the radial velocity alone. @ego_variance: the
+ * radial velocity's noise holds the sensor velocity's variance along the
+ * line of sight (the gate's, which must take a detection whatever the
+ * sensor's error); without it the sensor velocity counts as its estimate
+ * (the update's: the error is common to every ping and every track, not
+ * noise that averages out, and counted as noise it pulled each world
+ * velocity towards the prior, the relative one with it: a track's
+ * radial velocity read half the measured one at first, with the robot's
+ * motion unobservable). */
 static guint
 measure (const SonarTracker * tr, const double *x,
     const SonarMeasurement * m, gboolean position, gboolean use_velocity,
-    double *z, double *h, double *H, double *R, guint * position_rows)
+    gboolean ego_variance, double *z, double *h, double *H, double *R,
+    guint * position_rows)
 {
   const gboolean three = tr->params.dimensions == 3;
   const SonarVec3 u_m = sonar_measurement_direction (m);
@@ -344,7 +353,7 @@ measure (const SonarTracker * tr, const double *x,
     h[rows] = vr;
     rows++;
     R[(rows - 1) * rows + rows - 1] = m->sigma_radial_velocity
-        * m->sigma_radial_velocity + var_s;
+        * m->sigma_radial_velocity + (ego_variance ? var_s : 0.0);
   }
   /* The measured position is on the array's side: its covariance is the
    * measurement's; H carries the mirror's sign. */
@@ -389,8 +398,8 @@ update (const SonarTracker * tr, double *x, double *p,
   double pht[NX * 4], k[NX * 4], ikh[NX * NX], a[NX * NX], b[NX * NX];
   double krk[NX * NX], kr[NX * 4];
   guint position_rows;
-  const guint rows = measure (tr, x, m, position, use_velocity, z, h, H, R,
-      &position_rows);
+  const guint rows = measure (tr, x, m, position, use_velocity, FALSE, z, h,
+      H, R, &position_rows);
 
   if (rows == 0)
     return TRUE;
@@ -451,7 +460,7 @@ pair_cost (const SonarTracker * tr, const Track * track,
   memcpy (x, track->x, sizeof x);
   memcpy (p, track->p, sizeof p);
   predict (tr, x, p, instant - track->t);
-  rows = measure (tr, x, m, TRUE, TRUE, z, h, H, R, &position_rows);
+  rows = measure (tr, x, m, TRUE, TRUE, TRUE, z, h, H, R, &position_rows);
   *in_position_gate = innovation (p, z, h, H, R, position_rows, rows, s_inv,
       &d2) && d2 <= tr->gate_threshold[position_rows];
   if (!innovation (p, z, h, H, R, rows, rows, s_inv, &d2))
@@ -678,7 +687,7 @@ start_track (SonarTracker * tr, const SonarMeasurement * m, double instant,
    * +- object-radius), along the line of sight. */
   for (guint a = 0; a < 3; a++)
     t.x[a] = m->range * u[a];
-  measure (tr, t.x, m, TRUE, FALSE, z, h, H, R, &rows);
+  measure (tr, t.x, m, TRUE, FALSE, TRUE, z, h, H, R, &rows);
   {
     guint axes[3] = { 0, 2, 0 };
     if (rows == 3) {

@@ -784,6 +784,49 @@ test_bad_input (void)
   }
 }
 
+/* The robot's motion unobservable (no still object, no odometry): a
+ * mover approaching at 1 m/s (its range falling 1/12 m a ping) keeps the
+ * radial velocity it is measured at, from its first ping (it read half of
+ * it then, 0.75 at the second: the sensor's prior variance counted as the
+ * measurement's noise), and its world velocity is that one over the
+ * still sensor the prior says. */
+static void
+test_unobservable_ego (void)
+{
+  SonarTrackerParams tp;
+  SonarSigmaModel model;
+  SonarEgoMotion ego;
+  const SonarTrack *tracks;
+  GError *error = NULL;
+  guint n;
+
+  sonar_tracker_params_init_default (&tp);
+  tp.dimensions = 2;
+  sonar_sigma_model_init_default (&model);
+  memset (&ego, 0, sizeof ego);
+  ego.status = SONAR_EGO_TOO_FEW_STILL;
+  {
+    g_autoptr (SonarTracker) tr = tracker_new (&tp);
+    for (guint ping = 0; ping < 4; ping++) {
+      SonarMeasurement m;
+      m.range = 2.0 - ping / 12.0;
+      m.azimuth = 0.0;
+      m.elevation = 0.0;
+      m.radial_velocity = -1.0;
+      m.instant = ping / 12.0;
+      sonar_measurement_set_nominal_sigma (&m, &model);
+      g_assert_true (sonar_tracker_process (tr, ping / 12.0, &m, 1, &ego,
+              NULL, &error));
+      tracks = sonar_tracker_tracks (tr, &n);
+      g_assert_cmpuint (n, ==, 1);
+      g_test_message ("ping %u: radial velocity %.4f, world %.4f", ping,
+          tracks[0].radial_velocity, tracks[0].velocity.z);
+      g_assert_cmpfloat (fabs (tracks[0].radial_velocity + 1.0), <, 0.01);
+      g_assert_cmpfloat (fabs (tracks[0].velocity.z + 1.0), <, 0.01);
+    }
+  }
+}
+
 int
 main (int argc, char **argv)
 {
@@ -798,6 +841,7 @@ main (int argc, char **argv)
   g_test_add_func ("/track/crossing", test_tracks_crossing);
   g_test_add_func ("/track/gaps-and-extent", test_tracks_gaps_and_extent);
   g_test_add_func ("/track/life", test_track_life);
+  g_test_add_func ("/track/unobservable-ego", test_unobservable_ego);
   g_test_add_func ("/track/bad-input", test_bad_input);
   return g_test_run ();
 }

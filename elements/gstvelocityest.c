@@ -314,6 +314,13 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   d.azimuth_sigma = u.azimuth_sigma;
   d.elevation_sigma = u.elevation_sigma;
   d.radial_velocity_sigma = u.radial_velocity_sigma;
+  if (d.out_of_range) {
+    /* The velocity is the bank's edge, a bound: its error, and the range's
+     * moved on at it, are unknown (they read 0.0005 m/s and 1240 m/s, 5 m,
+     * off by 0.2 m/s). */
+    d.radial_velocity_sigma = NAN;
+    d.range_sigma = NAN;
+  }
   g_strlcpy (d.frame_id, setup->frame_id, sizeof d.frame_id);
   g_array_append_val (self->detections, d);
 }

@@ -910,8 +910,9 @@ test_beyond_the_window (void)
 
 /* +-90 degrees at +-7 m/s on the Fig. 9 bank (-7..7 m/s): inside the bank
  * (+-6.9) each reflector is found at the fan's edge with its speed; at the
- * bank's edges (+-7) flagged out_of_range at the edge; beyond it (9 and
- * -12 m/s) never reported as a confident in-range speed. */
+ * bank's edges (+-7) flagged out_of_range at the edge, without sigmas
+ * for the velocity and range; beyond it (9 and -12 m/s) never reported as
+ * a confident in-range speed. */
 #define FAST_CHAIN "dopplerbank velocity-min=-7 velocity-max=7 " \
   "velocity-step=0.05 ! mimobeamform azimuth-count=31 range-max=2.0 ! " \
   "wardcluster ! velocityest"
@@ -966,6 +967,11 @@ test_wide_and_fast (void)
       /* Anything else is a reflector beyond the bank: out of range. */
       if (!known)
         g_assert_true (d->out_of_range);
+      /* At the edge the velocity is a bound: no sigma for it, nor for the
+       * range moved on at it (they read 0.0005 and 1240 m/s). */
+      g_assert_cmpint (isnan (d->radial_velocity_sigma), ==,
+          d->out_of_range);
+      g_assert_cmpint (isnan (d->range_sigma), ==, d->out_of_range);
     }
     for (guint k = 0; k < 3; k++)
       g_assert_cmpuint (found[k], ==, isnan (cases[c].range[k]) ? 0 : 1);

@@ -358,26 +358,14 @@ upstream_is_live (GstSonarFilter * filter)
   return live;
 }
 
-/* The output stream's time at the input's @time (the subclass's map once
- * configured, else the same), and the inverse. */
+/* @time through @map, one of the subclass's (GstSonarFilterClass
+ * output_time, input_time), once configured; else the same. */
 static GstClockTime
-output_time (GstSonarFilter * filter, GstClockTime time)
+map_time (GstSonarFilter * filter,
+    GstClockTime (*map) (GstSonarFilter *, GstClockTime), GstClockTime time)
 {
-  GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
-
-  return klass->output_time && PRIV (filter)->configured
-      && GST_CLOCK_TIME_IS_VALID (time) ? klass->output_time (filter, time) :
-      time;
-}
-
-static GstClockTime
-input_time (GstSonarFilter * filter, GstClockTime time)
-{
-  GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
-
-  return klass->input_time && PRIV (filter)->configured
-      && GST_CLOCK_TIME_IS_VALID (time) ? klass->input_time (filter, time) :
-      time;
+  return map && PRIV (filter)->configured && GST_CLOCK_TIME_IS_VALID (time) ?
+      map (filter, time) : time;
 }
 
 /* The segment event to send for the input's @event, in the output's
@@ -386,18 +374,20 @@ static GstEvent *
 output_segment (GstSonarFilter * filter, GstEvent * event)
 {
   GstSonarFilterPrivate *priv = PRIV (filter);
+  GstSonarFilterClass *klass = GST_SONAR_FILTER_GET_CLASS (filter);
   GstSegment *segment = &priv->time_segment;
   GstEvent *out;
 
   gst_event_copy_segment (event, segment);
-  if (segment->format != GST_FORMAT_TIME
-      || !GST_SONAR_FILTER_GET_CLASS (filter)->output_time)
+  if (segment->format != GST_FORMAT_TIME || !klass->output_time)
     return gst_event_ref (event);
-  segment->start = output_time (filter, segment->start);
-  segment->stop = output_time (filter, segment->stop);
-  segment->time = output_time (filter, segment->time);
-  segment->position = output_time (filter, segment->position);
-  segment->duration = output_time (filter, segment->duration);
+  segment->start = map_time (filter, klass->output_time, segment->start);
+  segment->stop = map_time (filter, klass->output_time, segment->stop);
+  segment->time = map_time (filter, klass->output_time, segment->time);
+  segment->position = map_time (filter, klass->output_time,
+      segment->position);
+  segment->duration = map_time (filter, klass->output_time,
+      segment->duration);
   out = gst_event_new_segment (segment);
   gst_event_set_seqnum (out, gst_event_get_seqnum (event));
   return out;
@@ -511,11 +501,13 @@ gst_sonar_filter_src_query (GstPad * pad, GstObject * parent,
     if (GST_QUERY_TYPE (query) == GST_QUERY_POSITION) {
       gst_query_parse_position (query, &format, &value);
       if (format == GST_FORMAT_TIME && value >= 0)
-        gst_query_set_position (query, format, output_time (filter, value));
+        gst_query_set_position (query, format, map_time (filter,
+                GST_SONAR_FILTER_GET_CLASS (filter)->output_time, value));
     } else {
       gst_query_parse_duration (query, &format, &value);
       if (format == GST_FORMAT_TIME && value >= 0)
-        gst_query_set_duration (query, format, output_time (filter, value));
+        gst_query_set_duration (query, format, map_time (filter,
+                GST_SONAR_FILTER_GET_CLASS (filter)->output_time, value));
     }
     return TRUE;
   }
@@ -567,10 +559,12 @@ gst_sonar_filter_src_event (GstPad * pad, GstObject * parent,
     gst_event_parse_seek (event, &rate, &format, &flags, &start_type, &start,
         &stop_type, &stop);
     if (format == GST_FORMAT_TIME) {
+      GstClockTime (*map) (GstSonarFilter *, GstClockTime) =
+          GST_SONAR_FILTER_GET_CLASS (filter)->input_time;
       if (start_type == GST_SEEK_TYPE_SET && start >= 0)
-        start = input_time (filter, start);
+        start = map_time (filter, map, start);
       if (stop_type == GST_SEEK_TYPE_SET && stop >= 0)
-        stop = input_time (filter, stop);
+        stop = map_time (filter, map, stop);
       seek = gst_event_new_seek (rate, format, flags, start_type, start,
           stop_type, stop);
       gst_event_set_seqnum (seek, gst_event_get_seqnum (event));

@@ -244,21 +244,33 @@ collect_json (const char *launch)
 /* A recording of sonarsrc's pings with the sensor description it wrote
  * replays exactly as the live pings: every number of every line,
  * timestamps (1/12 s apart, not back to back) and instants included. */
+/* A recording of @pings of sonarsrc's default scene in a new folder
+ * *@dir: *@wav and the sensor description it wrote, *@sensor. */
+static void
+record_pings (guint pings, char **dir, char **wav, char **sensor)
+{
+  g_autofree char *save = NULL, *error = NULL;
+
+  *dir = g_dir_make_tmp ("sonar-pipe-XXXXXX", NULL);
+  *wav = g_build_filename (*dir, "pings.wav", NULL);
+  *sensor = g_build_filename (*dir, "pings.json", NULL);
+  save = g_strdup_printf ("sonarsrc num-buffers=%u write-sensor-file=%s ! "
+      "wavenc ! filesink location=%s", pings, *sensor, *wav);
+  error = sonar_test_run_pipeline (save);
+  g_assert_null (error);
+}
+
 static void
 test_wav_recording_identical (void)
 {
-  g_autofree char *dir = g_dir_make_tmp ("sonar-pipe-XXXXXX", NULL);
-  g_autofree char *wav = g_build_filename (dir, "pings.wav", NULL);
-  g_autofree char *sensor = g_build_filename (dir, "pings.json", NULL);
-  g_autofree char *save = g_strdup_printf ("sonarsrc num-buffers=3 "
-      "write-sensor-file=%s ! wavenc ! filesink location=%s", sensor, wav);
-  g_autofree char *load = g_strdup_printf ("filesrc location=%s ! wavparse "
-      "! dopplerbank sensor-file=%s " REPLAY_BANK REPLAY_CHAIN, wav, sensor);
-  g_autofree char *error = sonar_test_run_pipeline (save);
+  g_autofree char *dir = NULL, *wav = NULL, *sensor = NULL;
+  g_autofree char *load = NULL;
   g_autoptr (GString) live = g_string_new (NULL);
   g_autofree char *recorded = NULL;
 
-  g_assert_null (error);
+  record_pings (3, &dir, &wav, &sensor);
+  load = g_strdup_printf ("filesrc location=%s ! wavparse ! dopplerbank "
+      "sensor-file=%s " REPLAY_BANK REPLAY_CHAIN, wav, sensor);
   score_pipeline ("sonarsrc num-buffers=3 ! dopplerbank " REPLAY_BANK
       REPLAY_CHAIN, live);
   recorded = collect_json (load);
@@ -279,21 +291,17 @@ test_wav_recording_identical (void)
 static void
 test_wav_recording_seek (void)
 {
-  g_autofree char *dir = g_dir_make_tmp ("sonar-pipe-XXXXXX", NULL);
-  g_autofree char *wav = g_build_filename (dir, "pings.wav", NULL);
-  g_autofree char *sensor = g_build_filename (dir, "pings.json", NULL);
-  g_autofree char *save = g_strdup_printf ("sonarsrc num-buffers=6 "
-      "write-sensor-file=%s ! wavenc ! filesink location=%s", sensor, wav);
-  g_autofree char *load = g_strdup_printf ("filesrc location=%s ! wavparse "
-      "! dopplerbank sensor-file=%s velocity-min=0 velocity-max=0 ! appsink "
-      "name=sink sync=false", wav, sensor);
-  g_autofree char *error = sonar_test_run_pipeline (save);
+  g_autofree char *dir = NULL, *wav = NULL, *sensor = NULL;
+  g_autofree char *load = NULL;
   GstElement *pipeline, *sink;
   GstSample *sample;
   GstBuffer *buffer;
   gint64 duration, position;
 
-  g_assert_null (error);
+  record_pings (6, &dir, &wav, &sensor);
+  load = g_strdup_printf ("filesrc location=%s ! wavparse ! dopplerbank "
+      "sensor-file=%s velocity-min=0 velocity-max=0 ! appsink name=sink "
+      "sync=false", wav, sensor);
   pipeline = gst_parse_launch (load, NULL);
   sink = gst_bin_get_by_name (GST_BIN (pipeline), "sink");
   gst_element_set_state (pipeline, GST_STATE_PAUSED);

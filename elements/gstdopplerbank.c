@@ -487,22 +487,30 @@ time_position (const SonarSetup * setup, double seconds)
 static GstClockTime
 gst_doppler_bank_output_time (GstSonarFilter * filter, GstClockTime time)
 {
-  const SonarSetup *setup = GST_DOPPLER_BANK (filter)->setup;
+  const GstDopplerBank *self = GST_DOPPLER_BANK (filter);
+  const SonarSetup *setup = self->setup;
+  guint64 position;
 
-  return setup && GST_DOPPLER_BANK (filter)->samples_timed ? (GstClockTime) llround (position_time (setup,
-          (guint64) llround ((double) time / GST_SECOND *
-              setup->sample_rate)) * GST_SECOND) : time;
+  if (!setup || !self->samples_timed)
+    return time;
+  position = (guint64) llround ((double) time / GST_SECOND *
+      setup->sample_rate);
+  return (GstClockTime) llround (position_time (setup, position) *
+      GST_SECOND);
 }
 
 static GstClockTime
 gst_doppler_bank_input_time (GstSonarFilter * filter, GstClockTime time)
 {
-  const SonarSetup *setup = GST_DOPPLER_BANK (filter)->setup;
+  const GstDopplerBank *self = GST_DOPPLER_BANK (filter);
+  const SonarSetup *setup = self->setup;
+  guint64 position;
 
-  return setup && GST_DOPPLER_BANK (filter)->samples_timed ? (GstClockTime)
-      llround ((double) time_position (setup,
-          (double) time / GST_SECOND) / setup->sample_rate * GST_SECOND) :
-      time;
+  if (!setup || !self->samples_timed)
+    return time;
+  position = time_position (setup, (double) time / GST_SECOND);
+  return (GstClockTime) llround ((double) position / setup->sample_rate *
+      GST_SECOND);
 }
 
 /* Ping @index's trigger instant (one rule for live pings and replays). */

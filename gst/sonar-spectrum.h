@@ -88,8 +88,9 @@ void sonar_channel_spectra_free (SonarChannelSpectra * spectra);
 /* The spectra of @length frames of the channels interleaved in
  * @samples into @out: channel j's n_bins from out + j n_bins, each as
  * sonar_spectrum_process () makes it of the channel with its glitches
- * removed (sonar_remove_glitches (); bit for bit, whatever the workers).
- * Returns how many samples were not finite (read as 0). */
+ * removed (sonar_remove_glitches (); bit for bit, whatever the workers),
+ * a loud channel's zeros (below). Returns how many samples were not
+ * finite (read as 0). */
 guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
     const float *samples, gsize length, SonarComplex * out);
 

@@ -95,6 +95,10 @@ struct _GstMimoBeamform
   /* Whether the directions and coarse spacing were set: unless they were,
    * they follow the set-up's field of view. */
   gboolean directions_set, coarse_spacing_set;
+  /* What the image uses once configured (the set-up's view and beam where
+   * the properties were not set): what those properties read back. */
+  SonarImagerParams params_in_use;
+  gboolean have_params_in_use;
   ImageMode mode;
   double velocity;
   double hypothesis_spacing;
@@ -325,6 +329,8 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
     if (!self->coarse_spacing_set)
       sonar_imager_params_fit_beam (&params);
   }
+  self->params_in_use = params;
+  self->have_params_in_use = TRUE;
   self->active_mode = self->mode;
   self->active_emitter = self->emitter;
   velocity = self->velocity;
@@ -338,6 +344,14 @@ gst_mimo_beamform_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->imager = sonar_imager_new (setup, &band, &params, error);
   if (!self->imager)
     return NULL;
+  {
+    /* The coarse grid it chose (a number of main lobes, or degrees). */
+    double azimuth, elevation;
+    sonar_imager_coarse_spacing (self->imager, &azimuth, &elevation);
+    GST_OBJECT_LOCK (self);
+    self->params_in_use.coarse_spacing = MAX (azimuth, elevation);
+    GST_OBJECT_UNLOCK (self);
+  }
   range_max = sonar_imager_range_max (setup, params.range_max);
   if (params.range_max > range_max)
     GST_ELEMENT_WARNING (self, RESOURCE, SETTINGS,
@@ -642,26 +656,33 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
 {
   GstMimoBeamform *self = GST_MIMO_BEAMFORM (object);
   const SonarImagerParams *p = &self->params;
+  const SonarImagerParams *d, *coarse;
 
   GST_OBJECT_LOCK (self);
+  /* Directions and a coarse spacing not set follow the set-up: once
+   * configured, they read back what the image uses. */
+  d = self->directions_set || !self->have_params_in_use ? p :
+      &self->params_in_use;
+  coarse = self->coarse_spacing_set || !self->have_params_in_use ? p :
+      &self->params_in_use;
   switch (prop_id) {
     case PROP_AZIMUTH_MIN:
-      g_value_set_double (value, p->azimuth_min);
+      g_value_set_double (value, d->azimuth_min);
       break;
     case PROP_AZIMUTH_MAX:
-      g_value_set_double (value, p->azimuth_max);
+      g_value_set_double (value, d->azimuth_max);
       break;
     case PROP_AZIMUTH_COUNT:
-      g_value_set_uint (value, p->n_azimuth);
+      g_value_set_uint (value, d->n_azimuth);
       break;
     case PROP_ELEVATION_MIN:
-      g_value_set_double (value, p->elevation_min);
+      g_value_set_double (value, d->elevation_min);
       break;
     case PROP_ELEVATION_MAX:
-      g_value_set_double (value, p->elevation_max);
+      g_value_set_double (value, d->elevation_max);
       break;
     case PROP_ELEVATION_COUNT:
-      g_value_set_uint (value, p->n_elevation);
+      g_value_set_uint (value, d->n_elevation);
       break;
     case PROP_RANGE_MIN:
       g_value_set_double (value, p->range_min);
@@ -676,7 +697,7 @@ gst_mimo_beamform_get_property (GObject * object, guint prop_id,
       g_value_set_uint (value, p->focus_zones);
       break;
     case PROP_COARSE_SPACING:
-      g_value_set_double (value, p->coarse_spacing);
+      g_value_set_double (value, coarse->coarse_spacing);
       break;
     case PROP_REFINE_DB:
       g_value_set_double (value, p->refine_db);
@@ -748,8 +769,10 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
       g_param_spec_double ("azimuth-min", "Minimum azimuth", "First "
           "direction of the image, degrees from boresight towards +x. The "
           "directions default to the sensor's field of view: this fan, or "
-          "-90..90 x -90..90 every 2 degrees for a hemisphere; setting any "
-          "azimuth or elevation property makes them all the properties'",
+          "-90..90 x -90..90 every 2 degrees for a hemisphere (the "
+          "properties then read back those in use once a stream has "
+          "started); setting any azimuth or elevation property makes them "
+          "all the properties'",
           -90.0, 90.0, d.azimuth_min, flags));
   g_object_class_install_property (gobject_class, PROP_AZIMUTH_MAX,
       g_param_spec_double ("azimuth-max", "Maximum azimuth", "Last "
@@ -804,7 +827,8 @@ gst_mimo_beamform_class_init (GstMimoBeamformClass * klass)
           "between two directions is imaged 6 dB down: 3 on the eRTIS "
           "array), two on a grid of rows and columns, as the hemisphere (6 "
           "on eRTIS), whatever the set-up's field of view; the property "
-          "then reads 3", 0.0, 90.0,
+          "reads back the spacing in use once a stream has started", 0.0,
+          90.0,
           d.coarse_spacing, flags));
   g_object_class_install_property (gobject_class, PROP_REFINE_DB,
       g_param_spec_double ("refine-db", "Refine level", "dB below the "

@@ -1673,6 +1673,46 @@ test_tune_sonarviz (void)
   check_tunable (launch, "", "show-truth=false");
 }
 
+/* mimobeamform's directions and coarse spacing, not set, follow the
+ * set-up; once a stream has started they read back what the image uses:
+ * 91 x 91 directions from -90 to 90 degrees and a 6-degree coarse grid on
+ * a 3-D scene (they read the fan's 181 x 1 and 3). */
+static void
+test_directions_read_back (void)
+{
+  g_autofree char *scene = sonar_test_source_path
+      ("pipelines/scenes/two-walkers-3d.json");
+  g_autofree char *launch = g_strdup_printf ("sonarsrc scene-file=%s "
+      "num-buffers=1 ! dopplerbank velocity-min=0 velocity-max=0 ! "
+      "mimobeamform name=m ! fakesink", scene);
+  GstElement *pipeline = gst_parse_launch (launch, NULL);
+  GstElement *m = gst_bin_get_by_name (GST_BIN (pipeline), "m");
+  GstBus *bus = gst_element_get_bus (pipeline);
+  GstMessage *end;
+  guint n_azimuth, n_elevation;
+  double elevation_min, coarse;
+
+  g_object_get (m, "azimuth-count", &n_azimuth, NULL);
+  g_assert_cmpuint (n_azimuth, ==, 181);
+  gst_element_set_state (pipeline, GST_STATE_PLAYING);
+  end = gst_bus_timed_pop_filtered (bus, 120 * GST_SECOND,
+      GST_MESSAGE_EOS | GST_MESSAGE_ERROR);
+  g_assert_nonnull (end);
+  g_assert_cmpint (GST_MESSAGE_TYPE (end), ==, GST_MESSAGE_EOS);
+  gst_message_unref (end);
+  g_object_get (m, "azimuth-count", &n_azimuth, "elevation-count",
+      &n_elevation, "elevation-min", &elevation_min, "coarse-spacing",
+      &coarse, NULL);
+  g_assert_cmpuint (n_azimuth, ==, 91);
+  g_assert_cmpuint (n_elevation, ==, 91);
+  g_assert_cmpfloat (elevation_min, ==, -90.0);
+  g_assert_cmpfloat (coarse, ==, 6.0);
+  gst_element_set_state (pipeline, GST_STATE_NULL);
+  gst_object_unref (bus);
+  gst_object_unref (m);
+  gst_object_unref (pipeline);
+}
+
 int
 main (int argc, char **argv)
 {
@@ -1692,6 +1732,8 @@ main (int argc, char **argv)
   g_test_add_func ("/elements/tune-while-playing", test_tune_while_playing);
   g_test_add_func ("/elements/tune-velocityest", test_tune_velocityest);
   g_test_add_func ("/elements/sample-formats", test_sample_formats);
+  g_test_add_func ("/elements/directions-read-back",
+      test_directions_read_back);
   g_test_add_func ("/elements/tune-velocityest-refused",
       test_tune_velocityest_refused);
   g_test_add_func ("/elements/tune-mimobeamform", test_tune_mimobeamform);

@@ -25,6 +25,10 @@ BUILD_DIR = pathlib.Path(os.environ.get("SONAR_BUILD_DIR",
 # Under AddressSanitizer and UBSan (meson test --setup asan): their
 # allocator is not glibc's, and the code runs about five times slower.
 SANITIZED = bool(os.environ.get("SONAR_SANITIZED"))
+# tools/test's second compiler's run (build-clang): the statistical
+# calibrations, long 3-D runs of a property no compiler changes, are the
+# first run's to check.
+SECOND_COMPILER = bool(os.environ.get("SONAR_SECOND_COMPILER"))
 
 TESTS = []
 

@@ -114,8 +114,13 @@ guint sonar_channel_spectra_process (SonarChannelSpectra * spectra,
 #define SONAR_GLITCH_OVER_QUIET 10.0f
 #define SONAR_GLITCH_BLOCKS 16
 #define SONAR_GLITCH_OVER_NEIGHBOURS 10.0f
-#define SONAR_GLITCH_MAX_RUN 8
-#define SONAR_GLITCH_FLANK 8
+/* 16: a burst of 9 samples on one microphone made false objects when
+ * runs of 8 were the most; an echo lasts as long as its emission (4000
+ * samples here), and a band-limited signal's loud run is followed, within
+ * half a period of the band's lowest frequency (11 samples for 20 kHz at
+ * 450 kHz), by more. */
+#define SONAR_GLITCH_MAX_RUN 16
+#define SONAR_GLITCH_FLANK 16
 
 /* Zeroes the glitches of the @n samples of @x (one channel's ping, finite)
  * and returns how many samples it zeroed; *@largest (may be NULL) becomes

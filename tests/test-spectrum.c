@@ -135,11 +135,13 @@ add_tone (float *x, gsize n, gsize start, gsize length, double frequency,
  * - Kept, bit for bit: unit noise with, 10^4 to 10^6 times louder, the
  *   band's tones from 20 to 80 kHz at 450 kHz, each hard-gated (its
  *   onset a step) or Hann-gated, alone or together (a direct path), a
- *   Hann-gated burst of three periods at 80 kHz, a tone clipped at half its amplitude, and
- *   a run of 9 loud samples (longer than a glitch).
- * - Zeroed: one sample of 10^5 in the noise, a run of 3 and one of 8,
- *   and a sample of 10^8 on the band's 13 tones of 10^5 together (its own sample of the
- *   tone goes with it); the count and the largest. */
+ *   Hann-gated burst of 8 periods at 50 kHz, a tone clipped at half its
+ *   amplitude, and a run of SONAR_GLITCH_MAX_RUN + 1 loud samples
+ *   (longer than a glitch).
+ * - Zeroed: one sample of 10^5 in the noise, a run of 3, one of 9 (a
+ *   review's false objects) and one of SONAR_GLITCH_MAX_RUN, and a sample
+ *   of 10^8 on the band's 13 tones of 10^5 together (its own sample of
+ *   the tone goes with it); the count and the largest. */
 static void
 test_glitches (void)
 {
@@ -171,8 +173,9 @@ test_glitches (void)
   memcpy (x, noise, sizeof (float) * n);
   for (double f = 20000.0; f <= 80000.0; f += 5000.0)
     add_tone (x, n, 200, 4000, f / rate, 1e5, f / 3e3, FALSE);
-  /* The shortest burst the band passes, three periods at 80 kHz. */
-  add_tone (x, n, 8000, 17, 80000.0 / rate, 1e6, 0.0, TRUE);
+  /* A short burst well in the band: 8 periods at 50 kHz (72 samples),
+   * Hann-gated. */
+  add_tone (x, n, 8000, 72, 50000.0 / rate, 1e6, 0.0, TRUE);
   /* A tone clipped at half its amplitude. */
   add_tone (x, n, 10000, 500, 30000.0 / rate, 1e6, 0.0, FALSE);
   for (gsize i = 10000; i < 10500; i++)
@@ -192,14 +195,18 @@ test_glitches (void)
   x[12002] = 1e4f;
   for (gsize i = 16000; i < 16000 + SONAR_GLITCH_MAX_RUN; i++)
     x[i] = -4e4f;
+  for (gsize i = 6000; i < 6009; i++)
+    x[i] = 1e4f;
   x[1500] = 1e8f;
   memcpy (expected, x, sizeof (float) * n);
   expected[5000] = expected[12000] = expected[12001] = expected[12002] = 0;
   for (gsize i = 16000; i < 16000 + SONAR_GLITCH_MAX_RUN; i++)
     expected[i] = 0.0f;
+  for (gsize i = 6000; i < 6009; i++)
+    expected[i] = 0.0f;
   expected[1500] = 0.0f;
   g_assert_cmpuint (sonar_remove_glitches (x, n, &largest, NULL), ==,
-      1 + 3 + SONAR_GLITCH_MAX_RUN + 1);
+      1 + 3 + 9 + SONAR_GLITCH_MAX_RUN + 1);
   g_assert_cmpmem (x, sizeof (float) * n, expected, sizeof (float) * n);
   g_assert_cmpfloat (largest, ==, 1e8f);
   g_assert_cmpuint (sonar_remove_glitches (x, 0, NULL, NULL), ==, 0);

@@ -731,16 +731,26 @@ sonar_setup_check (const SonarSetup * setup)
   GString *problems = g_string_new (NULL);
   const SonarVec3 x = { 1.0, 0.0, 0.0 }, y = { 0.0, 1.0, 0.0 };
 
-  /* Less than a quarter wavelength of aperture: no direction. */
-  if (virtual_aperture (&setup->geometry, x) < 0.25 * wavelength
-      || (setup->field_of_view == SONAR_FIELD_OF_VIEW_HEMISPHERE
-          && virtual_aperture (&setup->geometry, y) < 0.25 * wavelength))
-    g_string_append_printf (problems, "; the array (%u microphones, %u "
-        "emitters) spans less than a quarter wavelength (%.1f mm) %s: it "
-        "cannot resolve direction", setup->geometry.n_microphones,
-        setup->geometry.n_emitters, 250.0 * wavelength,
-        setup->field_of_view == SONAR_FIELD_OF_VIEW_HEMISPHERE ?
-        "across x or y" : "along x");
+  /* Less than a quarter wavelength of aperture along an axis the image
+   * spans: no direction there. */
+  {
+    const gboolean narrow_x = virtual_aperture (&setup->geometry, x) <
+        0.25 * wavelength;
+    const gboolean narrow_y = setup->field_of_view ==
+        SONAR_FIELD_OF_VIEW_HEMISPHERE && virtual_aperture (&setup->geometry,
+        y) < 0.25 * wavelength;
+    if (narrow_x || narrow_y)
+      g_string_append_printf (problems, "; the array (%u microphones, %u "
+          "emitters) spans less than a quarter wavelength (%.1f mm) %s: it "
+          "cannot resolve %s", setup->geometry.n_microphones,
+          setup->geometry.n_emitters, 250.0 * wavelength,
+          narrow_x && narrow_y ? "along x and along y" : narrow_x ?
+          "along x" : "along y", narrow_x && narrow_y ? "direction" :
+          narrow_x ? "azimuth (a line along y images elevation alone: "
+          "mimobeamform azimuth-count=1 and elevation's range)" :
+          "elevation (a line along x: the sensor file's field-of-view "
+          "\"fan\")");
+  }
   check_emissions (setup, problems);
   if (problems->len == 0) {
     g_string_free (problems, TRUE);

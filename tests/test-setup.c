@@ -562,7 +562,31 @@ test_setup_check (void)
     g_test_message ("%s", problems);
     g_assert_cmpstr (problems, ==, "the array (1 microphones, 1 emitters) "
         "spans less than a quarter wavelength (1.1 mm) along x: it cannot "
-        "resolve direction");
+        "resolve azimuth (a line along y images elevation alone: "
+        "mimobeamform azimuth-count=1 and elevation's range)");
+  }
+  /* A line along x imaged as a hemisphere: no elevation. */
+  {
+    SonarVec3 line[2] = { {-0.05, 0, 0}, {0.05, 0, 0} };
+    SonarGeometry horizontal = { 0 };
+    horizontal.n_microphones = 2;
+    horizontal.microphones = line;
+    horizontal.n_emitters = 1;
+    horizontal.emitters = &origin;
+    {
+      g_autoptr (SonarSetup) flat = sonar_setup_new (&(SonarSetupParams) {
+            .sample_rate = setup->sample_rate,.speed_of_sound = 343,
+            .band_low = setup->band_low,.band_high = setup->band_high,
+            .geometry = &horizontal,.waveform_length = setup->waveform_length,
+            .waveforms = setup->waveforms,.ping_length = 17262,
+            .field_of_view = SONAR_FIELD_OF_VIEW_HEMISPHERE}, NULL);
+      g_autofree char *problems = sonar_setup_check (flat);
+      g_test_message ("%s", problems);
+      g_assert_nonnull (problems);
+      g_assert_nonnull (strstr (problems, "along y: it cannot resolve "
+              "elevation (a line along x: the sensor file's field-of-view "
+              "\"fan\")"));
+    }
   }
 }
 

@@ -648,6 +648,19 @@ test_tracks_gaps_and_extent (void)
   sonar_scene_clear (&scene);
 }
 
+/* A 2-D tracker's default parameters, the nominal sigma model and an ego
+ * motion of @status (all else zero). */
+static void
+planar_tracking (SonarTrackerParams * tp, SonarSigmaModel * model,
+    SonarEgoMotion * ego, SonarEgoStatus status)
+{
+  sonar_tracker_params_init_default (tp);
+  tp->dimensions = 2;
+  sonar_sigma_model_init_default (model);
+  memset (ego, 0, sizeof *ego);
+  ego->status = status;
+}
+
 /* 10. Life of a track, ids and timing: confirmed at the third detection,
  * a confirmed track coasts over max-misses pings then ends, a tentative
  * one ends at its second miss; ids are never reused; pings must come in
@@ -663,12 +676,8 @@ test_track_life (void)
   GError *error = NULL;
   guint n;
 
-  sonar_tracker_params_init_default (&tp);
-  tp.dimensions = 2;
+  planar_tracking (&tp, &model, &ego, SONAR_EGO_OBSERVED);
   tp.max_misses = 2;
-  sonar_sigma_model_init_default (&model);
-  memset (&ego, 0, sizeof ego);
-  ego.status = SONAR_EGO_OBSERVED;
   ego.dimensions = 2;
   ego.covariance[0][0] = ego.covariance[2][2] = 1e-6;
   for (guint k = 0; k < 2; k++) {
@@ -800,11 +809,7 @@ test_unobservable_ego (void)
   GError *error = NULL;
   guint n;
 
-  sonar_tracker_params_init_default (&tp);
-  tp.dimensions = 2;
-  sonar_sigma_model_init_default (&model);
-  memset (&ego, 0, sizeof ego);
-  ego.status = SONAR_EGO_TOO_FEW_STILL;
+  planar_tracking (&tp, &model, &ego, SONAR_EGO_TOO_FEW_STILL);
   {
     g_autoptr (SonarTracker) tr = tracker_new (&tp);
     for (guint ping = 0; ping < 4; ping++) {

@@ -1,13 +1,18 @@
 #!/usr/bin/env python3
 """Counts test cases in meson's testlog.json files (TAP subtests included;
 several files: several runs of the suite, added up) and prints the closing
-line 'N passed, N failed[, N skipped]'."""
+line 'N passed, N failed[, N skipped]'. --failed-builds N: builds that
+failed (tools/test), each counted as one failed case."""
 import json
 import re
 import sys
 
 passed = failed = skipped = 0
-for path in sys.argv[1:]:
+paths = sys.argv[1:]
+if paths[:1] == ["--failed-builds"]:
+    failed += int(paths[1])
+    paths = paths[2:]
+for path in paths:
     with open(path) as log:
         for line in log:
             test = json.loads(line)

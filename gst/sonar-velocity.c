@@ -1096,8 +1096,7 @@ searches_axis (double step)
 /* The vertex (*x, *y) of the quadratic a + b x + c y + d x^2 + e xy +
  * g y^2 fitted by least squares to ln @f over the 3 x 3 points x, y in
  * {-1, 0, 1} (f[(y + 1) * 3 + x + 1]; with @two_d FALSE, the row y = 0
- * alone, *y = 0 and e = g = 0), each coordinate kept within the patch,
- * and @hessian its second derivatives (2d, e, 2g). FALSE where a value
+ * alone, *y = 0 and e = g = 0), and @hessian its second derivatives (2d, e, 2g). FALSE where a value
  * is not positive or the fit has no maximum. On this regular patch the
  * normal equations are diagonal but for the constant and the squares:
  * b = sum f x / 6, e = sum f x y / 4, d = sum f (x^2 - 2/3) / 2. */
@@ -1128,17 +1127,183 @@ quadratic_vertex (const double f[9], gboolean two_d, double *x, double *y,
   }
   if (!sonar_linalg_quadratic_peak (b, c, 2.0 * d, e, 2.0 * g, x, y))
     return FALSE;
-  *x = CLAMP (*x, -1.0, 1.0);
-  *y = CLAMP (*y, -1.0, 1.0);
   hessian[0] = 2.0 * d;
   hessian[1] = e;
   hessian[2] = two_d ? 2.0 * g : NAN;
   return TRUE;
 }
 
+/* Where refine_direction () looks: offsets in quarter grid steps from a
+ * centre, along azimuth and elevation in degrees on a 2-D grid; on a 3-D
+ * one along the direction cosines u_x and u_y, the array's plane, where
+ * a planar array's beam keeps one shape at every direction. In degrees
+ * it does not: near the hemisphere's rim a degree of azimuth moves the
+ * beam little and one of elevation sweeps it sideways, the beam is a
+ * long tilted ridge, and a 3 x 3 patch on a grid row beside the peak
+ * fits that ridge far from it (an echo at (80, 75) degrees read (68.3,
+ * 74.1) on the 2-degree grid, the peak of the row at 74). */
+typedef struct
+{
+  gboolean cosines;             /* TRUE: offsets along u_x, u_y */
+  double azimuth, elevation;    /* the centre, degrees */
+  double ux, uy;                /* the centre's cosines (cosines) */
+  double step_a, step_e;        /* an offset's step: degrees or cosine */
+} SearchFrame;
+
+/* The frame of a search about (@azimuth, @elevation). */
+static void
+search_frame_init (SearchFrame * f, const SonarImageGrid * g, double azimuth,
+    double elevation, gboolean cosines)
+{
+  const double quarter = 1.0 / (2 * DIRECTION_SUBSTEPS);
+  const SonarVec3 u = sonar_vec3_from_direction (azimuth, elevation);
+
+  f->cosines = cosines;
+  f->azimuth = azimuth;
+  f->elevation = elevation;
+  f->ux = u.x;
+  f->uy = u.y;
+  f->step_a = g->azimuth_step * quarter * (cosines ? G_PI / 180.0 : 1.0);
+  f->step_e = g->elevation_step * quarter * (cosines ? G_PI / 180.0 : 1.0);
+}
+
+/* How far in front of the array a direction must be: its cosines' norm
+ * at most this. */
+#define FRONT (1.0 - 1e-9)
+
+/* Whether the direction @oa, @oe offsets from @f's centre lies in front
+ * of the array: in cosines, inside the unit circle (past it no echo
+ * comes from); in degrees always (the offsets are held within +-90). */
+static gboolean
+search_frame_inside (const SearchFrame * f, double oa, double oe)
+{
+  const double ux = f->ux + oa * f->step_a, uy = f->uy + oe * f->step_e;
+
+  return !f->cosines || ux * ux + uy * uy < FRONT * FRONT;
+}
+
+/* The direction @oa, @oe offsets (quarter steps, fractions too) from
+ * @f's centre. */
+static void
+search_frame_direction (const SearchFrame * f, double oa, double oe,
+    double *azimuth, double *elevation)
+{
+  double ux, uy;
+
+  if (!f->cosines) {
+    *azimuth = CLAMP (f->azimuth + oa * f->step_a, -90.0, 90.0);
+    *elevation = CLAMP (f->elevation + oe * f->step_e, -90.0, 90.0);
+    return;
+  }
+  ux = f->ux + oa * f->step_a;
+  uy = f->uy + oe * f->step_e;
+  sonar_vec3_to_direction (sonar_vec3 (ux, uy, sqrt (MAX (1.0 - ux * ux -
+                  uy * uy, 0.0))), azimuth, elevation);
+}
+
+/* The curvature of ln (amplitude) per degree^2 of azimuth and elevation
+ * at (@azimuth, @elevation) from @h, the patch's fit's second derivatives
+ * of ln (power) per patch unit^2 (units @unit_a, @unit_e of @f's axes; 0:
+ * no elevation): in degrees the same, scaled; in cosines J^T H J with J
+ * the cosines' derivatives per degree, which near the rim leaves azimuth
+ * little curvature: its sigma grows as the array's resolution in it
+ * falls. */
+static void
+search_frame_curvature (const SearchFrame * f, const double h[3],
+    double unit_a, double unit_e, double azimuth, double elevation,
+    double curvature[3])
+{
+  const double degree = G_PI / 180.0;
+
+  curvature[0] = 0.5 * h[0] / (unit_a * unit_a);
+  curvature[1] = unit_e > 0.0 ? 0.5 * h[1] / (unit_a * unit_e) : NAN;
+  curvature[2] = unit_e > 0.0 ? 0.5 * h[2] / (unit_e * unit_e) : NAN;
+  if (f->cosines) {
+    const double kxx = curvature[0], kxy = curvature[1], kyy = curvature[2];
+    /* du_x/daz; du_x/del and du_y/del */
+    const double ja = degree * cos (azimuth * degree) *
+        cos (elevation * degree);
+    const double jx = -degree * sin (azimuth * degree) *
+        sin (elevation * degree);
+    const double jy = degree * cos (elevation * degree);
+    curvature[0] = ja * ja * kxx;
+    curvature[1] = ja * (jx * kxx + jy * kxy);
+    curvature[2] = jx * jx * kxx + 2.0 * jx * jy * kxy + jy * jy * kyy;
+  }
+}
+
+/* The narrowest patch refine_direction () fits near the rim, a share of
+ * its half step: the log of the beam over a quarter of it, an eighth of
+ * a main lobe, is a parabola well enough to extrapolate the little a
+ * patch moved off the rim must (a patch of the whole half step, moved,
+ * put an echo at (-70, 80) degrees on the rim). */
+#define PATCH_NARROWEST 0.25
+
+/* Whether a patch @width (share of half a step) about offsets (@ci, @cj)
+ * of @f lies in front of the array: its four corners do. */
+static gboolean
+patch_inside (const SearchFrame * f, int qa, int qe, double ci, double cj,
+    double width)
+{
+  for (int corner = 0; corner < 4; corner++) {
+    const double oi = ci + (corner & 1 ? 1 : -1) * width * qa;
+    const double oj = cj + (corner & 2 ? 1 : -1) * width * qe;
+    if (!search_frame_inside (f, oi, oj))
+      return FALSE;
+  }
+  return TRUE;
+}
+
+/* A patch near the rim (above): the widest, down to PATCH_NARROWEST, that
+ * lies in front at (*ci, *cj), and where even the narrowest does not,
+ * (*ci, *cj) moved towards boresight as little as it must. Bisections of
+ * 40 rounds: to 1e-12 of the range searched. */
+static void
+patch_fit (const SearchFrame * f, int qa, int qe, double *ci, double *cj,
+    double *width)
+{
+  const double r = hypot (f->ux + *ci * f->step_a, f->uy + *cj * f->step_e);
+  double lo, hi;
+
+  if (patch_inside (f, qa, qe, *ci, *cj, 1.0))
+    return;
+  if (patch_inside (f, qa, qe, *ci, *cj, PATCH_NARROWEST)) {
+    lo = PATCH_NARROWEST;
+    hi = 1.0;
+    for (int round = 0; round < 40; round++) {
+      const double mid = 0.5 * (lo + hi);
+      if (patch_inside (f, qa, qe, *ci, *cj, mid))
+        lo = mid;
+      else
+        hi = mid;
+    }
+    *width = lo;
+    return;
+  }
+  *width = PATCH_NARROWEST;
+  {
+    /* Offsets per unit of cosine towards boresight. */
+    const double ux = f->ux + *ci * f->step_a, uy = f->uy + *cj * f->step_e;
+    const double di = -ux / (r * f->step_a), dj = -uy / (r * f->step_e);
+    lo = 0.0;
+    hi = r;
+    for (int round = 0; round < 40; round++) {
+      const double mid = 0.5 * (lo + hi);
+      if (patch_inside (f, qa, qe, *ci + mid * di, *cj + mid * dj,
+              PATCH_NARROWEST))
+        hi = mid;
+      else
+        lo = mid;
+    }
+    *ci += hi * di;
+    *cj += hi * dj;
+  }
+}
+
 /* On a coarse grid, moves (*azimuth, *elevation) to the strongest
- * sub-direction within half a grid step (steps of a quarter), at the
- * detection hypotheses; *coherence receives the coherence factor there.
+ * sub-direction within half a grid step (steps of a quarter; along the
+ * cosines in 3-D: SearchFrame), at the detection hypotheses; *coherence
+ * receives the coherence factor there.
  * The search is along azimuth, then along elevation from the best
  * azimuth: 9 evaluations instead of 25 on a 3-D grid, the beam being
  * close to separable over half a step. Every hypothesis is evaluated at
@@ -1158,7 +1323,7 @@ quadratic_vertex (const double f[9], gboolean two_d, double *x, double *y,
  * direction (a centroid's members' weighted mean) is pulled over by the
  * noise peaks that join a strong echo's cluster. The fit has the image's
  * shape (a tilted beam's cross term included) without its grid; where it
- * has no maximum, or the patch crosses +-90 degrees, the search's
+ * has no maximum, or a 2-D patch crosses +-90 degrees, the search's
  * direction is reported. @curvature receives the fit's second
  * derivatives of ln (amplitude) per degree^2 (azimuth^2, azimuth x
  * elevation, elevation^2), the shape the direction's sigma is read from
@@ -1171,20 +1336,22 @@ refine_direction (SonarVelocityEstimator * est,
     double *echo_azimuth, double *echo_elevation, double curvature[3])
 {
   const SonarImageGrid *g = &est->grid;
-  const double da = g->azimuth_step / (2 * DIRECTION_SUBSTEPS);
-  const double de = g->elevation_step / (2 * DIRECTION_SUBSTEPS);
   const int qa = searches_axis (g->azimuth_step) ?
       DIRECTION_SUBSTEPS : 0;
   const int qe = searches_axis (g->elevation_step) ?
       DIRECTION_SUBSTEPS : 0;
-  const double az_c = *azimuth, el_c = *elevation;
-  /* The strengths evaluated, at quarter steps from the given direction
+  /* The strengths evaluated, at quarter steps from the frame's centre
    * ([(j + 2) * SEARCH_SIDE + i + 2]; 0: not evaluated). */
   double searched[SEARCH_SIDE * SEARCH_SIDE] = { 0 };
-  double best_strength, best_az = az_c, best_el = el_c, patch[9];
+  double best_strength, best_az, best_el, patch[9];
   int best_i = 0, best_j = 0;
+  double centre_i, centre_j, width = 1.0;
   guint which, first, n_near;
+  SearchFrame frame;
 
+  search_frame_init (&frame, g, *azimuth, *elevation, qa > 0 && qe > 0);
+  best_az = frame.azimuth;
+  best_el = frame.elevation;
   *coherence = coherence_over (est, spectra, range, best_az, best_el,
       est->hypotheses, est->n_hypotheses, &best_strength, &which, NULL,
       &est->interference);
@@ -1197,12 +1364,11 @@ refine_direction (SonarVelocityEstimator * est,
     const int i0 = best_i;
     for (int i = -q; i <= q; i++) {
       const int oi = axis == 0 ? i : i0, oj = axis == 1 ? i : 0;
-      const double az = CLAMP (az_c + oi * da, -90.0, 90.0);
-      const double el = CLAMP (el_c + oj * de, -90.0, 90.0);
-      double strength, cf, interference;
+      double az, el, strength, cf, interference;
       /* The centre of either line is already evaluated. */
-      if (i == 0)
+      if (i == 0 || !search_frame_inside (&frame, oi, oj))
         continue;
+      search_frame_direction (&frame, oi, oj, &az, &el);
       cf = coherence_over (est, spectra, range, az, el,
           est->hypotheses + first, n_near, &strength, NULL, NULL,
           &interference);
@@ -1225,37 +1391,69 @@ refine_direction (SonarVelocityEstimator * est,
   *echo_azimuth = best_az;
   *echo_elevation = best_el;
   curvature[0] = curvature[1] = curvature[2] = NAN;
-  if (qa == 0 || fabs (best_az) + qa * da > 90.0 || fabs (best_el) + qe * de
-      > 90.0)
+  if (qa == 0 || (!frame.cosines && (fabs (best_az) + qa * frame.step_a >
+              90.0 || fabs (best_el) + qe * frame.step_e > 90.0)))
     return;
-  /* The patch, about the search's best: its evaluations where it has
-   * them. */
+  /* The patch: half a step either side of the search's best; near the
+   * rim, where that reaches past it, narrower, down to PATCH_NARROWEST
+   * of that, and then moved towards boresight as far as it must
+   * (patch_fit ()). Its evaluations where the search made them. */
+  centre_i = best_i;
+  centre_j = best_j;
+  if (frame.cosines)
+    patch_fit (&frame, qa, qe, &centre_i, &centre_j, &width);
   for (int pj = -1; pj <= 1; pj++) {
     for (int pi = -1; pi <= 1; pi++) {
-      const int oi = best_i + pi * qa, oj = best_j + pj * qe;
+      const double oi = centre_i + pi * width * qa;
+      const double oj = centre_j + pj * width * qe;
       double *value = &patch[(pj + 1) * 3 + pi + 1];
       *value = 0.0;
       if (qe == 0 && pj != 0)
         continue;
-      if (ABS (oi) <= DIRECTION_SUBSTEPS && ABS (oj) <= DIRECTION_SUBSTEPS)
-        *value = searched[(oj + DIRECTION_SUBSTEPS) * SEARCH_SIDE + oi +
-            DIRECTION_SUBSTEPS];
-      if (*value == 0.0)
-        coherence_over (est, spectra, range, az_c + oi * da, el_c + oj * de,
+      if (oi == rint (oi) && oj == rint (oj) && fabs (oi) <=
+          DIRECTION_SUBSTEPS && fabs (oj) <= DIRECTION_SUBSTEPS)
+        *value = searched[((int) oj + DIRECTION_SUBSTEPS) * SEARCH_SIDE +
+            (int) oi + DIRECTION_SUBSTEPS];
+      if (*value == 0.0) {
+        double az, el;
+        search_frame_direction (&frame, oi, oj, &az, &el);
+        coherence_over (est, spectra, range, az, el,
             est->hypotheses + first, n_near, value, NULL, NULL, NULL);
+      }
     }
   }
   {
-    /* Patch units to degrees; the strength is a power, the curvature
-     * the sigmas take that of ln (amplitude), half its own. */
-    const double ha = qa * da, he = qe * de;
+    /* Patch units to the frame's offsets. */
+    const double unit_a = width * qa * frame.step_a;
+    const double unit_e = width * qe * frame.step_e;
     double x, y, h[3];
     if (quadratic_vertex (patch, qe > 0, &x, &y, h)) {
-      *echo_azimuth = best_az + x * ha;
-      *echo_elevation = best_el + y * he;
-      curvature[0] = 0.5 * h[0] / (ha * ha);
-      curvature[1] = qe > 0 ? 0.5 * h[1] / (ha * he) : NAN;
-      curvature[2] = qe > 0 ? 0.5 * h[2] / (he * he) : NAN;
+      if (frame.cosines) {
+        /* Within the patch, or as far beyond it towards the rim as it
+         * was moved from the best; in front. */
+        const double from_a = (best_i - centre_i) / (width * qa);
+        const double from_e = (best_j - centre_j) / (width * qe);
+        double ux, uy, r;
+        x = CLAMP (x, MIN (from_a, 0.0) - 1.0, MAX (from_a, 0.0) + 1.0);
+        y = CLAMP (y, MIN (from_e, 0.0) - 1.0, MAX (from_e, 0.0) + 1.0);
+        ux = frame.ux + centre_i * frame.step_a + x * unit_a;
+        uy = frame.uy + centre_j * frame.step_e + y * unit_e;
+        r = hypot (ux, uy);
+        if (r > FRONT) {
+          ux *= FRONT / r;
+          uy *= FRONT / r;
+        }
+        sonar_vec3_to_direction (sonar_vec3 (ux, uy, sqrt (MAX (1.0 -
+                        ux * ux - uy * uy, 0.0))), echo_azimuth,
+            echo_elevation);
+      } else {
+        x = CLAMP (x, -1.0, 1.0);
+        y = CLAMP (y, -1.0, 1.0);
+        *echo_azimuth = best_az + x * unit_a;
+        *echo_elevation = best_el + y * unit_e;
+      }
+      search_frame_curvature (&frame, h, unit_a, unit_e, *echo_azimuth,
+          *echo_elevation, curvature);
     }
   }
 }
@@ -2072,8 +2270,11 @@ struct _SonarVelocityPool
   guint n_placed, placed_capacity;
 };
 
-/* Whether @a and @b are one echo: within a range step of each other,
- * their directions within an image step as it spans at boresight
+/* Whether @a and @b are one echo: within the band's range resolution
+ * c / (2 B) of each other (or a range step, where coarser: near the rim
+ * one echo's estimates from two centroids on its beam's ridge lay 2.85 mm
+ * apart, a step and a little more, the range of its peak moving with the
+ * direction focused on), their directions within an image step as it spans at boresight
  * (compared in the array's plane, x and y of the unit vectors, where the
  * beam is as wide everywhere: off boresight a degree spans less of it, and
  * at 60 degrees of elevation one echo's estimates lay 3.4 degrees of
@@ -2087,8 +2288,10 @@ same_echo (const SonarVelocityEstimator * est, const SonarVelocityEstimate * a,
   const SonarVec3 ub = sonar_vec3_from_direction (b->azimuth, b->elevation);
   const double step = sin (G_PI / 180.0 * MAX (g->azimuth_step,
           g->elevation_step));
+  const double resolution = MAX (g->range_step, est->setup->speed_of_sound /
+      (2.0 * (est->setup->band_high - est->setup->band_low)));
 
-  return a->valid && b->valid && fabs (a->range - b->range) <= g->range_step
+  return a->valid && b->valid && fabs (a->range - b->range) <= resolution
       && hypot (ua.x - ub.x, ua.y - ub.y) <= step
       && fabs (a->radial_velocity - b->radial_velocity) <= 0.5 *
       est->main_lobe;

@@ -172,8 +172,11 @@ typedef struct
   /* The echo's direction (degrees), which its detection reports: on a
    * grid coarser than FINE_GRID_STEP (sonar-velocity.c), the peak of a
    * quadratic fitted to the coherent strength over the 3 x 3 directions
-   * (3 on a 2-D grid) half a grid step apart about the search's best,
-   * finer than the search's quarter steps and not pulled over by the
+   * (3 on a 2-D grid) half a grid step apart about the search's best (on
+   * a 3-D grid along the direction cosines x and y, the array's plane:
+   * near the hemisphere's rim the beam is a tilted ridge in azimuth and
+   * elevation; there the patch narrows, or moves inwards, to stay in
+   * front of the array), finer than the search's quarter steps and not pulled over by the
    * noise peaks a strong echo's cluster gathers; on finer grids, in the
    * pool's valid estimates (sonar_velocity_pool_estimate ()), the vertex
    * of the power the echo's model explains a quarter step either side of

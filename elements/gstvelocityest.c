@@ -110,6 +110,8 @@ struct _GstVelocityEst
   SonarVelocityEstimate *results;       /* 2 per centroid, reused */
   guint *counts;                /* estimates per centroid */
   guint capacity;               /* centroids results and counts can hold */
+  double coherence_threshold;   /* the coherence test's, as configured */
+  gboolean warned_incoherent;   /* check_strongest ()'s warning, once */
 };
 
 G_DEFINE_TYPE (GstVelocityEst, gst_velocity_est, GST_TYPE_SONAR_FILTER);
@@ -163,10 +165,14 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->min_agreeing_in_effect = params.min_agreeing_emitters;
   self->min_agreeing_set_in_effect = min_agreeing_set;
   self->noise = sonar_noise_meter_new (&self->grid, self->hypotheses);
+  self->warned_incoherent = FALSE;
   /* Confidence is the share of the emitters that enter the product. */
   self->n_emitters = params.emitters ? params.emitters :
       setup->geometry.n_emitters;
   self->emission_centre = sonar_setup_emission_centre (setup);
+  self->coherence_threshold = MAX (params.min_coherence,
+      sonar_velocity_coherence_threshold (params.coherence_pfa,
+          self->n_emitters));
   /* One emitter leaves the product nothing to compare: the coherence and
    * agreement tests pass every centroid, the array's sidelobes too (a
    * one-emitter recording of two objects: hundreds of detections). */
@@ -325,6 +331,51 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   g_array_append_val (self->detections, d);
 }
 
+/* dB over the image's noise from which a ping's strongest centroid is an
+ * echo that passes the coherence test: alone an echo scores 0.95 and
+ * more, 16 dB over its interference 0.8 (sonar-velocity.h); the
+ * strongest of a ping has no stronger one's cross-talk on it. */
+#define COHERENT_SNR_DB 25.0
+
+/* Warns, once a stream, when the strongest centroid of a ping, at least
+ * COHERENT_SNR_DB over the noise (*@noise_power, measured here if it is
+ * not yet, -1), fails the emitters' coherence test: its emitters do not
+ * add up as the set-up's emissions say. Each emitter radiating through
+ * its own resonance (foreign_sim.py emitter_resonance, 35-60 kHz, Q 2-6)
+ * left every echo of a scene rejected, none reported. */
+static void
+check_strongest (GstVelocityEst * self, const SonarCentroid * strongest,
+    const SonarVelocityEstimate * e, const float *image, double *noise_power,
+    guint64 ping)
+{
+  const SonarImageGrid *g = &self->grid;
+  double peak, snr_db;
+
+  if (self->warned_incoherent || e->valid || !(e->coherence <
+          self->coherence_threshold))
+    return;
+  peak = image[((gsize) MIN (strongest->peak_elevation_index,
+              g->n_elevation - 1) * g->n_azimuth +
+          MIN (strongest->peak_azimuth_index, g->n_azimuth - 1)) *
+      g->n_range + MIN (strongest->peak_range_index, g->n_range - 1)];
+  if (*noise_power < 0.0)
+    *noise_power = sonar_noise_meter_power (self->noise, image);
+  snr_db = 10.0 * log10 (peak * peak / *noise_power);
+  if (!(snr_db >= COHERENT_SNR_DB))
+    return;
+  self->warned_incoherent = TRUE;
+  GST_ELEMENT_WARNING (self, STREAM, FAILED, ("velocityest: ping %"
+          G_GUINT64_FORMAT "'s strongest echo (%.0f dB over the noise, at "
+          "%.2f m, azimuth %.1f, elevation %.1f degrees) fails the "
+          "emitters' coherence test (%.2f, %.2f passes): its emitters do "
+          "not add up as the set-up describes them, and echoes like it are "
+          "not reported. The emissions, emitter-delays or emitter positions "
+          "of the sensor file may not be what the sensor radiates (each "
+          "emitter's own resonance, a trigger delay)", ping, snr_db,
+          strongest->range, e->azimuth, e->elevation, e->coherence,
+          self->coherence_threshold), (NULL));
+}
+
 /* The detections of @n centroids' estimates (@results, 2 per centroid,
  * @counts each), the centroids numbered from @first; *@noise_power is
  * measured on the first (-1 until then). */
@@ -410,6 +461,10 @@ gst_velocity_est_process (GstSonarFilter * filter, GstBuffer * buffer)
   }
   image = (const float *) (image_map.data + sizeof (SonarEnergyscapeHeader));
   noise_power = -1.0;
+  /* Centroids are numbered strongest first (sonar-cluster.h). */
+  if (centroids->n_centroids > 0 && self->counts[0] > 0)
+    check_strongest (self, &centroids->centroids[0], &self->results[0],
+        image, &noise_power, ping);
   add_detections (self, centroids->centroids, 0, centroids->n_centroids,
       self->results, self->counts, keep_rejected, GST_BUFFER_PTS (buffer),
       image, &noise_power);

@@ -25,6 +25,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import subprocess
 import sys
 import time
@@ -365,6 +366,22 @@ CASES = {
              "velocity": [-0.13229382951978808, -0.3210444682111957,
                           0.7162602168709293],
              "strength": 0.7701454309608954}]},
+    "mismatched-emitters": {
+        # Each emitter radiates through its own resonance (35-60 kHz, Q
+        # 2-6) that the emissions file lacks: the echoes' emitters no
+        # longer add up (coherence 0.74 at 51 dB over the noise), and both
+        # objects are rejected.
+        "name": "mismatched-emitters", "field_of_view": "fan", "seed": 7,
+        "emitter_resonance": [35e3, 60e3, 2.0, 6.0],
+        "reflectors": [polar(2.0, -20, radial=-1.0),
+                       polar(3.0, 25, radial=1.0)]},
+    "matched-emitters": {
+        # The same with one resonance for every emitter: the echoes are
+        # weaker, their emitters still add up.
+        "name": "matched-emitters", "field_of_view": "fan", "seed": 7,
+        "emitter_resonance": [45e3, 45e3, 4.0, 4.0],
+        "reflectors": [polar(2.0, -20, radial=-1.0),
+                       polar(3.0, 25, radial=1.0)]},
     "int16": {
         # 16-bit PCM at 400 kHz (32000 samples per ping).
         "name": "int16", "sample_format": "int16", "sample_rate": 400000,
@@ -770,6 +787,43 @@ def chain_wide_array():
     """chain: an array 2.5 times as wide as eRTIS: the coarse passes one
     main lobe of its beam, every object found"""
     check_case("wide-array")
+
+
+def chain_messages(paths):
+    """What gst-launch-1.0 prints (its warnings among it) running a
+    recording through the chain at the defaults."""
+    result = subprocess.run(
+        ["gst-launch-1.0", "filesrc", f"location={paths['recording']}", "!",
+         "wavparse", "!", "dopplerbank", f"sensor-file={paths['sensor']}",
+         "!", "mimobeamform", "!", "wardcluster", "!", "velocityest", "!",
+         "fakesink"], env=GST_ENV, capture_output=True, text=True,
+        timeout=300)
+    assert result.returncode == 0, result.stderr
+    return result.stdout + result.stderr
+
+
+@test
+def chain_mismatched_emitters():
+    """chain: emitters that each radiate through their own resonance,
+    which the emissions file lacks, make echoes whose emitters do not add
+    up: none is reported, and velocityest says why (the strongest echo,
+    51 dB over the noise, fails the coherence test); with one resonance
+    for all both objects are found and nothing is said"""
+    reason = sensor_file_support()
+    if reason:
+        raise Skip(reason)
+    messages = chain_messages(generate("mismatched-emitters")[0])
+    assert re.search(r"velocityest: ping 0's strongest echo \([0-9]+ dB "
+                     r"over the noise, at 2\.00 m, azimuth -[0-9.]+, "
+                     r"elevation 0\.0 degrees\) fails the emitters' "
+                     r"coherence test \(0\.[0-9]+, 0\.80 passes\): its "
+                     r"emitters do not add up as the set-up describes them",
+                     messages), messages
+    assert "may not be what the sensor radiates (each emitter's own " \
+        "resonance, a trigger delay)" in messages, messages
+    assert not case_problems("matched-emitters")
+    assert "coherence test" not in chain_messages(
+        generate("matched-emitters")[0])
 
 
 @test

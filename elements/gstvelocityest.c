@@ -290,7 +290,7 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
   d.instant = GST_CLOCK_TIME_IS_VALID (ping_time) ?
       (double) ping_time / GST_SECOND + delay : NAN;
   d.radial_velocity = e->radial_velocity;
-  d.approaching = e->radial_velocity < 0.0;
+  d.approaching = sonar_velocity_approaching (e->radial_velocity);
   d.confidence = (double) e->agreeing_emitters / self->n_emitters;
   d.out_of_range = e->at_bank_edge;
   d.valid = e->valid;
@@ -336,6 +336,10 @@ add_detection (GstVelocityEst * self, const SonarCentroid * centroid,
  * more, 16 dB over its interference 0.8 (sonar-velocity.h); the
  * strongest of a ping has no stronger one's cross-talk on it. */
 #define COHERENT_SNR_DB 25.0
+/* The coherence factor an echo that strong reaches alone, at least (the
+ * property's blurb): a threshold set above it rejects echoes by the
+ * user's choice, which check_strongest () does not blame on the set-up. */
+#define COHERENT_ECHO 0.9
 
 /* Warns, once a stream, when the strongest centroid of a ping, at least
  * COHERENT_SNR_DB over the noise (*@noise_power, measured here if it is
@@ -352,7 +356,7 @@ check_strongest (GstVelocityEst * self, const SonarCentroid * strongest,
   double peak, snr_db;
 
   if (self->warned_incoherent || e->valid || !(e->coherence <
-          self->coherence_threshold))
+          MIN (self->coherence_threshold, COHERENT_ECHO)))
     return;
   peak = image[((gsize) MIN (strongest->peak_elevation_index,
               g->n_elevation - 1) * g->n_azimuth +

@@ -6,6 +6,7 @@
 #include "sonar-render.h"
 #include "sonar-error.h"
 #include "sonar-vec3.h"
+#include "sonar-velocity.h"     /* sonar_velocity_approaching () */
 
 #include <gio/gio.h>
 #include <math.h>
@@ -378,7 +379,8 @@ sonar_render_velocity_label (double radial_velocity, char *text, gsize size)
     return receding_colour;
   }
   g_snprintf (text, size, "%+.2f m/s", shown);
-  return shown < 0.0 ? approaching_colour : receding_colour;
+  return sonar_velocity_approaching (radial_velocity) ? approaching_colour :
+      receding_colour;
 }
 
 /* Layout -----------------------------------------------------------------*/

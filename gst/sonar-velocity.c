@@ -4026,3 +4026,9 @@ sonar_velocity_centre_range (double range, double radial_velocity,
   *delay = range / speed_of_sound + later;
   return range + v * later;
 }
+
+gboolean
+sonar_velocity_approaching (double radial_velocity)
+{
+  return round (radial_velocity * 100.0) < 0.0;
+}

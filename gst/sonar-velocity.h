@@ -352,6 +352,13 @@ G_DEFINE_AUTOPTR_CLEANUP_FUNC (SonarVelocityPool, sonar_velocity_pool_free)
 double sonar_velocity_centre_range (double range, double radial_velocity,
     double speed_of_sound, double emission_centre, double *delay);
 
+/* Whether @radial_velocity (m/s) approaches the sensor: by 0.005 m/s or
+ * more, what reads -0.01 or less at the hundredth (sonarviz's labels). A
+ * still object's estimate lies a few mm/s either side of 0: it is not
+ * approaching (the paper's Fig. 9 marks approaching objects, and still or
+ * fleeing ones alike). FALSE for NaN. */
+gboolean sonar_velocity_approaching (double radial_velocity);
+
 G_END_DECLS
 
 #endif

@@ -841,6 +841,21 @@ test_blend_models_reused (void)
   g_string_free (json, TRUE);
 }
 
+/* Approaching is moving towards the sensor by what reads -0.01 m/s or
+ * less: a still object's estimate a few mm/s below 0 (two of the golden
+ * Fig. 9's still objects read -0.001 and -0.0004) is not approaching. */
+static void
+test_approaching (void)
+{
+  g_assert_true (sonar_velocity_approaching (-1.0));
+  g_assert_true (sonar_velocity_approaching (-0.0051));
+  g_assert_false (sonar_velocity_approaching (-0.0049));
+  g_assert_false (sonar_velocity_approaching (-0.001058));
+  g_assert_false (sonar_velocity_approaching (0.0));
+  g_assert_false (sonar_velocity_approaching (0.3));
+  g_assert_false (sonar_velocity_approaching (NAN));
+}
+
 int
 main (int argc, char **argv)
 {
@@ -861,5 +876,6 @@ main (int argc, char **argv)
       test_blend_models_reused);
   g_test_add_func ("/velocity/crowd-examined-by-workers",
       test_crowd_examined_by_workers);
+  g_test_add_func ("/velocity/approaching", test_approaching);
   return g_test_run ();
 }

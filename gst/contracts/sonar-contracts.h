@@ -215,7 +215,8 @@ typedef struct
    * time. */
   double instant;
   double radial_velocity;       /* m/s, d(range)/dt: + moving away */
-  gboolean approaching;         /* radial_velocity < 0 */
+  gboolean approaching;         /* sonar_velocity_approaching (): at
+                                 * -0.005 m/s or less */
   double confidence;            /* 0..1: share of emitters whose own curve agrees */
   gboolean out_of_range;        /* at the bank's edge: the speed may lie beyond */
   gboolean valid;               /* passed the false-positive tests */

@@ -765,32 +765,34 @@ def direction_errors_3d():
     0.21 over 2 pings; the search's quarter steps reported before, 0.155
     and 0.47; parabolas along the image peak's row and column alone, 0.26
     and 0.61: the beam is tilted in azimuth and elevation)"""
+    stdout, (rms_a, worst_a, rms_e, worst_e, _, _) = direction_errors(
+        ["--seeds", "2", "--pings", "1"], 12, 0)
+    assert rms_a < 0.1 and rms_e < 0.1, stdout
+    assert worst_a < 0.3 and worst_e < 0.3, stdout
+
+
+def direction_errors(arguments, found, extra):
+    """tools/direction-errors-3d.py run with @arguments (skipped under the
+    sanitizers: the accuracy is the plain and clang runs' to check), whose
+    closing line must report @found points found and @extra other
+    detections: its output, and the azimuth's, elevation's and the array
+    plane's rms and worst errors."""
     if SANITIZED:
         raise Skip("the accuracy is the plain and clang runs' to check "
                    "(a 3-D chain)")
     env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
     result = subprocess.run(
-        [PYTHON, str(TOOLS / "direction-errors-3d.py"), "--seeds", "2",
-         "--pings", "1"], capture_output=True, text=True, timeout=300,
-        env=env)
+        [PYTHON, str(TOOLS / "direction-errors-3d.py"), *arguments],
+        capture_output=True, text=True, timeout=300, env=env)
     assert result.returncode == 0, result.stderr
-    rms_a, worst_a, rms_e, worst_e, _, _ = direction_errors(
-        result.stdout, 12, 0)
-    assert rms_a < 0.1 and rms_e < 0.1, result.stdout
-    assert worst_a < 0.3 and worst_e < 0.3, result.stdout
-
-
-def direction_errors(stdout, found, extra):
-    """tools/direction-errors-3d.py's closing line, which must report
-    @found points found and @extra other detections: the azimuth's,
-    elevation's and the array plane's rms and worst errors."""
+    stdout = result.stdout
     row = re.search(r"^all: %d of %d found, %d other detections; azimuth "
                     r"rms ([0-9.]+), worst ([0-9.]+) deg; elevation rms "
                     r"([0-9.]+), worst ([0-9.]+) deg; in the array's plane "
                     r"rms ([0-9.]+), worst ([0-9.]+)$" % (found, found, extra),
                     stdout, re.MULTILINE)
     assert row, stdout
-    return [float(x) for x in row.groups()]
+    return stdout, [float(x) for x in row.groups()]
 
 
 @test
@@ -809,17 +811,10 @@ def direction_errors_near_the_rim():
     12.6 degrees off); it fits the direction cosines now. Azimuth and
     elevation are not asserted: near the rim a small error in the plane is
     a large one in them (6 degrees of azimuth at worst)."""
-    if SANITIZED:
-        raise Skip("the accuracy is the plain and clang runs' to check "
-                   "(a 3-D chain)")
-    env = dict(os.environ, SONAR_BUILD_DIR=str(BUILD_DIR))
-    result = subprocess.run(
-        [PYTHON, str(TOOLS / "direction-errors-3d.py"), "--seeds", "2",
-         "--points", "10", "--pings", "1", "--off-boresight", "70", "88"],
-        capture_output=True, text=True, timeout=300, env=env)
-    assert result.returncode == 0, result.stderr
-    *_, rms_plane, worst_plane = direction_errors(result.stdout, 10, 0)
-    assert rms_plane < 0.002 and worst_plane < 0.004, result.stdout
+    stdout, (*_, rms_plane, worst_plane) = direction_errors(
+        ["--seeds", "2", "--points", "10", "--pings", "1",
+         "--off-boresight", "70", "88"], 10, 0)
+    assert rms_plane < 0.002 and worst_plane < 0.004, stdout
 
 
 def sigma_ratios(noise, pings, points, fields, min_pings):

@@ -809,6 +809,12 @@ def chain_mismatched_emitters():
     up: none is reported, and velocityest says why (the strongest echo,
     51 dB over the noise, fails the coherence test); with one resonance
     for all both objects are found and nothing is said"""
+    if SANITIZED:
+        # Two recordings and three runs of the chain (a minute under the
+        # sanitizers) for one comparison of numbers: the plain and clang
+        # runs' to check.
+        raise Skip("the warning's condition is the plain and clang runs' "
+                   "to check")
     reason = sensor_file_support()
     if reason:
         raise Skip(reason)

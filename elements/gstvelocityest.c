@@ -170,9 +170,8 @@ gst_velocity_est_configure (GstSonarFilter * filter, GstCaps * in_caps,
   self->n_emitters = params.emitters ? params.emitters :
       setup->geometry.n_emitters;
   self->emission_centre = sonar_setup_emission_centre (setup);
-  self->coherence_threshold = MAX (params.min_coherence,
-      sonar_velocity_coherence_threshold (params.coherence_pfa,
-          self->n_emitters));
+  self->coherence_threshold =
+      sonar_velocity_params_coherence_threshold (&params, self->n_emitters);
   /* One emitter leaves the product nothing to compare: the coherence and
    * agreement tests pass every centroid, the array's sidelobes too (a
    * one-emitter recording of two objects: hundreds of detections). */
@@ -263,6 +262,8 @@ retune (GstVelocityEst * self)
   }
   self->min_agreeing_in_effect = params.min_agreeing_emitters;
   self->min_agreeing_set_in_effect = min_agreeing_set;
+  self->coherence_threshold =
+      sonar_velocity_params_coherence_threshold (&params, self->n_emitters);
 }
 
 /* @image: the ping's energyscape (its pixels); @noise_power: its noise

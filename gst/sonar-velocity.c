@@ -277,9 +277,9 @@ pooled_snr (const SonarVelocityParams * params)
       10.0) : 0.0;
 }
 
-/* The coherence test's threshold: coherence-pfa's, min-coherence under it. */
-static double
-coherence_threshold (const SonarVelocityParams * params, guint n_emitters)
+double
+sonar_velocity_params_coherence_threshold (const SonarVelocityParams *
+    params, guint n_emitters)
 {
   return MAX (params->min_coherence,
       sonar_velocity_coherence_threshold (params->coherence_pfa, n_emitters));
@@ -431,7 +431,8 @@ estimator_new (SonarDopplerBank * bank, const SonarImageGrid * grid,
   est->n_velocities = sonar_doppler_bank_n_velocities (bank);
   est->n_emitters = params->emitters ? params->emitters :
       setup->geometry.n_emitters;
-  est->min_coherence = coherence_threshold (params, est->n_emitters);
+  est->min_coherence = sonar_velocity_params_coherence_threshold (params,
+      est->n_emitters);
   est->min_pooled_snr = pooled_snr (params);
   /* c / (2 f0 T): the Doppler resolution of one emission (physics notes). */
   est->main_lobe = setup->speed_of_sound / (2.0 * 0.5 * (setup->band_low +
@@ -1096,8 +1097,9 @@ searches_axis (double step)
 /* The vertex (*x, *y) of the quadratic a + b x + c y + d x^2 + e xy +
  * g y^2 fitted by least squares to ln @f over the 3 x 3 points x, y in
  * {-1, 0, 1} (f[(y + 1) * 3 + x + 1]; with @two_d FALSE, the row y = 0
- * alone, *y = 0 and e = g = 0), and @hessian its second derivatives (2d, e, 2g). FALSE where a value
- * is not positive or the fit has no maximum. On this regular patch the
+ * alone, *y = 0 and e = g = 0), and @hessian its second derivatives
+ * (2d, e, 2g). FALSE where a value is not positive or the fit has no
+ * maximum. On this regular patch the
  * normal equations are diagonal but for the constant and the squares:
  * b = sum f x / 6, e = sum f x y / 4, d = sum f (x^2 - 2/3) / 2. */
 static gboolean
@@ -2274,8 +2276,8 @@ struct _SonarVelocityPool
  * c / (2 B) of each other (or a range step, where coarser: near the rim
  * one echo's estimates from two centroids on its beam's ridge lay 2.85 mm
  * apart, a step and a little more, the range of its peak moving with the
- * direction focused on), their directions within an image step as it spans at boresight
- * (compared in the array's plane, x and y of the unit vectors, where the
+ * direction focused on), their directions within an image step as it
+ * spans at boresight (compared in the array's plane, x and y of the unit vectors, where the
  * beam is as wide everywhere: off boresight a degree spans less of it, and
  * at 60 degrees of elevation one echo's estimates lay 3.4 degrees of
  * azimuth apart), their velocities within half a Doppler main lobe. */
@@ -2410,7 +2412,8 @@ sonar_velocity_estimator_retune (SonarVelocityEstimator * est,
   if (!params_valid (&tuned, error))
     return FALSE;
   est->params = tuned;
-  est->min_coherence = coherence_threshold (&tuned, est->n_emitters);
+  est->min_coherence = sonar_velocity_params_coherence_threshold (&tuned,
+      est->n_emitters);
   est->min_pooled_snr = pooled_snr (&tuned);
   return TRUE;
 }

@@ -157,6 +157,11 @@ void sonar_velocity_params_init_default (SonarVelocityParams * params);
  * one emitter (whose factor is always 1). */
 double sonar_velocity_coherence_threshold (double pfa, guint n_emitters);
 
+/* The coherence test's threshold with @params over @n_emitters:
+ * coherence_pfa's, min_coherence under it. */
+double sonar_velocity_params_coherence_threshold (const SonarVelocityParams
+    * params, guint n_emitters);
+
 typedef struct
 {
   double range, azimuth, elevation;     /* where it was evaluated (m, degrees) */
@@ -176,8 +181,8 @@ typedef struct
    * a 3-D grid along the direction cosines x and y, the array's plane:
    * near the hemisphere's rim the beam is a tilted ridge in azimuth and
    * elevation; there the patch narrows, or moves inwards, to stay in
-   * front of the array), finer than the search's quarter steps and not pulled over by the
-   * noise peaks a strong echo's cluster gathers; on finer grids, in the
+   * front of the array), finer than the search's quarter steps and not
+   * pulled over by the noise peaks a strong echo's cluster gathers; on finer grids, in the
    * pool's valid estimates (sonar_velocity_pool_estimate ()), the vertex
    * of the power the echo's model explains a quarter step either side of
    * where it was evaluated (the centroid's direction, its members'

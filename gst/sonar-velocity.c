@@ -2272,15 +2272,15 @@ struct _SonarVelocityPool
   guint n_placed, placed_capacity;
 };
 
-/* Whether @a and @b are one echo: within the band's range resolution
- * c / (2 B) of each other (or a range step, where coarser: near the rim
- * one echo's estimates from two centroids on its beam's ridge lay 2.85 mm
- * apart, a step and a little more, the range of its peak moving with the
- * direction focused on), their directions within an image step as it
- * spans at boresight (compared in the array's plane, x and y of the unit vectors, where the
+/* Whether @a and @b are one echo: within the band's range resolution c/2B
+ * of each other (or a range step, where coarser: near the rim one echo's
+ * estimates from two centroids on its beam's ridge lay 2.85 mm apart, a step
+ * and a little more, the range of its peak moving with the direction focused
+ * on), their directions within an image step as it spans at boresight
+ * (compared in the array's plane, x and y of the unit vectors, where the
  * beam is as wide everywhere: off boresight a degree spans less of it, and
- * at 60 degrees of elevation one echo's estimates lay 3.4 degrees of
- * azimuth apart), their velocities within half a Doppler main lobe. */
+ * at 60 degrees of elevation one echo's estimates lay 3.4 degrees of azimuth
+ * apart), their velocities within half a Doppler main lobe. */
 static gboolean
 same_echo (const SonarVelocityEstimator * est, const SonarVelocityEstimate * a,
     const SonarVelocityEstimate * b)
